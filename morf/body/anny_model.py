@@ -1,0 +1,105 @@
+"""Anny (Apache-2.0 code, CC0 assets) behind the :class:`BodyModel` interface.
+
+Anny is Z-up, faces -Y, the person's left is +X; the all-identity pose is an A-pose standing
+with the pelvis at the origin (1.625 m tall at the default phenotype).
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+
+import torch
+
+from morf.body.lbs import linear_blend_skinning
+from morf.body.model import BodyModel, BodyOutput, BodyPose
+from morf.body.rotations import axis_angle_to_matrix
+
+_LOAD_LOCK = threading.Lock()
+
+# Anny's phenotype values are interpolation weights in [0, 1]; exactly 0.5 sits on an
+# interpolation corner with one-sided gradients, so start a little off it.
+DEFAULT_PHENOTYPE = (0.52, 0.48, 0.52, 0.52, 0.52, 0.52)
+
+
+def _quiet_warp() -> None:
+    try:
+        import warp
+
+        warp.config.quiet = True
+    except Exception:  # warp is optional for our own skinning path
+        pass
+
+
+class AnnyBodyModel(BodyModel):
+    """Anny full-body model, float32, shape = 6 phenotype values in [0, 1]."""
+
+    def __init__(self, topology: str = "anny"):
+        super().__init__()
+        _quiet_warp()
+        import anny
+
+        with _LOAD_LOCK:
+            model = anny.Anny(topology=topology).to(torch.float32)
+            regressor = anny.KeypointsRegressor.coco(model)
+        self.anny = model
+        self.bone_names = list(model.bone_labels)
+        self.bone_parents = [int(p) for p in model.bone_parents]
+        self.shape_dim = len(model.phenotype_labels)
+        self.shape_names = list(model.phenotype_labels)
+        self.register_buffer("faces", model.get_triangular_faces().long(), persistent=False)
+        self.register_buffer("uvs", model.texture_coordinates.float(), persistent=False)
+        self.register_buffer("face_uvs", model.face_texture_coordinate_indices.long(), persistent=False)
+        self.register_buffer("skin_weights", model.vertex_bone_weights.float(), persistent=False)
+        self.register_buffer("skin_indices", model.vertex_bone_indices.long(), persistent=False)
+        dense = torch.zeros(model.template_vertices.shape[0], len(self.bone_names))
+        dense.scatter_add_(1, self.skin_indices, self.skin_weights)
+        self.register_buffer("dense_weights", dense, persistent=False)
+        self.register_buffer("keypoint_regressor", regressor.regression_weights.float(), persistent=False)
+        self._n_local = len(model.local_change_labels)
+        self._n_facial = len(model.facial_action_labels)
+
+    @property
+    def num_vertices(self) -> int:
+        return self.dense_weights.shape[0]
+
+    def default_shape(self) -> torch.Tensor:
+        return torch.tensor([DEFAULT_PHENOTYPE], dtype=torch.float32, device=self.faces.device)
+
+    def rest(self, shape: torch.Tensor) -> dict[str, torch.Tensor]:
+        """Shaped rest model: ``rest_vertices`` (S, V, 3), ``rest_bone_poses`` (S, J, 4, 4)."""
+        S = shape.shape[0]
+        zeros = shape.new_zeros
+        coeffs = self.anny._get_phenotype_blendshape_coefficients(
+            shape, zeros(S, self._n_local), zeros(S, self._n_facial))
+        return self.anny.get_rest_model(coeffs)
+
+    @staticmethod
+    def pose_to_deltas(pose: BodyPose) -> torch.Tensor:
+        """(B, J, 4, 4) Anny "local-ref" delta transforms from axis-angle + root translation."""
+        B, J, _ = pose.rotvecs.shape
+        R = axis_angle_to_matrix(pose.rotvecs)
+        top = torch.cat([R, R.new_zeros(B, J, 3, 1)], dim=-1)
+        bottom = R.new_tensor([0, 0, 0, 1.0]).expand(B, J, 1, 4)
+        T = torch.cat([top, bottom], dim=-2)
+        trans = torch.zeros(B, J, 4, 4, dtype=T.dtype, device=T.device)
+        trans[:, 0, :3, 3] = pose.transl
+        return T + trans
+
+    def forward(self, pose: BodyPose, shape: torch.Tensor) -> BodyOutput:
+        """Pose a batch. ``shape`` is (1, 6) shared or (B, 6) per frame."""
+        rest = self.rest(shape)
+        rest_poses = rest["rest_bone_poses"]
+        B = pose.batch_size
+        if rest_poses.shape[0] == 1 and B > 1:
+            rest_poses = rest_poses.expand(B, -1, -1, -1)
+        bone_transforms, bone_poses = self.anny.get_bone_transforms(self.pose_to_deltas(pose), rest_poses)
+        rest_v = rest["rest_vertices"]
+        verts = linear_blend_skinning(rest_v.expand(B, -1, -1), self.dense_weights, bone_transforms)
+        kp = torch.einsum("kv,bvc->bkc", self.keypoint_regressor, verts)
+        return BodyOutput(vertices=verts, joints=bone_poses[..., :3, 3], bone_transforms=bone_transforms,
+                          rest_vertices=rest_v, keypoints3d=kp)
+
+
+def anny_cache_dir() -> str:
+    return os.environ.get("ANNY_CACHE_DIR", os.path.join(os.path.expanduser("~"), ".cache", "anny"))

@@ -1,0 +1,277 @@
+"""The capture project folder: the unit a user works on.
+
+Layout (format "morf-capture", version 1)::
+
+    PROJECT/
+      morf_project.json   manifest: version, source, frame count, image size, fps, camera
+      frames/000000.png   RGB frames (PNG; JPEG for long videos)
+      masks/000000.png    person masks, 0 or 255
+      keypoints.npz       keypoints (N, 23, 3) x, y, confidence (COCO-17 + 6 feet);
+                          detected (N,) bool; source (N,) str: mediapipe | openpose | ground_truth | none
+      review.json         the user's per-frame decisions: {"drop": [...], "keep": [...]}
+      fits/               body fits and the automatic frame filter (morf fit)
+      runs/               training runs (morf train)
+      avatar/             the exported avatar (morf export)
+      ground_truth/       synthetic captures only: camera, poses, shape, vertices, hold-out set
+
+Every file is written atomically, so a killed command never leaves a damaged project, and
+re-running a stage replaces its outputs whole.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from morf.camera import PinholeCamera
+from morf.capture.keypoint_layout import NUM_KEYPOINTS
+from morf.errors import ProjectError
+from morf.io import atomic_write_json, load_npz, read_image, save_npz, write_image
+
+FORMAT = "morf-capture"
+VERSION = 1
+MANIFEST = "morf_project.json"
+
+
+@dataclass(frozen=True)
+class Keypoints2D:
+    """2D keypoints of every frame.
+
+    Fields:
+        points: (N, 23, 3) float32, x and y in pixels and a confidence in [0, 1].
+        detected: (N,) bool, whether a person was found in the frame.
+        source: (N,) str, where each frame's keypoints come from.
+    """
+
+    points: np.ndarray
+    detected: np.ndarray
+    source: np.ndarray
+
+    def __post_init__(self):
+        if self.points.ndim != 3 or self.points.shape[1:] != (NUM_KEYPOINTS, 3):
+            raise ValueError(f"keypoints must be (N, {NUM_KEYPOINTS}, 3), got {self.points.shape}")
+
+
+@dataclass(frozen=True)
+class FrameDecision:
+    """Whether a frame is used for training, and why not."""
+
+    index: int
+    used: bool
+    reason: str | None  # e.g. "user", "no person detected", "keypoint residual 41 px"
+
+
+class CaptureProject:
+    """A project folder on disk. Create with :meth:`create`, open with :meth:`open`."""
+
+    def __init__(self, root: Path, manifest: dict):
+        self.root = Path(root)
+        self.manifest = manifest
+
+    # ---- opening and creating -----------------------------------------------------------
+    @staticmethod
+    def is_project(root: str | Path) -> bool:
+        return (Path(root) / MANIFEST).is_file()
+
+    @classmethod
+    def open(cls, root: str | Path) -> "CaptureProject":
+        root = Path(root)
+        if not root.exists():
+            raise ProjectError(f"project folder not found: {root}")
+        if not root.is_dir():
+            raise ProjectError(f"not a folder: {root}")
+        path = root / MANIFEST
+        if not path.is_file():
+            raise ProjectError(f"{root} is not a MoRF capture project (no {MANIFEST}); create one with 'morf ingest' or 'morf synth'")
+        try:
+            manifest = json.loads(path.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError) as e:
+            raise ProjectError(f"damaged project manifest {path}: {e}") from None
+        if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
+            raise ProjectError(f"{path} is not a MoRF capture manifest")
+        version = manifest.get("version")
+        if not isinstance(version, int) or version > VERSION:
+            raise ProjectError(f"project version {version!r} is newer than this MoRF understands ({VERSION}); update MoRF")
+        for key in ("num_frames", "width", "height"):
+            if not isinstance(manifest.get(key), int) or manifest[key] < 0:
+                raise ProjectError(f"damaged project manifest {path}: bad {key!r}")
+        return cls(root, manifest)
+
+    @classmethod
+    def create(cls, root: str | Path, *, num_frames: int, width: int, height: int, fps: float | None,
+               source: dict, camera: PinholeCamera | None = None, extra: dict | None = None) -> "CaptureProject":
+        """Write a fresh manifest (frames, masks and keypoints are written by the caller)."""
+        root = Path(root)
+        if root.exists() and not root.is_dir():
+            raise ProjectError(f"not a folder: {root}")
+        root.mkdir(parents=True, exist_ok=True)
+        manifest = {
+            "format": FORMAT, "version": VERSION,
+            "created": time.strftime("%Y-%m-%dT%H:%M:%S"),
+            "num_frames": int(num_frames), "width": int(width), "height": int(height),
+            "fps": None if fps is None else float(fps),
+            "source": source,
+            "camera": None if camera is None else camera.to_dict(),
+        }
+        manifest.update(extra or {})
+        project = cls(root, manifest)
+        project.save_manifest()
+        return project
+
+    def save_manifest(self) -> None:
+        atomic_write_json(self.root / MANIFEST, self.manifest)
+
+    def update_manifest(self, **fields) -> None:
+        self.manifest.update(fields)
+        self.save_manifest()
+
+    # ---- frames and masks ---------------------------------------------------------------
+    @property
+    def num_frames(self) -> int:
+        return int(self.manifest["num_frames"])
+
+    @property
+    def image_size(self) -> tuple[int, int]:
+        """(width, height) of every frame."""
+        return int(self.manifest["width"]), int(self.manifest["height"])
+
+    @property
+    def fps(self) -> float | None:
+        return self.manifest.get("fps")
+
+    @property
+    def is_synthetic(self) -> bool:
+        return (self.root / "ground_truth").is_dir()
+
+    def frame_path(self, i: int) -> Path:
+        ext = self.manifest.get("frame_ext", ".png")
+        return self.root / "frames" / f"{i:06d}{ext}"
+
+    def mask_path(self, i: int) -> Path:
+        return self.root / "masks" / f"{i:06d}.png"
+
+    def load_frame(self, i: int) -> np.ndarray:
+        """(H, W, 3) uint8 RGB."""
+        self._check_index(i)
+        return read_image(self.frame_path(i))
+
+    def load_mask(self, i: int) -> np.ndarray:
+        """(H, W) bool person mask."""
+        self._check_index(i)
+        return read_image(self.mask_path(i), grayscale=True) > 127
+
+    def save_frame(self, i: int, rgb: np.ndarray) -> None:
+        write_image(self.frame_path(i), rgb)
+
+    def save_mask(self, i: int, mask: np.ndarray) -> None:
+        write_image(self.mask_path(i), (np.asarray(mask) > 0).astype(np.uint8) * 255)
+
+    def _check_index(self, i: int) -> None:
+        if not 0 <= i < self.num_frames:
+            raise IndexError(f"frame {i} out of range 0..{self.num_frames - 1}")
+
+    # ---- camera -------------------------------------------------------------------------
+    def camera(self) -> PinholeCamera:
+        """The capture's camera: stored intrinsics, or a default focal length for the image size."""
+        cam = self.manifest.get("camera")
+        if cam:
+            return PinholeCamera.from_dict(cam)
+        w, h = self.image_size
+        return PinholeCamera.default_for_image(w, h)
+
+    # ---- keypoints ----------------------------------------------------------------------
+    def save_keypoints(self, kp: Keypoints2D) -> None:
+        save_npz(self.root / "keypoints.npz", points=kp.points.astype(np.float32),
+                 detected=kp.detected.astype(bool), source=kp.source.astype(str))
+
+    def load_keypoints(self) -> Keypoints2D:
+        d = load_npz(self.root / "keypoints.npz")
+        try:
+            kp = Keypoints2D(d["points"].astype(np.float32), d["detected"].astype(bool), d["source"].astype(str))
+        except (KeyError, ValueError) as e:
+            raise ProjectError(f"damaged keypoints file in {self.root}: {e}") from None
+        if kp.points.shape[0] != self.num_frames:
+            raise ProjectError(f"keypoints cover {kp.points.shape[0]} frames, project has {self.num_frames}")
+        return kp
+
+    # ---- frame review: the user's decisions, and the automatic filter ---------------------
+    def review_path(self) -> Path:
+        return self.root / "review.json"
+
+    def load_review(self) -> dict[str, list[int]]:
+        p = self.review_path()
+        if not p.is_file():
+            return {"drop": [], "keep": []}
+        try:
+            d = json.loads(p.read_text())
+            return {"drop": sorted(int(i) for i in d.get("drop", [])), "keep": sorted(int(i) for i in d.get("keep", []))}
+        except (json.JSONDecodeError, TypeError, ValueError, AttributeError) as e:
+            raise ProjectError(f"damaged review file {p}: {e}") from None
+
+    def set_user_decision(self, i: int, decision: str | None) -> None:
+        """Record the user's choice for frame i: "drop", "keep" (overrides the filter) or None."""
+        self._check_index(i)
+        if decision not in ("drop", "keep", None):
+            raise ValueError(f"decision must be 'drop', 'keep' or None, got {decision!r}")
+        r = self.load_review()
+        for k in ("drop", "keep"):
+            r[k] = [j for j in r[k] if j != i]
+        if decision:
+            r[decision] = sorted(r[decision] + [i])
+        atomic_write_json(self.review_path(), r)
+
+    def auto_filter(self) -> dict[int, str]:
+        """Frames the automatic filter rejected, with the reason (empty before fitting)."""
+        p = self.root / "fits" / "filter.json"
+        if not p.is_file():
+            return {}
+        try:
+            d = json.loads(p.read_text())
+            return {int(k): str(v) for k, v in d.get("rejected", {}).items()}
+        except (json.JSONDecodeError, TypeError, ValueError, AttributeError) as e:
+            raise ProjectError(f"damaged filter file {p}: {e}") from None
+
+    def frame_decisions(self) -> list[FrameDecision]:
+        """Per frame: used for training or not, and why. User choices override the filter."""
+        review = self.load_review()
+        drop, keep = set(review["drop"]), set(review["keep"])
+        auto = self.auto_filter()
+        kp_path = self.root / "keypoints.npz"
+        detected = self.load_keypoints().detected if kp_path.is_file() else np.ones(self.num_frames, bool)
+        out = []
+        for i in range(self.num_frames):
+            if i in drop:
+                out.append(FrameDecision(i, False, "dropped by user"))
+            elif i in keep:
+                out.append(FrameDecision(i, True, None))
+            elif i in auto:
+                out.append(FrameDecision(i, False, auto[i]))
+            elif not detected[i]:
+                out.append(FrameDecision(i, False, "no person detected"))
+            else:
+                out.append(FrameDecision(i, True, None))
+        return out
+
+    def training_frames(self) -> list[int]:
+        return [d.index for d in self.frame_decisions() if d.used]
+
+    # ---- stage folders ------------------------------------------------------------------
+    @property
+    def fits_dir(self) -> Path:
+        return self.root / "fits"
+
+    @property
+    def runs_dir(self) -> Path:
+        return self.root / "runs"
+
+    @property
+    def avatar_dir(self) -> Path:
+        return self.root / "avatar"
+
+    @property
+    def ground_truth_dir(self) -> Path:
+        return self.root / "ground_truth"

@@ -1,0 +1,1 @@
+"""The ``morf`` command line: one module per sub-command, all calling library functions."""
