@@ -1,0 +1,99 @@
+"""Image quality metrics: PSNR, SSIM (own implementation), their masked variants, and a
+weight-free temporal stability metric.
+
+Images are (B, 3, H, W) or (3, H, W) float in [0, 1]; masks (B, 1, H, W) / (B, H, W) bool or float.
+
+Temporal flicker (lower is better): over consecutive frames of a sequence,
+``mean_t  sum_p m_p |(pred_t - pred_{t-1}) - (gt_t - gt_{t-1})|_p / sum_p m_p`` with ``m`` the
+union of the two frames' person masks. It is zero when the prediction changes exactly as the
+ground truth does, whatever its per-frame error, so it isolates flicker and popping from static
+appearance errors (a weight-free stand-in for tLPIPS).
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+import torch.nn.functional as F
+
+
+def _batch(x: torch.Tensor) -> torch.Tensor:
+    return x.unsqueeze(0) if x.dim() == 3 else x
+
+
+def _mask(m: torch.Tensor | None, ref: torch.Tensor) -> torch.Tensor | None:
+    if m is None:
+        return None
+    m = m.to(ref.dtype)
+    if m.dim() == 2:
+        m = m[None, None]
+    elif m.dim() == 3:
+        m = m.unsqueeze(1)
+    return m
+
+
+def psnr(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor | None = None) -> float:
+    """Peak signal-to-noise ratio in dB (peak 1); with a mask, the MSE over masked pixels only."""
+    pred, target = _batch(pred).float(), _batch(target).float()
+    se = (pred - target) ** 2
+    m = _mask(mask, se)
+    mse = se.mean() if m is None else (se * m).sum() / (m.expand_as(se).sum().clamp_min(1.0))
+    return float("inf") if float(mse) == 0 else float(-10 * torch.log10(mse))
+
+
+def _gaussian_window(size: int = 11, sigma: float = 1.5) -> torch.Tensor:
+    x = torch.arange(size, dtype=torch.float64) - (size - 1) / 2
+    g = torch.exp(-(x ** 2) / (2 * sigma ** 2))
+    g = g / g.sum()
+    return (g[:, None] * g[None, :]).float()
+
+
+def ssim_map(pred: torch.Tensor, target: torch.Tensor, window: int = 11, sigma: float = 1.5,
+             k1: float = 0.01, k2: float = 0.03) -> torch.Tensor:
+    """(B, C, H-10, W-10) SSIM map (Wang et al. 2004), gaussian window, valid convolution, peak 1."""
+    pred, target = _batch(pred).double(), _batch(target).double()
+    C = pred.shape[1]
+    w = _gaussian_window(window, sigma).double().to(pred.device).expand(C, 1, window, window)
+    c1, c2 = (k1 ** 2), (k2 ** 2)
+
+    def blur(x):
+        return F.conv2d(x, w, groups=C)
+
+    mu_x, mu_y = blur(pred), blur(target)
+    sxx = blur(pred * pred) - mu_x ** 2
+    syy = blur(target * target) - mu_y ** 2
+    sxy = blur(pred * target) - mu_x * mu_y
+    return ((2 * mu_x * mu_y + c1) * (2 * sxy + c2)) / ((mu_x ** 2 + mu_y ** 2 + c1) * (sxx + syy + c2))
+
+
+def ssim(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor | None = None) -> float:
+    """Mean SSIM; with a mask, averaged over window centres inside the mask."""
+    smap = ssim_map(pred, target)
+    m = _mask(mask, smap)
+    if m is None:
+        return float(smap.mean())
+    r = (m.shape[-1] - smap.shape[-1]) // 2
+    m = m[..., r:m.shape[-2] - r, r:m.shape[-1] - r].expand_as(smap)
+    return float((smap * m).sum() / m.sum().clamp_min(1.0))
+
+
+def temporal_flicker(preds: torch.Tensor, targets: torch.Tensor, masks: torch.Tensor | None = None) -> float:
+    """Temporal flicker of a sequence (see module docstring). preds, targets: (T, 3, H, W)."""
+    if preds.shape[0] < 2:
+        return float("nan")
+    dp = preds[1:].float() - preds[:-1].float()
+    dg = targets[1:].float() - targets[:-1].float()
+    err = (dp - dg).abs().mean(1, keepdim=True)
+    if masks is None:
+        return float(err.mean())
+    m = _mask(masks, err)
+    m = torch.maximum(m[1:], m[:-1])
+    per = (err * m).flatten(1).sum(1) / m.flatten(1).sum(1).clamp_min(1.0)
+    return float(per.mean())
+
+
+def summarize(values: list[float]) -> float | None:
+    """Mean of finite values, None if there are none."""
+    v = [x for x in values if x is not None and math.isfinite(x)]
+    return sum(v) / len(v) if v else None

@@ -1,0 +1,93 @@
+"""The rendering network: U-Net from neural rasterization (C channels) to RGB + mask logit.
+
+Layout (all plain Conv2d / LeakyReLU / bilinear Resize / Concat, so it exports to ONNX opset 17
+and quantizes to int8 QDQ without exotic ops; no PixelUnshuffle, which exports as a slow 6-D
+Transpose):
+
+    input (C, H, W)
+      stem: 3x3 conv (stem=1) or a conv with kernel = stride = stem (2 or 4) -> (width, H/s, W/s)
+      encoder: ``depth`` levels of [strided 3x3 conv, 3x3 conv], channels doubling (capped)
+      decoder: bilinear x2 upsampling + skip concat + two 3x3 convs per level
+      head: 3x3 conv at H/s; if stem > 1 it is upsampled bilinearly to H and concatenated with
+            the raw input (the full-resolution skip), then two 1x1 convs -> 4 channels.
+
+Output ``(B, 4, H, W)``: channels 0-2 are RGB in [0, 1] premultiplied by the mask (black
+background), channel 3 is the mask logit. H and W must be multiples of ``stem * 2**depth``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+
+@dataclass(frozen=True)
+class RendererConfig:
+    """Size of the U-Net renderer."""
+
+    in_channels: int = 16  # neural texture channels
+    width: int = 16  # channels after the stem (first level)
+    depth: int = 4  # number of down-sampling levels
+    max_width: int = 256  # channel cap per level
+    stem: int = 2  # 1: full-resolution U-Net; 2 or 4: strided stem + full-resolution skip
+    skip_hidden: int = 16  # hidden channels of the full-resolution head (stem > 1)
+
+    @property
+    def multiple(self) -> int:
+        """Image sides must be multiples of this."""
+        return self.stem * 2 ** self.depth
+
+
+def _block(cin: int, cout: int, stride: int = 1) -> nn.Sequential:
+    return nn.Sequential(nn.Conv2d(cin, cout, 3, stride, 1), nn.LeakyReLU(0.2, inplace=True),
+                         nn.Conv2d(cout, cout, 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
+
+
+class UNetRenderer(nn.Module):
+    """(B, C, H, W) neural rasterization -> (B, 4, H, W) premultiplied RGB + mask logit."""
+
+    def __init__(self, cfg: RendererConfig = RendererConfig()):
+        super().__init__()
+        if cfg.stem not in (1, 2, 4):
+            raise ValueError("renderer stem must be 1, 2 or 4")
+        self.cfg = cfg
+        ch = [min(cfg.width * 2 ** i, cfg.max_width) for i in range(cfg.depth + 1)]
+        if cfg.stem == 1:
+            self.stem = nn.Sequential(nn.Conv2d(cfg.in_channels, ch[0], 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
+        else:
+            self.stem = nn.Sequential(nn.Conv2d(cfg.in_channels, ch[0], cfg.stem, cfg.stem), nn.LeakyReLU(0.2, inplace=True))
+        self.enc0 = nn.Sequential(nn.Conv2d(ch[0], ch[0], 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
+        self.down = nn.ModuleList(_block(ch[i], ch[i + 1], stride=2) for i in range(cfg.depth))
+        self.up = nn.ModuleList(
+            nn.Sequential(nn.Conv2d(ch[i + 1] + ch[i], ch[i], 3, 1, 1), nn.LeakyReLU(0.2, inplace=True),
+                          nn.Conv2d(ch[i], ch[i], 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
+            for i in reversed(range(cfg.depth)))
+        if cfg.stem == 1:
+            self.head = nn.Conv2d(ch[0], 4, 3, 1, 1)
+        else:
+            self.head_low = nn.Sequential(nn.Conv2d(ch[0], ch[0], 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
+            self.head = nn.Sequential(nn.Conv2d(ch[0] + cfg.in_channels, cfg.skip_hidden, 1),
+                                      nn.LeakyReLU(0.2, inplace=True), nn.Conv2d(cfg.skip_hidden, 4, 1))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        h = self.enc0(self.stem(x))
+        skips = [h]
+        for layer in self.down:
+            skips.append(layer(skips[-1]))
+        h = skips.pop()
+        for layer in self.up:
+            h = F.interpolate(h, scale_factor=2.0, mode="bilinear", align_corners=False)
+            h = layer(torch.cat([h, skips.pop()], dim=1))
+        if self.cfg.stem == 1:
+            out = self.head(h)
+        else:
+            h = F.interpolate(self.head_low(h), scale_factor=float(self.cfg.stem), mode="bilinear", align_corners=False)
+            out = self.head(torch.cat([h, x], dim=1))
+        return torch.cat([torch.sigmoid(out[:, :3]), out[:, 3:]], dim=1)
+
+
+def count_parameters(module: nn.Module) -> int:
+    return sum(p.numel() for p in module.parameters())

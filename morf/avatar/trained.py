@@ -1,0 +1,90 @@
+"""The trained avatar handed to export and playback: a baked (static) neural texture and the
+renderer, nothing of the warp networks.
+
+Stored as ``runs/<name>/avatar.pt`` (torch.save of tensors, state dicts and plain values;
+read with ``weights_only=True``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import torch
+
+from morf.avatar.model import render_with_texture
+from morf.avatar.renderer import RendererConfig, UNetRenderer
+from morf.camera import PinholeCamera
+from morf.errors import ProjectError
+
+FORMAT = "morf-avatar"
+VERSION = 1
+
+
+@dataclass(frozen=True)
+class TrainedAvatar:
+    """A trained avatar ready for inference.
+
+    Fields:
+        texture: (C, Ht, Wt) float32 baked neural texture (row 0 = v 1, see morf.avatar.texture).
+        renderer: UNetRenderer in eval mode on the CPU (input (B, C, H, W) -> (B, 4, H, W)).
+        config: the run's TrainConfig.
+        shape: (1, S) float32 body shape the avatar was trained with.
+        camera: the training camera at the working resolution, or None.
+        method: "morf" | "stylepeople" | "anr".
+    """
+
+    texture: torch.Tensor
+    renderer: UNetRenderer
+    config: "object"
+    shape: torch.Tensor
+    camera: PinholeCamera | None
+    method: str
+
+    @torch.no_grad()
+    def render(self, uv: torch.Tensor, uv_mask: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(B, H, W, 2) UVs + (B, H, W) coverage -> RGB (B, 3, H, W) premultiplied, mask (B, 1, H, W)."""
+        return render_with_texture(self.renderer, self.texture, uv, uv_mask)
+
+
+def save_trained_avatar(path: str | Path, texture: torch.Tensor, renderer: UNetRenderer, config_dict: dict,
+                        shape: torch.Tensor | None, camera: PinholeCamera | None, extra: dict | None = None) -> None:
+    """Atomically write ``avatar.pt``."""
+    from morf.io import atomic_path
+
+    payload = {
+        "format": FORMAT, "version": VERSION,
+        "texture": texture.detach().float().cpu().contiguous(),
+        "renderer": {k: v.detach().cpu() for k, v in renderer.state_dict().items()},
+        "renderer_config": dict(renderer.cfg.__dict__),
+        "config": config_dict,
+        "shape": None if shape is None else shape.detach().float().cpu().reshape(1, -1),
+        "camera": None if camera is None else camera.to_dict(),
+        "extra": extra or {},
+    }
+    with atomic_path(path) as tmp:
+        torch.save(payload, tmp)
+
+
+def load_trained_avatar(run_dir: str | Path) -> TrainedAvatar:
+    """Load ``run_dir/avatar.pt`` (written when ``morf train`` finishes)."""
+    from morf.train.config import TrainConfig
+    from morf.train.run_dir import load_torch_file
+
+    run_dir = Path(run_dir)
+    path = run_dir / "avatar.pt" if run_dir.is_dir() else run_dir
+    if not path.is_file():
+        raise ProjectError(f"no trained avatar in {run_dir}: training has not finished (run 'morf train' again to resume)")
+    d = load_torch_file(path)
+    if not isinstance(d, dict) or d.get("format") != FORMAT:
+        raise ProjectError(f"{path} is not a MoRF avatar file")
+    if int(d.get("version", 0)) > VERSION:
+        raise ProjectError(f"{path} was written by a newer MoRF (version {d.get('version')})")
+    renderer = UNetRenderer(RendererConfig(**d["renderer_config"]))
+    renderer.load_state_dict(d["renderer"])
+    renderer.eval().requires_grad_(False)
+    cfg = TrainConfig.from_dict(d["config"])
+    shape = d["shape"] if d["shape"] is not None else torch.zeros(1, 0)
+    camera = PinholeCamera.from_dict(d["camera"]) if d.get("camera") else None
+    return TrainedAvatar(texture=d["texture"], renderer=renderer, config=cfg, shape=shape, camera=camera,
+                         method=cfg.method)

@@ -1,0 +1,167 @@
+"""``morf bench render --out DIR [--avatar DIR]``: live playback speed at 640x640, end to end.
+
+End to end = pose in, composited image out: numpy bone matrices -> GL neural rasterization ->
+read-back -> layout -> int8 renderer (onnxruntime, 2 threads, no spinning) -> composite.
+Without ``--avatar`` it builds synthetic avatars (spectral texture + random-init renderers of
+several sizes; speed does not depend on training). Building needs torch; every measurement runs
+in a fresh process that never imports torch (their thread pools would interfere).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+VARIANTS = {  # name -> RendererConfig fields
+    "plain_b16": dict(stem=1, width=16, depth=4, max_width=64),
+    "stem2_b16_skip": dict(stem=2, width=16, depth=4, max_width=64, skip_hidden=16),  # the "cpu" preset
+    "stem4_b32_skip": dict(stem=4, width=32, depth=4, max_width=128, skip_hidden=16),
+}
+DEFAULT_VARIANT = "stem2_b16_skip"
+
+
+def add_arguments(p) -> None:
+    p.add_argument("--out", required=True, help="folder for render.json and render.md")
+    p.add_argument("--avatar", default=None, help="an exported avatar folder (default: synthetic avatars)")
+    p.add_argument("--size", type=int, default=640)
+    p.add_argument("--frames", type=int, default=60, help="timed frames per measurement")
+    p.add_argument("--no-variants", action="store_true", help="only the default renderer (no size variants)")
+
+
+# ---- measurement (child process, torch-free) ------------------------------------------------------
+def _motion(n: int, num_bones: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A smooth random motion: each joint swings on its own sine, the root turns."""
+    rng = np.random.default_rng(seed)
+    amp, freq, phase = rng.uniform(0, 0.25, (3, num_bones, 3))
+    t = np.arange(n)[:, None, None] / 30.0
+    rot = (amp * np.sin(2 * np.pi * (0.3 + freq) * t + 6 * phase)).astype(np.float32)
+    rot[:, 0] = 0
+    rot[:, 0, 2] = np.linspace(0, 2 * np.pi, n)
+    return rot, np.zeros((n, 3), np.float32)
+
+
+def measure(avatar_dir: str, size: int, frames: int) -> dict:
+    """Timings of one avatar (run in a process without torch)."""
+    import resource
+
+    from morf.playback.camera_paths import front_camera
+    from morf.playback.player import Player
+
+    rot, tr = _motion(frames + 5, 104)
+    cams = [front_camera(size, yaw_deg=10.0 * i) for i in range(len(rot))]
+    out: dict = {}
+    with Player(avatar_dir, size=size, background=(255, 255, 255)) as p:
+        for i in range(5):  # warm-up: shader compile, ORT first-run allocations
+            p.render(rot[i], tr[i], cams[i])
+        steps: dict[str, list[float]] = {}
+        t0 = time.perf_counter()
+        for i in range(5, len(rot)):
+            p.render(rot[i], tr[i], cams[i])
+            for k, v in p.last_timings.items():
+                steps.setdefault(k, []).append(v)
+        seq = (time.perf_counter() - t0) / frames
+        t0 = time.perf_counter()
+        images = list(p.render_sequence((rot[i], tr[i], cams[i]) for i in range(5, len(rot))))
+        piped = (time.perf_counter() - t0) / frames
+        x = p.rasterize(rot[0], tr[0], cams[0])
+        rt = []
+        for _ in range(max(10, frames // 3)):
+            t1 = time.perf_counter()
+            p.renderer(x)
+            rt.append((time.perf_counter() - t1) * 1e3)
+        out["breakdown_ms"] = {k: float(np.median(v)) for k, v in steps.items()}
+        out["renderer_only_ms"] = float(np.median(rt))
+    out.update(frame_ms=seq * 1e3, fps_end_to_end=1.0 / seq, frame_ms_pipelined=piped * 1e3,
+               fps_pipelined=1.0 / piped)
+    with Player(avatar_dir, size=size, background=(255, 255, 255), precision="fp32") as p32:
+        ref = [p32.render(rot[i], tr[i], cams[i]) for i in range(5, 5 + min(5, frames))]
+    mse = np.mean([np.mean((a.astype(np.float32) - b) ** 2) for a, b in zip(ref, images)]) / 255.0 ** 2
+    out["int8_psnr_vs_fp32_image_db"] = float(-10 * np.log10(max(mse, 1e-12)))
+    out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    return out
+
+
+def _child_main() -> None:
+    args = json.loads(sys.argv[1])
+    print(json.dumps(measure(args["avatar"], args["size"], args["frames"])))
+
+
+def _measure_in_child(avatar: Path, size: int, frames: int) -> dict:
+    code = "import sys; sys.modules['torch'] = None\nfrom morf.bench.render import _child_main; _child_main()"
+    arg = json.dumps({"avatar": str(avatar), "size": size, "frames": frames})
+    r = subprocess.run([sys.executable, "-c", code, arg], capture_output=True, text=True, timeout=1200)
+    if r.returncode != 0:
+        raise RuntimeError(f"measurement of {avatar} failed:\n{r.stderr[-3000:]}")
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+# ---- orchestration ----------------------------------------------------------------------------------
+def _build(tmp: Path, names: list[str], size: int) -> dict[str, Path]:
+    from morf.avatar.renderer import RendererConfig, count_parameters, UNetRenderer
+    from morf.body import load_body_model
+    from morf.export.synthetic import build_synthetic_avatar
+
+    body = load_body_model("anny")
+    built = {}
+    jobs = [(n, "nchw") for n in names] + [(DEFAULT_VARIANT, "planes")]
+    for name, layout in jobs:
+        key = name if layout == "nchw" else f"{name}@planes"
+        cfg = RendererConfig(**VARIANTS[name])
+        print(f"building synthetic avatar {key} ({count_parameters(UNetRenderer(cfg)) / 1e6:.2f} M parameters)", file=sys.stderr)
+        build_synthetic_avatar(tmp / key, body_model=body, renderer_cfg=cfg, image_size=size, calibration_views=6,
+                               heldout_views=2, input_layout=layout)
+        built[key] = tmp / key
+    return built
+
+
+def run(args) -> int:
+    from morf.bench.common import machine_info, markdown_table, write_results
+
+    t0 = time.time()
+    result: dict = {"benchmark": "render", "size": args.size, "precision": "int8", "threads": 2,
+                    "frames": args.frames, "machine": machine_info(),
+                    "command": "morf bench render " + " ".join(sys.argv[3:] if sys.argv[1:3] == ["bench", "render"] else [])}
+    rows = []
+    with tempfile.TemporaryDirectory() as tmpd:
+        if args.avatar:
+            avatars = {"given": Path(args.avatar)}
+            result["avatar"] = str(Path(args.avatar).resolve())
+        else:
+            names = [DEFAULT_VARIANT] if args.no_variants else list(VARIANTS)
+            avatars = _build(Path(tmpd), names, args.size)
+            result["avatar"] = f"synthetic: spectral texture 256x256x16 + random-init renderer '{DEFAULT_VARIANT}' (cpu preset)"
+        per = {}
+        for key, path in avatars.items():
+            print(f"measuring {key}", file=sys.stderr)
+            m = _measure_in_child(path, args.size, args.frames)
+            man = json.loads((path / "manifest.json").read_text())
+            m["int8_psnr_vs_fp32_db"] = man["int8_quality"]["psnr_db"]
+            m["int8_ssim_vs_fp32"] = man["int8_quality"]["ssim"]
+            m["renderer_config"] = man["renderer"]["config"]
+            m["input_layout"] = man["renderer"]["input_layout"]
+            per[key] = m
+            rows.append({"avatar": key, "renderer ms": m["renderer_only_ms"], "frame ms": m["frame_ms"],
+                         "fps": m["fps_end_to_end"], "fps pipelined": m["fps_pipelined"],
+                         "int8 PSNR dB": m["int8_psnr_vs_fp32_db"], "peak RSS MB": m["peak_rss_mb"]})
+    main_key = "given" if args.avatar else DEFAULT_VARIANT
+    main = per[main_key]
+    result.update(fps=main["fps_end_to_end"], fps_pipelined=main["fps_pipelined"],
+                  pipeline_gain_ms=main["frame_ms"] - main["frame_ms_pipelined"],
+                  breakdown_ms=main["breakdown_ms"], peak_rss_mb=main["peak_rss_mb"],
+                  int8_psnr_vs_fp32=main["int8_psnr_vs_fp32_db"], int8_ssim_vs_fp32=main["int8_ssim_vs_fp32"],
+                  int8_psnr_vs_fp32_image=main["int8_psnr_vs_fp32_image_db"], avatars=per,
+                  seconds=round(time.time() - t0, 1))
+    md = [f"# Playback speed at {args.size}x{args.size} (int8, onnxruntime 2 threads)\n",
+          f"Avatar: {result['avatar']}. Machine: {result['machine']['cpu']}, {result['machine']['cores']} cores.\n",
+          markdown_table(rows, ["avatar", "renderer ms", "frame ms", "fps", "fps pipelined", "int8 PSNR dB", "peak RSS MB"]),
+          "\nBreakdown of one frame (median ms, sequential, " + main_key + "):\n",
+          markdown_table([main["breakdown_ms"]], list(main["breakdown_ms"]))]
+    path = write_results(args.out, "render", result, "\n".join(md))
+    print(f"{main_key}: {result['fps']:.1f} fps end to end, {result['fps_pipelined']:.1f} fps pipelined; wrote {path}")
+    return 0

@@ -1,0 +1,93 @@
+"""Replacing a project folder whole: build it beside the target, then swap.
+
+A stage that rewrites a whole project (ingest) writes into a hidden folder in the target's
+parent and swaps it in at the end, so a failure or Ctrl-C at any point leaves the previous
+project exactly as it was. On Linux the swap is one atomic ``renameat2(RENAME_EXCHANGE)``;
+elsewhere two renames (a crash between them leaves the old project under a hidden name
+beside the target, never a half-written one).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Iterator
+
+from morf.capture.project import CaptureProject
+from morf.errors import ProjectError
+
+# Folders whose content was made from the current frames; replacing the frames orphans them.
+LATER_STAGES = ("fits", "runs", "avatar", "ground_truth")
+
+
+def check_replaceable(root: Path, force: bool) -> bool:
+    """May ``root`` be (re)written by ingest? Returns whether a project is already there."""
+    if not root.exists():
+        return False
+    if not root.is_dir():
+        raise ProjectError(f"{root} exists and is not a folder")
+    if not CaptureProject.is_project(root):
+        if any(root.iterdir()):
+            raise ProjectError(f"{root} exists, is not empty and is not a MoRF project; choose a new folder")
+        return False
+    later = [d for d in LATER_STAGES if (root / d).is_dir() and any((root / d).iterdir())]
+    if later and not force:
+        raise ProjectError(f"{root} already holds {', '.join(later)} made from its current frames; "
+                           f"pass --force to replace the whole project")
+    return True
+
+
+@contextlib.contextmanager
+def staged_folder(root: Path) -> Iterator[Path]:
+    """Yield an empty hidden folder beside ``root``; on success it replaces ``root``.
+
+    On any exception (including KeyboardInterrupt) the staging folder is deleted and ``root``
+    is untouched.
+    """
+    root = Path(root).absolute()
+    try:
+        root.parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(prefix=f".{root.name}.ingest-", dir=root.parent))
+        os.chmod(staging, 0o777 & ~_umask())  # mkdtemp makes it private; a project is an ordinary folder
+    except OSError as e:
+        raise ProjectError(f"cannot write in {root.parent}: {e.strerror or e}") from None
+    try:
+        yield staging
+        swap_in(staging, root)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def swap_in(staging: Path, root: Path) -> None:
+    """Put ``staging`` at ``root``; whatever was at ``root`` ends up at ``staging`` (deleted by the caller)."""
+    if not root.exists():
+        os.rename(staging, root)
+        return
+    if _exchange(staging, root):
+        return
+    aside = staging.with_name(staging.name + ".old")
+    os.rename(root, aside)
+    os.rename(staging, root)
+    os.rename(aside, staging)
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Atomically exchange two paths (Linux renameat2); False where unsupported."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        fn = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    at_fdcwd, rename_exchange = -100, 2
+    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    return fn(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange) == 0

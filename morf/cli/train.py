@@ -1,0 +1,81 @@
+"""``morf train PROJECT``: train (or resume) a neural avatar on a capture project.
+
+Runs live in ``PROJECT/runs/<name>`` (default name ``<method>-<preset>``). Running the same
+command again resumes a stopped or killed run from its last checkpoint; Ctrl-C stops cleanly
+after writing a checkpoint.
+"""
+
+from __future__ import annotations
+
+import signal
+import sys
+
+
+def add_parser(sub):
+    p = sub.add_parser("train", help="train a neural avatar (resumes an unfinished run)")
+    p.add_argument("project", help="capture project folder (after 'morf fit')")
+    p.add_argument("--method", choices=("morf", "stylepeople", "anr"), default="morf",
+                   help="morf: texture warping (default); stylepeople: no warping; anr: split optimisation")
+    p.add_argument("--preset", choices=("tiny", "cpu", "gpu"), default=None,
+                   help="model and schedule sizes (default: gpu when CUDA is present, else cpu)")
+    p.add_argument("--name", default=None, help="run name under PROJECT/runs (default: METHOD-PRESET)")
+    p.add_argument("--steps", type=int, default=None, help="override the preset's number of steps")
+    p.add_argument("--resolution", type=int, default=None, help="override the working image side (pixels)")
+    p.add_argument("--crop", type=int, default=None, help="override the random crop side (0: whole image)")
+    p.add_argument("--batch-size", type=int, default=None, help="override the batch size")
+    p.add_argument("--fits", choices=("auto", "fits", "ground-truth"), default="auto",
+                   help="body fits to train on: fits/fits.npz, or a synthetic capture's ground truth")
+    p.add_argument("--vgg", default=None, metavar="PATH",
+                   help="VGG-16 weights (torchvision state dict) for the perceptual loss; else $MORF_VGG16_WEIGHTS; "
+                        "without them discriminator feature matching is used")
+    p.add_argument("--device", default="auto", help="auto (CUDA when present), cpu or cuda")
+    p.add_argument("--restart", action="store_true", help="delete an existing run of that name and start over")
+    return p
+
+
+def resolve_config(args):
+    import torch
+
+    from morf.train.config import preset
+
+    name = args.preset or ("gpu" if torch.cuda.is_available() else "cpu")
+    overrides = {k: v for k, v in (("steps", args.steps), ("resolution", args.resolution), ("crop", args.crop),
+                                   ("batch_size", args.batch_size)) if v is not None}
+    return preset(name, args.method, device=args.device, **overrides)
+
+
+def run(args) -> int:
+    from morf.capture.project import CaptureProject
+    from morf.pipeline.control import StageControl, StopRequested
+    from morf.progress import progress
+    from morf.train.project_run import train_project
+
+    project = CaptureProject.open(args.project)
+    cfg = resolve_config(args)
+    bar = progress(total=cfg.steps, desc=f"train {cfg.method}", unit="step")
+
+    def on_progress(p):
+        if p.total and p.step:
+            bar.n = p.step
+            if p.losses:
+                bar.set_postfix({k: f"{v:.3f}" for k, v in p.losses.items() if k in ("l1", "dice", "total")}, refresh=False)
+            bar.refresh()
+        elif p.message:
+            bar.set_description_str(p.message[:40])
+
+    control = StageControl(on_progress)
+    previous = signal.signal(signal.SIGINT, lambda *_: control.stop())
+    try:
+        result = train_project(project, cfg, args.name, control, args.fits, args.vgg, args.restart)
+    except StopRequested:
+        bar.close()
+        print("morf train: stopped; run the same command to resume", file=sys.stderr)
+        return 130
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        bar.close()
+    resumed = f" (resumed at step {result.resumed_from})" if result.resumed_from else ""
+    print(f"trained {result.run_dir} : {result.step} steps in {result.train_minutes:.1f} min{resumed}")
+    if result.losses:
+        print("final losses: " + ", ".join(f"{k} {v:.4f}" for k, v in result.losses.items()))
+    return 0

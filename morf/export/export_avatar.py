@@ -1,0 +1,201 @@
+"""Build an exported avatar folder from a trained avatar (needs torch; the result does not).
+
+Steps: quantise the baked neural texture, shape the render mesh and skeleton, rasterize the
+capture's own views with the same GL pipeline the player uses (so int8 calibration sees exactly
+the bytes it will see live), write the fp32 and int8 renderers, measure what int8 costs on views
+held out of calibration, and write the manifest. The folder is built beside the target and moved
+into place at the end, so a failed export leaves the previous avatar intact.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from morf.export.avatar_folder import RENDERERS, replace_folder, write_arrays, write_manifest
+from morf.export.onnx_renderer import OPSET, export_fp32, export_int8
+from morf.export.skeleton import Skeleton, skeleton_from_body_model
+from morf.export.texture_quant import QuantizedTexture, quantize_texture
+from morf.pipeline.control import Progress, StageControl
+from morf.playback.neural_raster import NUM_CHANNELS, NeuralRasterizer, SkinnedMesh, create_headless_context, planes_to_nchw
+
+
+@dataclass(frozen=True)
+class View:
+    """One body pose seen by one camera.
+
+    Fields:
+        rotvecs: (J, 3) axis-angle pose; transl: (3,) root translation; camera: PinholeCamera.
+    """
+
+    rotvecs: np.ndarray
+    transl: np.ndarray
+    camera: object
+
+
+@dataclass(frozen=True)
+class ExportConfig:
+    """Choices of the exporter."""
+
+    input_layout: str = "nchw"  # "nchw" or "planes" (see morf.export.onnx_graph; nchw measured faster)
+    max_calibration_views: int = 32  # int8 calibration rasterizations (more: slower export, same ranges)
+    max_heldout_views: int = 8  # views for the int8-vs-fp32 quality report
+    extra: dict = field(default_factory=dict)  # free-form facts copied into the manifest
+
+
+def skinned_mesh_from_body_model(model, shape) -> SkinnedMesh:
+    """The shaped render mesh of a body model (seams split, top-8 bones)."""
+    import torch
+
+    from morf.body.render_mesh import render_mesh_for
+
+    rm = render_mesh_for(model)
+    with torch.no_grad():
+        rest = model.rest(shape)["rest_vertices"][0].float().cpu().numpy()
+    return SkinnedMesh(rest_vertices=np.ascontiguousarray(rest[rm.vertex_map], np.float32), uvs=rm.uvs,
+                       faces=rm.faces, bone_indices=rm.bone_indices, bone_weights=rm.bone_weights)
+
+
+def rasterize_views(ctx, mesh: SkinnedMesh, texture: QuantizedTexture, skeleton: Skeleton,
+                    views: Sequence[View]) -> list[np.ndarray]:
+    """uint8 (1, 16, H, W) neural rasterizations of ``views`` (all cameras of one size)."""
+    if not views:
+        return []
+    cam = views[0].camera
+    nr = NeuralRasterizer(ctx, mesh, texture, cam.width, cam.height, skeleton.num_bones)
+    try:
+        out = []
+        for v in views:
+            nr.draw(skeleton.bone_transforms(v.rotvecs, v.transl), v.camera)
+            out.append(planes_to_nchw(nr.read()))
+        return out
+    finally:
+        nr.release()
+
+
+def nchw_to_layout(raster: np.ndarray, layout: str) -> np.ndarray:
+    """(1, 16, H, W) uint8 -> the renderer's input layout."""
+    if layout == "nchw":
+        return raster
+    _, _, H, W = raster.shape
+    return np.ascontiguousarray(raster[0].reshape(4, 4, H, W).transpose(0, 2, 3, 1))
+
+
+def int8_quality(fp32_path: Path, int8_path: Path, rasters: Sequence[np.ndarray], layout: str = "nchw") -> dict:
+    """PSNR / SSIM of the int8 renderer against fp32 on ``rasters`` (RGB premultiplied, i.e. on black)."""
+    import onnxruntime as ort
+    import torch
+
+    from morf.avatar.metrics import psnr, ssim
+
+    opts = ort.SessionOptions()
+    opts.intra_op_num_threads = 2
+    s32, s8 = (ort.InferenceSession(str(p), opts, providers=["CPUExecutionProvider"]) for p in (fp32_path, int8_path))
+    ps, ss, ps_person = [], [], []
+    for r in rasters:
+        r = nchw_to_layout(r, layout)
+        a = torch.from_numpy(s32.run(None, {"raster": r})[0])
+        b = torch.from_numpy(s8.run(None, {"raster": r})[0])
+        ps.append(psnr(b[:, :3], a[:, :3]))
+        ss.append(ssim(b[:, :3], a[:, :3]))
+        ps_person.append(psnr(b[:, :3], a[:, :3], mask=a[:, 3] > 0.5))
+    return {"views": len(rasters), "psnr_db": float(np.mean(ps)), "ssim": float(np.mean(ss)),
+            "psnr_person_db": float(np.mean(ps_person))}
+
+
+def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, calibration: Sequence[View],
+                  heldout: Sequence[View], cfg: ExportConfig = ExportConfig(), ctx=None,
+                  control: StageControl | None = None) -> dict:
+    """Write an avatar folder; returns its manifest.
+
+    Args:
+        texture: (16, Ht, Wt) baked neural texture (torch or numpy), row 0 = atlas top.
+        renderer: the torch renderer, (1, 16, H, W) -> (1, 4, H, W) premultiplied RGB + mask logit.
+        body_model, shape: the body model and the avatar's (1, 6) shape.
+        calibration: views whose rasterizations calibrate int8 (the capture's training views).
+        heldout: views kept out of calibration for the quality report (may be empty).
+    """
+    control = control or StageControl()
+    t0 = time.time()
+    out_dir = Path(out_dir)
+    if not calibration:
+        raise ValueError("export needs at least one calibration view")
+    tex = texture.detach().cpu().numpy() if hasattr(texture, "detach") else np.asarray(texture, np.float32)
+    if tex.shape[0] > NUM_CHANNELS:
+        raise ValueError(f"the player handles at most {NUM_CHANNELS} texture channels, got {tex.shape[0]}")
+    # Fewer channels (small presets): pad with zero channels, which quantise to 128 = background.
+    tex = np.concatenate([tex, np.zeros((NUM_CHANNELS - tex.shape[0], *tex.shape[1:]), tex.dtype)])
+    qtex = quantize_texture(tex)
+    mesh = skinned_mesh_from_body_model(body_model, shape)
+    skeleton = skeleton_from_body_model(body_model, shape)
+    own_ctx = ctx is None
+    ctx = ctx or create_headless_context()
+    step = lambda i, msg: control.report(Progress("export", i, 5, msg))  # noqa: E731
+    try:
+        step(0, "rasterizing calibration views")
+        calib = rasterize_views(ctx, mesh, qtex, skeleton, list(calibration)[:cfg.max_calibration_views])
+        held = rasterize_views(ctx, mesh, qtex, skeleton, list(heldout)[:cfg.max_heldout_views])
+    finally:
+        if own_ctx:
+            ctx.release()
+    control.check()
+    tmp = out_dir.with_name(f".{out_dir.name}.tmp")
+    if tmp.exists():
+        import shutil
+
+        shutil.rmtree(tmp)
+    tmp.mkdir(parents=True)
+    renderer = renderer.eval().float().cpu()
+    H, W = calib[0].shape[2:]
+    step(1, "writing texture, mesh and skeleton")
+    write_arrays(tmp, qtex, mesh, skeleton)
+    step(2, "exporting the fp32 renderer")
+    export_fp32(renderer, qtex.scales, tmp / RENDERERS["fp32"], cfg.input_layout)
+    control.check()
+    step(3, "quantising the renderer to int8")
+    export_int8(renderer, qtex.scales, tmp / RENDERERS["int8"], calib, cfg.input_layout)
+    step(4, "measuring int8 against fp32")
+    # With no held-out views the report falls back on calibration views (and says so).
+    quality = int8_quality(tmp / RENDERERS["fp32"], tmp / RENDERERS["int8"], held or calib[:4], cfg.input_layout)
+    quality["on"] = "heldout" if held else "calibration"
+    rcfg = getattr(renderer, "cfg", None)
+    manifest = write_manifest(tmp, _manifest_fields(qtex, skeleton, mesh, rcfg, (H, W), shape, cfg, quality,
+                                                    len(calib), time.time() - t0))
+    replace_folder(tmp, out_dir)
+    step(5, "done")
+    return manifest
+
+
+def _manifest_fields(qtex, skeleton, mesh, rcfg, image_hw, shape, cfg, quality, n_calib, seconds) -> dict:
+    import dataclasses
+
+    import onnx
+    import onnxruntime
+    import torch
+
+    from morf import __version__
+
+    shape_list = shape.detach().cpu().numpy().reshape(-1).tolist() if hasattr(shape, "detach") else list(np.ravel(shape))
+    return {
+        "created": time.strftime("%Y-%m-%d %H:%M:%S"),
+        "versions": {"morf": __version__, "torch": torch.__version__, "onnx": onnx.__version__,
+                     "onnxruntime": onnxruntime.__version__, "opset": OPSET},
+        "image_size": list(map(int, image_hw)),
+        "body": {"model": "anny", "shape": shape_list, "num_bones": skeleton.num_bones,
+                 "render_vertices": mesh.num_vertices, "faces": int(mesh.faces.shape[0])},
+        "texture": {"channels": qtex.channels, "size": list(qtex.data.shape[:2]), "zero_point": 128,
+                    "channel_scales": qtex.scales.tolist()},
+        "renderer": {"input": "raster", "input_layout": cfg.input_layout, "output": "rgba",
+                     "output_meaning": "RGB premultiplied by the mask, then mask probability",
+                     "size_multiple": int(rcfg.multiple) if rcfg is not None else 32,
+                     "config": dataclasses.asdict(rcfg) if dataclasses.is_dataclass(rcfg) else None,
+                     "int8": {"format": "QDQ", "weights": "int8 per-channel", "activations": "uint8",
+                              "calibration_views": n_calib, "calibration_method": "minmax"}},
+        "int8_quality": quality,
+        "export_seconds": round(seconds, 1),
+        **cfg.extra,
+    }

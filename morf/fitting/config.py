@@ -1,0 +1,112 @@
+"""Typed configuration of the body fit, with named presets and the ablation switches.
+
+The four refinements of the paper's mesh fitting are switches here so that each can be
+ablated (``morf bench fitting``): ``shared_shape``, ``silhouette``, ``temporal``, ``frame_filter``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class StageConfig:
+    """One stage of the staged optimisation."""
+
+    name: str  # "global" | "body" | "all"
+    iterations: int  # Adam steps
+    lr: float  # Adam learning rate
+    body_pose: bool  # optimise the body bones' rotations
+    shape: bool  # optimise the shape
+    silhouette: bool  # add the silhouette loss (when FitConfig.silhouette is on)
+
+
+def default_stages() -> tuple[StageConfig, ...]:
+    return (
+        StageConfig("global", 60, 0.03, body_pose=False, shape=False, silhouette=False),
+        StageConfig("body", 140, 0.03, body_pose=True, shape=False, silhouette=False),
+        StageConfig("all", 80, 0.015, body_pose=True, shape=True, silhouette=True),
+    )
+
+
+@dataclass(frozen=True)
+class FilterConfig:
+    """Thresholds of the automatic frame filter (a frame is rejected when any one fires)."""
+
+    residual_factor: float = 3.0  # keypoint residual above this many times the sequence median ...
+    residual_min_px: float = 0.02  # ... and above this fraction of the image height
+    iou_drop: float = 0.12  # silhouette IoU this far below the sequence median (when masks exist)
+    jump_factor: float = 4.0  # pose change to BOTH neighbours above this many times the median change ...
+    jump_min_deg: float = 12.0  # ... and above this many degrees (mean over body bones)
+    min_keypoints: int = 6  # fewer confident keypoints than this counts as a detection failure
+    min_confidence: float = 0.3  # a keypoint counts as confident above this
+
+
+@dataclass(frozen=True)
+class FitConfig:
+    """Everything that decides a fit. Saved as PROJECT/fits/fit_config.json."""
+
+    # the paper's refinements (each can be switched off for the ablation)
+    shared_shape: bool = True  # one shape for all frames (else one per frame)
+    silhouette: bool = True  # Dice loss between the rendered body silhouette and the person mask
+    temporal: bool = True  # L2 between adjacent frames' pose vectors and translations
+    frame_filter: bool = True  # flag unreliable frames in fits/filter.json
+
+    stages: tuple[StageConfig, ...] = field(default_factory=default_stages)
+
+    # loss weights (keypoint residuals are measured in percent of the image height)
+    keypoint_weight: float = 1.0
+    keypoint_robust_sigma: float = 5.0  # Geman-McClure scale, percent of the image height
+    pose_prior_weight: float = 0.02  # joint-limit prior
+    pose_l2_weight: float = 0.002  # weak pull towards the rest A-pose
+    shape_weight: float = 0.5  # shape regularisation towards the default phenotype
+    temporal_weight: float = 2.0  # adjacent-frame pose differences (radians^2)
+    temporal_transl_weight: float = 20.0  # adjacent-frame translation differences (metres^2)
+    silhouette_weight: float = 2.0  # Dice loss
+    silhouette_resolution: int = 96  # raster size of the long image side for the silhouette loss
+    silhouette_sigma: float = 0.5  # softness of the rasterizer, pixels of that raster
+    silhouette_frames_per_step: int = 64  # frames rendered per step (a rotating subset); 0 = all
+    proxy_cell: float = 0.03  # vertex-clustering cell of the silhouette proxy mesh, metres
+    yaw_hypotheses: int = 8  # initial body orientations tried per frame
+    yaw_switch_weight: float = 0.5  # cost of turning between frames when choosing among them
+
+    # evaluation and outputs
+    iou_resolution: int = 256  # raster size of the long image side for silhouette IoU
+    overlays: bool = True  # write fits/overlays/000000.jpg per frame
+    chunk_frames: int = 256  # frames per forward pass (bounds memory; gradients are accumulated)
+    seed: int = 0
+    filter: FilterConfig = field(default_factory=FilterConfig)
+
+    def replace(self, **changes) -> "FitConfig":
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @staticmethod
+    def from_dict(d: dict) -> "FitConfig":
+        d = dict(d)
+        stages = tuple(StageConfig(**s) for s in d.pop("stages", [])) or default_stages()
+        filt = FilterConfig(**d.pop("filter", {}))
+        known = {f.name for f in dataclasses.fields(FitConfig)}
+        return FitConfig(stages=stages, filter=filt, **{k: v for k, v in d.items() if k in known})
+
+
+def _scaled(stages: tuple[StageConfig, ...], factor: float) -> tuple[StageConfig, ...]:
+    return tuple(dataclasses.replace(s, iterations=max(5, int(round(s.iterations * factor)))) for s in stages)
+
+
+# Named presets: "default" for real use; "fast" for previews and tests; "baseline" is SMPLify-style
+# fitting without any of the paper's refinements.
+PRESETS: dict[str, FitConfig] = {
+    "default": FitConfig(),
+    "fast": FitConfig(stages=_scaled(default_stages(), 0.4), overlays=False),
+    "baseline": FitConfig(shared_shape=False, silhouette=False, temporal=False, frame_filter=False),
+}
+
+
+def preset(name: str) -> FitConfig:
+    if name not in PRESETS:
+        raise KeyError(f"unknown fit preset {name!r}; available: {', '.join(PRESETS)}")
+    return PRESETS[name]

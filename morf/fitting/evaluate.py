@@ -1,0 +1,72 @@
+"""Per-frame quality of a fit with the full body mesh: keypoint residual, silhouette IoU."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterator
+
+import numpy as np
+import torch
+
+from morf.body.model import BodyPose
+from morf.camera import PinholeCamera
+from morf.fitting.losses import keypoint_residual_px
+from morf.raster.soft_silhouette import hard_coverage
+
+
+@dataclass(frozen=True)
+class FitEvaluation:
+    """Fields:
+        keypoint_residual_px: (N,) confidence-weighted mean distance, detected vs fitted keypoints.
+        silhouette_iou: (N,) IoU of the body's silhouette and the person mask (NaN without masks).
+        projected_keypoints: (N, 23, 2) fitted keypoints in pixels.
+    """
+
+    keypoint_residual_px: np.ndarray
+    silhouette_iou: np.ndarray
+    projected_keypoints: np.ndarray
+
+
+def posed_chunks(model, rotvecs: torch.Tensor, transl: torch.Tensor, shape: torch.Tensor,
+                 chunk: int = 32) -> Iterator[tuple[slice, "object"]]:
+    """Yield (frames, BodyOutput) of the full model over all frames, ``chunk`` at a time."""
+    N = rotvecs.shape[0]
+    with torch.no_grad():
+        for s in range(0, N, chunk):
+            sl = slice(s, min(N, s + chunk))
+            sh = shape if shape.shape[0] == 1 else shape[sl]
+            yield sl, model(BodyPose(rotvecs[sl], transl[sl]), sh)
+
+
+def silhouettes(vertices: torch.Tensor, faces: torch.Tensor, camera: PinholeCamera, scale: float,
+                width: int, height: int) -> torch.Tensor:
+    """(B, V, 3) world vertices -> (B, height, width) bool hard silhouettes at ``scale``."""
+    pix = camera.project(vertices) * scale
+    tri = pix[:, faces]
+    in_front = (camera.world_to_camera(vertices)[..., 2] > 1e-3)[:, faces].all(-1)
+    return hard_coverage(tri, in_front, height, width)
+
+
+def iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(N,) IoU of boolean masks (N, H, W); 1 where both are empty."""
+    inter = (a & b).sum((1, 2))
+    union = (a | b).sum((1, 2))
+    return np.where(union > 0, inter / np.maximum(union, 1), 1.0)
+
+
+def evaluate_fit(model, rotvecs: torch.Tensor, transl: torch.Tensor, shape: torch.Tensor,
+                 keypoints: np.ndarray, camera: PinholeCamera, masks_eval: np.ndarray | None,
+                 eval_scale: float, min_confidence: float = 0.3) -> FitEvaluation:
+    """Evaluate a fit. ``keypoints``: (N, 23, 3) detections; ``masks_eval``: (N, h, w) bool or None."""
+    N = rotvecs.shape[0]
+    proj = np.zeros((N, keypoints.shape[1], 2), np.float32)
+    ious = np.full(N, np.nan, np.float32)
+    faces = model.faces
+    for sl, out in posed_chunks(model, rotvecs, transl, shape):
+        proj[sl] = camera.project(out.keypoints3d).cpu().numpy()
+        if masks_eval is not None:
+            h, w = masks_eval.shape[1:]
+            sil = silhouettes(out.vertices, faces, camera, eval_scale, w, h).cpu().numpy()
+            ious[sl] = iou(sil, masks_eval[sl])
+    res = keypoint_residual_px(torch.as_tensor(proj), torch.as_tensor(keypoints), min_confidence).numpy()
+    return FitEvaluation(res.astype(np.float32), ious, proj)

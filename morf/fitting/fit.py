@@ -1,0 +1,137 @@
+"""Fit the body model to every frame of a capture (SMPLify-X-style, with the paper's refinements).
+
+``fit_sequence`` works on in-memory inputs (tests, benchmarks); ``fit_project`` reads a capture
+project, resumes from the last completed stage, and writes PROJECT/fits/ atomically.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+import torch
+
+from morf.body.rotations import axis_angle_to_matrix
+from morf.fitting.config import FitConfig
+from morf.fitting.evaluate import evaluate_fit
+from morf.fitting.fit_body import FitBody
+from morf.fitting.fits_io import BodyFits
+from morf.fitting.frame_filter import filter_frames, pose_change_deg
+from morf.fitting.global_init import fit_global
+from morf.fitting.inputs import FitInputs
+from morf.fitting.optimize import FitProblem, run_stage
+from morf.fitting.params import FIT_BONES, FitParameters
+from morf.fitting.pose_prior import JointLimitPrior
+from morf.fitting.proxy_mesh import body_proxy
+from morf.pipeline.control import Progress, StageControl
+
+
+@dataclass(frozen=True)
+class FitState:
+    """Fit parameters as plain tensors (CPU, float32).
+
+    Fields:
+        rotvecs: (N, J, 3) full model axis-angles; transl: (N, 3); shape: (1 or N, S).
+        stage: number of completed stages.
+    """
+
+    rotvecs: torch.Tensor
+    transl: torch.Tensor
+    shape: torch.Tensor
+    stage: int
+
+
+def default_device() -> torch.device:
+    return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+
+
+def _problem(model, inputs: FitInputs, cfg: FitConfig, device: torch.device) -> FitProblem:
+    proxy = body_proxy(model, cfg.proxy_cell) if (cfg.silhouette and inputs.masks is not None) else None
+    body = FitBody(model, proxy).to(device)
+    masks = torch.as_tensor(inputs.masks, device=device) if (proxy is not None) else None
+    sil_camera = inputs.camera.scaled(inputs.mask_scale) if masks is not None else None
+    return FitProblem(body=body, prior=JointLimitPrior(model).to(device), inputs=inputs,
+                      keypoints=torch.as_tensor(inputs.keypoints, device=device), masks=masks,
+                      sil_camera=sil_camera, shape_mean=model.default_shape().to(device),
+                      keypoint_scale=0.01 * inputs.camera.height)
+
+
+def fit_sequence(model, inputs: FitInputs, cfg: FitConfig, *, control: StageControl | None = None,
+                 start: FitState | None = None, device: torch.device | None = None,
+                 on_stage: Callable[[FitState], None] | None = None) -> FitState:
+    """Run the remaining stages of ``cfg`` (all, or those after ``start.stage``).
+
+    Stage 1 is always the rigid global fit (orientation + translation); the others are
+    :func:`~morf.fitting.optimize.run_stage` with their own switches.
+
+    ``on_stage`` is called with the state after every completed stage (to save a checkpoint).
+    """
+    control = control or StageControl()
+    device = device or default_device()
+    torch.manual_seed(cfg.seed)
+    model = model.to(device)
+    problem = _problem(model, inputs, cfg, device)
+    N = inputs.num_frames
+    bone_ids = [model.bone_index(b) for b in FIT_BONES]
+    shape0 = model.default_shape().to(device)
+    done = 0
+    if start is not None and start.stage > 0:
+        params = FitParameters(N, len(model.bone_names), bone_ids, torch.eye(3, device=device).expand(N, 3, 3),
+                               start.transl.to(device), shape0, cfg.shared_shape).to(device)
+        params.load_state(start.rotvecs.to(device), start.transl.to(device), start.shape.to(device))
+        done = start.stage
+    else:
+        first = cfg.stages[0]
+        control.report(Progress(stage="fit", message=f"fitting {first.name}, stage 1/{len(cfg.stages)}"))
+        with torch.no_grad():
+            rest_kp = model(model.zero_pose(1), shape0).keypoints3d[0]
+        g = fit_global(inputs.keypoints, inputs.camera, rest_kp.cpu(), hypotheses=cfg.yaw_hypotheses,
+                       iterations=first.iterations, lr=first.lr * 2, scale=0.01 * inputs.camera.height,
+                       sigma=cfg.keypoint_robust_sigma, switch_weight=cfg.yaw_switch_weight, control=control)
+        params = FitParameters(N, len(model.bone_names), bone_ids, g.root.to(device), g.transl.to(device),
+                               shape0, cfg.shared_shape).to(device)
+        done = 1
+        if on_stage is not None:
+            on_stage(_state(params, done))
+    for k in range(done, len(cfg.stages)):
+        stage = cfg.stages[k]
+        run_stage(problem, params, cfg, stage, stage_number=k + 1, control=control)
+        if on_stage is not None:
+            on_stage(_state(params, k + 1))
+    return _state(params, len(cfg.stages))
+
+
+def _state(params: FitParameters, stage: int) -> FitState:
+    with torch.no_grad():
+        pose = params.pose()
+        return FitState(pose.rotvecs.detach().float().cpu(), pose.transl.detach().float().cpu(),
+                        params.shape().detach().float().cpu(), stage)
+
+
+def finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple[BodyFits, dict[int, str]]:
+    """Evaluate the fit on the full mesh and run the frame filter."""
+    device = next(iter(model.buffers())).device
+    rv, tr, sh = (x.to(device) for x in (state.rotvecs, state.transl, state.shape))
+    ev = evaluate_fit(model, rv, tr, sh, inputs.keypoints, inputs.camera, inputs.masks_eval, inputs.eval_scale,
+                      cfg.filter.min_confidence)
+    fits = BodyFits(rotvecs=state.rotvecs.numpy(), transl=state.transl.numpy(), shape=state.shape.numpy(),
+                    keypoint_residual_px=ev.keypoint_residual_px, silhouette_iou=ev.silhouette_iou,
+                    projected_keypoints=ev.projected_keypoints, config=cfg.to_dict())
+    rejected: dict[int, str] = {}
+    if cfg.frame_filter:
+        bone_ids = [model.bone_index(b) for b in FIT_BONES]
+        root = axis_angle_to_matrix(state.rotvecs[:, 0]).numpy()
+        change = pose_change_deg(root, state.rotvecs[:, bone_ids].numpy())
+        confident = (inputs.keypoints[..., 2] > cfg.filter.min_confidence).sum(1)
+        rejected = filter_frames(residual_px=ev.keypoint_residual_px, confident=confident, detected=inputs.detected,
+                                 iou=ev.silhouette_iou if inputs.masks_eval is not None else None,
+                                 change_deg=change, image_height=inputs.camera.height, cfg=cfg.filter)
+    return fits, dict(sorted(rejected.items()))
+
+
+def rejected_mask(n: int, rejected: dict[int, str]) -> np.ndarray:
+    """(n,) bool, True for rejected frames."""
+    m = np.zeros(n, bool)
+    m[list(rejected)] = True
+    return m

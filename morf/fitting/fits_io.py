@@ -1,0 +1,98 @@
+"""Body fits on disk (PROJECT/fits/fits.npz) and the loader later stages call."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from morf.errors import ProjectError
+from morf.io import load_npz, save_npz
+
+FITS_FILE = "fits.npz"
+CHECKPOINT_FILE = "checkpoint.npz"
+
+
+@dataclass(frozen=True)
+class BodyFits:
+    """Body fits of every frame of a capture.
+
+    Fields:
+        rotvecs: (N, J, 3) float32 axis-angle per bone (Anny "local-ref"; bone 0 = root).
+        transl: (N, 3) float32 root translation, metres.
+        shape: (1, S) shared or (N, S) per-frame phenotype values in [0, 1].
+        keypoint_residual_px: (N,) float32 mean distance of fitted to detected keypoints.
+        silhouette_iou: (N,) float32 IoU of body silhouette and person mask (NaN without masks).
+        projected_keypoints: (N, 23, 2) float32 fitted keypoints in pixels.
+        config: the FitConfig as a dict.
+    """
+
+    rotvecs: np.ndarray
+    transl: np.ndarray
+    shape: np.ndarray
+    keypoint_residual_px: np.ndarray
+    silhouette_iou: np.ndarray
+    projected_keypoints: np.ndarray
+    config: dict
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.rotvecs.shape[0])
+
+    def shape_of(self, i: int) -> np.ndarray:
+        """(1, S) the shape of frame ``i``."""
+        return self.shape[:1] if self.shape.shape[0] == 1 else self.shape[i:i + 1]
+
+
+def save_fits(path: str | Path, fits: BodyFits) -> None:
+    save_npz(path, rotvecs=fits.rotvecs.astype(np.float32), transl=fits.transl.astype(np.float32),
+             shape=fits.shape.astype(np.float32), keypoint_residual_px=fits.keypoint_residual_px.astype(np.float32),
+             silhouette_iou=fits.silhouette_iou.astype(np.float32),
+             projected_keypoints=fits.projected_keypoints.astype(np.float32),
+             config=np.array(json.dumps(fits.config)))
+
+
+def read_fits(path: str | Path) -> BodyFits:
+    d = load_npz(path)
+    try:
+        fits = BodyFits(rotvecs=d["rotvecs"], transl=d["transl"], shape=d["shape"],
+                        keypoint_residual_px=d["keypoint_residual_px"], silhouette_iou=d["silhouette_iou"],
+                        projected_keypoints=d["projected_keypoints"], config=json.loads(str(d["config"])))
+    except (KeyError, ValueError) as e:
+        raise ProjectError(f"damaged fits file {path}: {e}") from None
+    N = fits.rotvecs.shape[0]
+    if fits.rotvecs.ndim != 3 or fits.transl.shape != (N, 3) or fits.shape.shape[0] not in (1, N):
+        raise ProjectError(f"damaged fits file {path}: inconsistent shapes")
+    return fits
+
+
+def load_fits(project) -> BodyFits:
+    """The body fits of a :class:`~morf.capture.project.CaptureProject` (run ``morf fit`` first)."""
+    path = project.fits_dir / FITS_FILE
+    if not path.is_file():
+        raise ProjectError(f"{project.root} has no body fits yet; run 'morf fit {project.root}'")
+    fits = read_fits(path)
+    if fits.num_frames != project.num_frames:
+        raise ProjectError(f"fits cover {fits.num_frames} frames, project has {project.num_frames}; run 'morf fit --restart'")
+    return fits
+
+
+def save_checkpoint(path: Path, *, stage: int, rotvecs: np.ndarray, transl: np.ndarray, shape: np.ndarray,
+                    config: dict) -> None:
+    """Parameters after ``stage`` completed stages (resume point)."""
+    save_npz(path, stage=np.array(stage), rotvecs=rotvecs.astype(np.float32), transl=transl.astype(np.float32),
+             shape=shape.astype(np.float32), config=np.array(json.dumps(config, sort_keys=True)))
+
+
+def read_checkpoint(path: Path) -> dict | None:
+    """The checkpoint as a dict (stage, rotvecs, transl, shape, config) or None if unreadable."""
+    if not path.is_file():
+        return None
+    try:
+        d = load_npz(path)
+        return {"stage": int(d["stage"]), "rotvecs": d["rotvecs"], "transl": d["transl"], "shape": d["shape"],
+                "config": json.loads(str(d["config"]))}
+    except (ProjectError, KeyError, ValueError):
+        return None

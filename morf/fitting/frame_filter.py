@@ -1,0 +1,71 @@
+"""The automatic frame filter: frames whose fit is unreliable are kept out of training.
+
+The paper's supplement describes "a simple heuristic"; this one flags a frame when any of these
+holds, each judged against the sequence itself so that it adapts to resolution and detector:
+
+* detection failure: no person, or fewer than ``min_keypoints`` confident keypoints;
+* keypoint residual: the fit misses the detections by far more than it usually does;
+* silhouette: the body's silhouette overlaps the person mask poorly (when masks exist);
+* pose jump: the pose differs sharply from BOTH neighbouring frames (a one-frame glitch; a
+  real fast motion changes the pose towards one neighbour and away from the other less often).
+
+Reasons are short human sentences stored in PROJECT/fits/filter.json.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from morf.fitting.config import FilterConfig
+
+
+def pose_change_deg(root: np.ndarray, body: np.ndarray) -> np.ndarray:
+    """(N-1,) mean rotation change between adjacent frames, degrees.
+
+    Args:
+        root: (N, 3, 3) root rotations; body: (N, B, 3) body-bone axis-angles.
+    """
+    if len(root) < 2:
+        return np.zeros(0)
+    rel = np.einsum("nba,nbc->nac", root[:-1], root[1:])
+    root_angle = np.arccos(np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1, 1))
+    body_angle = np.linalg.norm(body[1:] - body[:-1], axis=-1)  # (N-1, B)
+    per_bone = np.concatenate([root_angle[:, None], body_angle], axis=1)
+    return np.degrees(per_bone.mean(1))
+
+
+def filter_frames(*, residual_px: np.ndarray, confident: np.ndarray, detected: np.ndarray,
+                  iou: np.ndarray | None, change_deg: np.ndarray, image_height: int,
+                  cfg: FilterConfig) -> dict[int, str]:
+    """Frames to reject with the reason.
+
+    Args:
+        residual_px: (N,) keypoint residual per frame; confident: (N,) number of confident keypoints;
+        detected: (N,) bool; iou: (N,) silhouette IoU or None; change_deg: (N-1,) from
+        :func:`pose_change_deg`.
+    """
+    N = len(residual_px)
+    rejected: dict[int, str] = {}
+    valid = detected & (confident >= cfg.min_keypoints)
+    for i in np.flatnonzero(~valid):
+        rejected[int(i)] = "no person detected" if not detected[i] else f"only {int(confident[i])} confident keypoints"
+    if not valid.any():
+        return rejected
+    med_res = float(np.median(residual_px[valid]))
+    res_limit = max(cfg.residual_factor * med_res, cfg.residual_min_px * image_height)
+    if iou is not None and np.isfinite(iou[valid]).any():
+        med_iou = float(np.nanmedian(iou[valid]))
+        iou_limit = med_iou - cfg.iou_drop
+    else:
+        med_iou, iou_limit = None, None
+    med_change = float(np.median(change_deg)) if len(change_deg) else 0.0
+    jump_limit = max(cfg.jump_factor * med_change, cfg.jump_min_deg)
+    for i in np.flatnonzero(valid):
+        i = int(i)
+        if residual_px[i] > res_limit:
+            rejected[i] = f"keypoint residual {residual_px[i]:.0f} px (median {med_res:.0f})"
+        elif iou_limit is not None and np.isfinite(iou[i]) and iou[i] < iou_limit:
+            rejected[i] = f"silhouette IoU {iou[i]:.2f} (median {med_iou:.2f})"
+        elif 0 < i < N - 1 and change_deg[i - 1] > jump_limit and change_deg[i] > jump_limit:
+            rejected[i] = f"pose jump {min(change_deg[i - 1], change_deg[i]):.0f} deg (median {med_change:.1f})"
+    return rejected

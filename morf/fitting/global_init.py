@@ -1,0 +1,145 @@
+"""Stage 1 of the fit: global orientation and translation of every frame.
+
+The body is held rigid in its rest pose. Depth starts from the torso length in pixels
+(shoulder midpoint to hip midpoint against the model's torso length and the focal length);
+several orientations about the body's up axis are fitted to the torso and head keypoints in
+parallel, and a dynamic programme over the sequence picks one per frame that fits well and
+turns little between frames (a person turning in place shows front, side and back views, and a
+single start would fall into the mirror-image solution on some of them).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from morf.body.rotations import axis_angle_to_matrix
+from morf.camera import PinholeCamera
+from morf.errors import InputError
+from morf.fitting.losses import keypoint_loss
+from morf.fitting.params import yaw_candidates, yaw_matrix
+
+SHOULDERS, HIPS = (5, 6), (11, 12)
+# nose, eyes, ears, shoulders, hips: points that a rigid rest-pose body can explain
+GLOBAL_KEYPOINT_WEIGHTS = {0: 0.5, 1: 0.3, 2: 0.3, 3: 0.5, 4: 0.5, 5: 1.0, 6: 1.0, 11: 1.0, 12: 1.0}
+
+
+@dataclass(frozen=True)
+class GlobalInit:
+    """Fields:
+        root: (N, 3, 3) root rotations; transl: (N, 3) translations (metres).
+        loss: (N,) keypoint loss of the chosen hypothesis.
+    """
+
+    root: torch.Tensor
+    transl: torch.Tensor
+    loss: torch.Tensor
+
+
+def canonical_rotation(camera: PinholeCamera, dtype=torch.float32) -> torch.Tensor:
+    """(3, 3) body-to-world rotation of a person upright in the image and facing the camera.
+
+    Body axes: Z up, -Y forward, X the person's left. Image up is camera -y, the camera looks
+    along +z, so the body's up is R^T (0,-1,0) and its forward (-Y) is R^T (0,0,-1).
+    """
+    R = torch.as_tensor(camera.R, dtype=dtype)
+    up = R.T @ torch.tensor([0.0, -1.0, 0.0], dtype=dtype)
+    back = R.T @ torch.tensor([0.0, 0.0, 1.0], dtype=dtype)
+    left = torch.linalg.cross(back, up)
+    return torch.stack([left, back, up], dim=1)
+
+
+def torso_depth_and_centre(points: np.ndarray, rest_kp: np.ndarray, fy: float, min_conf: float = 0.3):
+    """Per frame: camera depth from the torso length, and the torso centre in pixels.
+
+    Args:
+        points: (N, 23, 3) detections; rest_kp: (23, 3) model keypoints in the rest pose.
+    Returns:
+        depth (N,), centre (N, 2), ok (N,) bool (frames with all four torso points).
+    """
+    conf = points[:, list(SHOULDERS + HIPS), 2]
+    ok = (conf > min_conf).all(1)
+    sh = points[:, list(SHOULDERS), :2].mean(1)
+    hp = points[:, list(HIPS), :2].mean(1)
+    length_px = np.linalg.norm(sh - hp, axis=1)
+    ok &= length_px > 2.0
+    length_3d = np.linalg.norm(rest_kp[list(SHOULDERS)].mean(0) - rest_kp[list(HIPS)].mean(0))
+    depth = fy * length_3d / np.maximum(length_px, 1e-6)
+    centre = 0.5 * (sh + hp)
+    if not ok.any():
+        raise InputError("no frame shows both shoulders and both hips; cannot place the body")
+    idx = np.arange(len(points))
+    good = idx[ok]
+    nearest = good[np.abs(idx[:, None] - good[None, :]).argmin(1)]
+    return depth[nearest], centre[nearest], ok
+
+
+def _choose_sequence(loss: torch.Tensor, R: torch.Tensor, switch_weight: float) -> torch.Tensor:
+    """Viterbi over frames: (N, K) losses, (N, K, 3, 3) rotations -> (N,) chosen hypotheses."""
+    N, K = loss.shape
+    cost = loss[0].clone()
+    back = torch.zeros(N, K, dtype=torch.long)
+    for t in range(1, N):
+        rel = torch.einsum("jab,kac->jkbc", R[t - 1], R[t])  # R_prev^T R_cur
+        cos = ((rel.diagonal(dim1=-2, dim2=-1).sum(-1) - 1) / 2).clamp(-1, 1)
+        turn = torch.acos(cos) ** 2
+        total = cost[:, None] + switch_weight * turn  # (j, k)
+        cost, back[t] = total.min(0)
+        cost = cost + loss[t]
+    path = torch.zeros(N, dtype=torch.long)
+    path[-1] = cost.argmin()
+    for t in range(N - 1, 0, -1):
+        path[t - 1] = back[t, path[t]]
+    return path
+
+
+def fit_global(points: np.ndarray, camera: PinholeCamera, rest_kp: torch.Tensor, *, hypotheses: int,
+               iterations: int, lr: float, scale: float, sigma: float, switch_weight: float,
+               control=None) -> GlobalInit:
+    """Rigid fit of the rest-pose body to each frame's torso and head keypoints.
+
+    Args:
+        points: (N, 23, 3) detections; rest_kp: (23, 3) rest keypoints (root at the origin).
+        scale, sigma: keypoint loss units (see :func:`keypoint_loss`).
+    """
+    dtype = rest_kp.dtype
+    N, K = points.shape[0], max(1, hypotheses)
+    depth, centre, _ = torso_depth_and_centre(points, rest_kp.cpu().numpy(), camera.fy)
+    Rcam = torch.as_tensor(camera.R, dtype=dtype)
+    tcam = torch.as_tensor(camera.t, dtype=dtype)
+    d = torch.as_tensor(depth, dtype=dtype)
+    c = torch.as_tensor(centre, dtype=dtype)
+    xc = torch.stack([(c[:, 0] - camera.cx) / camera.fx * d, (c[:, 1] - camera.cy) / camera.fy * d, d], -1)
+    torso_world = (xc - tcam) @ Rcam  # R^T (xc - t)
+    R0 = canonical_rotation(camera, dtype) @ yaw_matrix(yaw_candidates(K, dtype))  # (K, 3, 3)
+    R0 = R0[None].expand(N, K, 3, 3).contiguous()
+    torso_rest = rest_kp[list(SHOULDERS + HIPS)].mean(0)
+    t0 = torso_world[:, None] - R0 @ torso_rest
+    delta = torch.zeros(N, K, 3, dtype=dtype, requires_grad=True)
+    transl = t0.clone().requires_grad_(True)
+    det = torch.as_tensor(points, dtype=dtype)[:, None].expand(N, K, -1, -1)
+    w = torch.zeros(rest_kp.shape[0], dtype=dtype)
+    for k, v in GLOBAL_KEYPOINT_WEIGHTS.items():
+        w[k] = v
+    opt = torch.optim.Adam([delta, transl], lr=lr)
+
+    def losses():
+        R = axis_angle_to_matrix(delta) @ R0
+        kp = torch.einsum("nkab,jb->nkja", R, rest_kp) + transl[:, :, None]
+        return keypoint_loss(camera.project(kp), det, scale, sigma, w), R
+
+    for it in range(iterations):
+        opt.zero_grad()
+        loss, _ = losses()
+        loss.sum().backward()
+        opt.step()
+        if control is not None and it % 10 == 0:
+            control.check()
+    with torch.no_grad():
+        loss, R = losses()
+        norm = loss / w.sum()
+        path = _choose_sequence(norm, R, switch_weight)
+        ar = torch.arange(N)
+        return GlobalInit(root=R[ar, path], transl=transl[ar, path].detach(), loss=loss[ar, path])

@@ -1,0 +1,134 @@
+"""Stages 2 and 3 of the fit: body pose, then everything, batched over all frames.
+
+Every step evaluates all frames (in chunks of ``chunk_frames`` whose gradients are accumulated,
+so memory stays bounded for long videos) and takes one Adam step. Per-frame data terms
+(keypoints, silhouette) are summed over frames; sequence terms (pose prior, temporal, shape)
+are computed on the whole parameter tensors.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import torch
+
+from morf.camera import PinholeCamera
+from morf.fitting.config import FitConfig, StageConfig
+from morf.fitting.fit_body import FitBody
+from morf.fitting.inputs import FitInputs
+from morf.fitting.losses import dice_loss, keypoint_loss, rotation_temporal_loss, shape_loss, temporal_loss
+from morf.fitting.params import FitParameters
+from morf.fitting.pose_prior import JointLimitPrior
+from morf.pipeline.control import Progress, StageControl
+from morf.progress import progress
+from morf.raster.soft_silhouette import soft_silhouette
+
+
+@dataclass
+class FitProblem:
+    """Everything a stage needs besides its own settings (built once per fit)."""
+
+    body: FitBody
+    prior: JointLimitPrior
+    inputs: FitInputs
+    keypoints: torch.Tensor  # (N, 23, 3) detections as a tensor
+    masks: torch.Tensor | None  # (N, h, w) soft person masks at the silhouette raster
+    sil_camera: PinholeCamera | None  # the camera scaled to the silhouette raster
+    shape_mean: torch.Tensor  # (1, S) prior mean of the shape
+    keypoint_scale: float  # pixels per keypoint residual unit (1% of the image height)
+
+
+def _data_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, idx: torch.Tensor,
+                sil_idx: torch.Tensor | None, sil_factor: float) -> tuple[torch.Tensor, dict[str, float]]:
+    """Keypoint (+ silhouette) loss of the frames ``idx`` (a chunk)."""
+    out = problem.body(params.pose(idx), params.shape(idx))
+    cam = problem.inputs.camera
+    proj = cam.project(out.keypoints3d)
+    kp = keypoint_loss(proj, problem.keypoints[idx], problem.keypoint_scale, cfg.keypoint_robust_sigma).sum()
+    total = cfg.keypoint_weight * kp
+    logs = {"keypoints": float(kp)}
+    if sil_idx is not None and sil_idx.numel() > 0:
+        local = torch.searchsorted(idx, sil_idx)
+        verts = out.proxy_vertices[local]
+        pix = problem.sil_camera.project(verts)
+        h, w = problem.masks.shape[-2:]
+        sil = soft_silhouette(pix, problem.body.proxy_faces, h, w, sigma=cfg.silhouette_sigma)
+        dice = dice_loss(sil, problem.masks[sil_idx]).sum() * sil_factor
+        total = total + cfg.silhouette_weight * dice
+        logs["silhouette"] = float(dice)
+    return total, logs
+
+
+def _sequence_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, stage: StageConfig):
+    total = params.transl.new_zeros(())
+    logs = {}
+    if stage.body_pose:
+        prior = problem.prior(params.body).sum()
+        l2 = params.body.pow(2).sum()
+        total = total + cfg.pose_prior_weight * prior + cfg.pose_l2_weight * l2
+        logs["prior"] = float(prior)
+    if stage.shape:
+        sh = shape_loss(params.shape(), problem.shape_mean).sum()
+        total = total + cfg.shape_weight * sh
+        logs["shape"] = float(sh)
+    if cfg.temporal and params.num_frames > 1:
+        tr = temporal_loss(params.transl).sum()
+        rot = rotation_temporal_loss(params.root_matrix()).sum()
+        if stage.body_pose:
+            rot = rot + temporal_loss(params.body).sum()
+        total = total + cfg.temporal_weight * rot + cfg.temporal_transl_weight * tr
+        logs["temporal"] = float(rot)
+    return total, logs
+
+
+def run_stage(problem: FitProblem, params: FitParameters, cfg: FitConfig, stage: StageConfig, *,
+              stage_number: int, control: StageControl | None = None) -> dict[str, float]:
+    """Optimise ``params`` in place for one stage; returns the last step's loss terms."""
+    control = control or StageControl()
+    trainable = [params.root_delta, params.transl]
+    if stage.body_pose:
+        trainable.append(params.body)
+    if stage.shape:
+        trainable.append(params.shape_logit)
+    opt = torch.optim.Adam(trainable, lr=stage.lr)
+    N = params.num_frames
+    device = params.transl.device
+    use_sil = cfg.silhouette and stage.silhouette and problem.masks is not None
+    sil_frames = torch.arange(N, device=device)
+    if use_sil:
+        # frames with a detected person and a non-empty mask take part in the silhouette loss
+        usable = torch.as_tensor(problem.inputs.detected, device=device) & (problem.masks.sum((1, 2)) > 1.0)
+        sil_frames = sil_frames[usable]
+    per_step = cfg.silhouette_frames_per_step or len(sil_frames)
+    groups = max(1, math.ceil(len(sil_frames) / max(1, per_step)))
+    chunks = torch.arange(N, device=device).split(max(1, cfg.chunk_frames))
+    logs: dict[str, float] = {}
+    bar = progress(total=stage.iterations, desc=f"fit {stage_number}/{len(cfg.stages)} {stage.name}", unit="step")
+    for it in range(stage.iterations):
+        opt.zero_grad(set_to_none=True)
+        logs = {}
+        sil_now = sil_frames[it % groups::groups] if use_sil else None
+        for idx in chunks:
+            sil_idx = None
+            if sil_now is not None:
+                sil_idx = sil_now[(sil_now >= idx[0]) & (sil_now <= idx[-1])]
+            loss, part = _data_terms(problem, params, cfg, idx, sil_idx, float(groups))
+            loss.backward()
+            for k, v in part.items():
+                logs[k] = logs.get(k, 0.0) + v
+        seq, part = _sequence_terms(problem, params, cfg, stage)
+        if seq.requires_grad:
+            seq.backward()
+        logs.update(part)
+        opt.step()
+        bar.update(1)
+        if it % 10 == 0 or it == stage.iterations - 1:
+            per_frame = {k: v / N for k, v in logs.items()}
+            bar.set_postfix({k: f"{v:.3g}" for k, v in per_frame.items()})
+            control.report(Progress(stage="fit", step=it + 1, total=stage.iterations,
+                                    message=f"fitting {stage.name}, stage {stage_number}/{len(cfg.stages)}",
+                                    losses=per_frame))
+            control.check()
+    bar.close()
+    return {k: v / N for k, v in logs.items()}

@@ -1,0 +1,135 @@
+"""``fit_project``: fit a capture project and write PROJECT/fits/ (resumable, atomic).
+
+Outputs:
+    fits/fits.npz          BodyFits (rotvecs, transl, shape, residuals, IoU, fitted keypoints, config)
+    fits/filter.json       {"rejected": {"12": "keypoint residual 38 px (median 6)"}, "frames": N, ...}
+    fits/fit_config.json   the resolved FitConfig
+    fits/checkpoint.npz    parameters after the last completed stage (resume point)
+    fits/overlays/000000.jpg  one overlay per frame
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from morf.camera import PinholeCamera
+from morf.errors import InputError
+from morf.fitting.config import FitConfig
+from morf.fitting.evaluate import posed_chunks, silhouettes
+from morf.fitting.fit import FitState, default_device, finalize, fit_sequence
+from morf.fitting.fits_io import CHECKPOINT_FILE, FITS_FILE, BodyFits, read_checkpoint, save_checkpoint, save_fits
+from morf.fitting.inputs import load_fit_inputs
+from morf.fitting.overlays import draw_overlay
+from morf.io import atomic_write_json, write_image
+from morf.pipeline.control import Progress, StageControl
+from morf.progress import progress
+
+
+@dataclass(frozen=True)
+class FitReport:
+    """What ``fit_project`` did.
+
+    Fields:
+        fits: the saved fits; rejected: frame -> reason; seconds: wall time of this call;
+        resumed_from: completed stages found in the checkpoint (0 = fresh start);
+        up_to_date: nothing was recomputed (fits already complete for this config).
+    """
+
+    fits: BodyFits
+    rejected: dict[int, str]
+    seconds: float
+    resumed_from: int
+    up_to_date: bool = False
+
+
+def _resume_key(cfg: FitConfig, camera: PinholeCamera) -> dict:
+    """The parts of a fit that decide its parameters (outputs-only options excluded)."""
+    d = cfg.to_dict()
+    for k in ("overlays", "iou_resolution", "filter", "chunk_frames"):
+        d.pop(k, None)
+    d["camera"] = camera.to_dict()
+    return d
+
+
+def project_camera(project, focal: float | None) -> PinholeCamera:
+    cam = project.camera()
+    if focal is not None:
+        if focal <= 0:
+            raise InputError(f"--focal must be positive, got {focal}")
+        cam = PinholeCamera(float(focal), float(focal), cam.cx, cam.cy, cam.width, cam.height, cam.R, cam.t)
+    return cam
+
+
+def fit_project(project, cfg: FitConfig, *, model=None, focal: float | None = None, restart: bool = False,
+                control: StageControl | None = None, device: torch.device | None = None) -> FitReport:
+    """Fit every frame of ``project`` (a CaptureProject) and write PROJECT/fits/."""
+    t0 = time.perf_counter()
+    control = control or StageControl()
+    if model is None:
+        from morf.body import load_body_model
+
+        model = load_body_model("anny")
+    device = device or default_device()
+    camera = project_camera(project, focal)
+    inputs = load_fit_inputs(project, camera, cfg.silhouette_resolution, cfg.iou_resolution,
+                             need_masks=True)
+    out = project.fits_dir
+    out.mkdir(parents=True, exist_ok=True)
+    key = _resume_key(cfg, camera)
+    ckpt = None if restart else read_checkpoint(out / CHECKPOINT_FILE)
+    start = None
+    if ckpt is not None and ckpt["config"] == key and ckpt["rotvecs"].shape[0] == inputs.num_frames:
+        start = FitState(torch.as_tensor(ckpt["rotvecs"]), torch.as_tensor(ckpt["transl"]),
+                         torch.as_tensor(ckpt["shape"]), ckpt["stage"])
+    resumed = start.stage if start is not None else 0
+    atomic_write_json(out / "fit_config.json", cfg.to_dict())
+
+    def save(state: FitState) -> None:
+        save_checkpoint(out / CHECKPOINT_FILE, stage=state.stage, rotvecs=state.rotvecs.numpy(),
+                        transl=state.transl.numpy(), shape=state.shape.numpy(), config=key)
+
+    complete = start is not None and start.stage >= len(cfg.stages)
+    if complete and (out / FITS_FILE).is_file() and (out / "filter.json").is_file():
+        from morf.fitting.fits_io import read_fits
+
+        return FitReport(read_fits(out / FITS_FILE), project.auto_filter(), time.perf_counter() - t0, resumed, True)
+    state = start if complete else fit_sequence(model, inputs, cfg, control=control, start=start, device=device,
+                                                on_stage=save)
+    control.report(Progress(stage="fit", message="evaluating fits and filtering frames"))
+    fits, rejected = finalize(model, inputs, cfg, state)
+    save_fits(out / FITS_FILE, fits)
+    atomic_write_json(out / "filter.json", {
+        "rejected": {str(k): v for k, v in rejected.items()},
+        "frames": inputs.num_frames,
+        "enabled": cfg.frame_filter,
+        "median_keypoint_residual_px": float(np.nanmedian(fits.keypoint_residual_px)),
+        "median_silhouette_iou": None if inputs.masks_eval is None else float(np.nanmedian(fits.silhouette_iou)),
+    })
+    if cfg.overlays:
+        write_overlays(project, model, fits, inputs.keypoints, camera, rejected, control)
+    return FitReport(fits, rejected, time.perf_counter() - t0, resumed)
+
+
+def write_overlays(project, model, fits: BodyFits, keypoints: np.ndarray, camera: PinholeCamera,
+                   rejected: dict[int, str], control: StageControl | None = None) -> None:
+    """fits/overlays/000000.jpg for every frame."""
+    folder = project.fits_dir / "overlays"
+    folder.mkdir(parents=True, exist_ok=True)
+    device = next(iter(model.buffers())).device
+    W, H = camera.width, camera.height
+    rv, tr, sh = (torch.as_tensor(x, device=device) for x in (fits.rotvecs, fits.transl, fits.shape))
+    bar = progress(total=fits.num_frames, desc="fit overlays", unit="frame")
+    for sl, out in posed_chunks(model, rv, tr, sh, chunk=8):
+        sil = silhouettes(out.vertices, model.faces, camera, 1.0, W, H).cpu().numpy()
+        for j, i in enumerate(range(sl.start, sl.stop)):
+            img = draw_overlay(project.load_frame(i), sil[j], keypoints[i], fits.projected_keypoints[i],
+                               rejected.get(i))
+            write_image(folder / f"{i:06d}.jpg", img, jpeg_quality=85)
+            bar.update(1)
+        if control is not None:
+            control.check()
+    bar.close()

@@ -1,0 +1,106 @@
+"""AMASS motion files (.npz): SMPL-H (``poses`` (T, 156)) or SMPL-X (``poses`` (T, 165), or the
+split ``root_orient`` / ``pose_body`` keys), ``trans`` (T, 3), ``mocap_framerate`` or
+``mocap_frame_rate``, ``gender`` as str or bytes, ``betas``. Stored Z-up.
+
+The SMPL body models themselves are licensed and are not needed: retargeting uses only rest bone
+directions and leg length, taken from the approximate neutral rest joints below.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from morf.errors import InputError
+from morf.motion.skeleton import Skeleton, SourceMotion
+from morf.motion.so3 import rotvec_to_matrix
+
+SMPL_BODY_JOINTS = (
+    "pelvis", "left_hip", "right_hip", "spine1", "left_knee", "right_knee", "spine2", "left_ankle",
+    "right_ankle", "spine3", "left_foot", "right_foot", "neck", "left_collar", "right_collar", "head",
+    "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist",
+)
+SMPL_BODY_PARENTS = (-1, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 9, 9, 12, 13, 14, 16, 17, 18, 19)
+
+# Segment ends with no rotation of their own in AMASS: the middle-finger base, toe tips, head top.
+SMPL_END_JOINTS = (("left_hand", 20), ("right_hand", 21), ("left_foot_end", 10), ("right_foot_end", 11),
+                   ("head_end", 15))
+
+# Neutral SMPL rest (T-pose) joint positions, metres, Y up, facing +Z, left +X; rounded to about
+# a centimetre and made left/right symmetric. Only directions and the leg length are used.
+SMPL_REST = np.array([
+    [0.000, -0.223, 0.028], [0.068, -0.313, 0.020], [-0.068, -0.313, 0.020], [0.000, -0.110, 0.000],
+    [0.105, -0.690, 0.010], [-0.105, -0.690, 0.010], [0.000, 0.025, 0.030], [0.085, -1.095, -0.030],
+    [-0.085, -1.095, -0.030], [0.000, 0.080, 0.030], [0.120, -1.150, 0.120], [-0.120, -1.150, 0.120],
+    [0.000, 0.290, -0.015], [0.075, 0.200, -0.010], [-0.075, 0.200, -0.010], [0.000, 0.355, 0.045],
+    [0.170, 0.225, -0.020], [-0.170, 0.225, -0.020], [0.430, 0.215, -0.040], [-0.430, 0.215, -0.040],
+    [0.690, 0.225, -0.045], [-0.690, 0.225, -0.045],
+    # ends
+    [0.775, 0.215, -0.050], [-0.775, 0.215, -0.050], [0.125, -1.165, 0.190], [-0.125, -1.165, 0.190],
+    [0.000, 0.560, 0.030],
+])
+
+
+def smpl_skeleton() -> Skeleton:
+    """The 22 SMPL body joints plus 5 end points, rest pose in metres, Y up."""
+    names = SMPL_BODY_JOINTS + tuple(n for n, _ in SMPL_END_JOINTS)
+    parents = SMPL_BODY_PARENTS + tuple(p for _, p in SMPL_END_JOINTS)
+    offsets = SMPL_REST.copy()
+    for j, p in enumerate(parents):
+        if p >= 0:
+            offsets[j] = SMPL_REST[j] - SMPL_REST[p]
+    return Skeleton(names, parents, offsets, "y")
+
+
+def _text(value: np.ndarray) -> str:
+    v = value.item() if value.ndim == 0 else value.reshape(-1)[0]
+    return v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
+
+
+def read_amass(path: str | Path, arrays: dict[str, np.ndarray] | None = None) -> SourceMotion:
+    """Read an AMASS .npz (SMPL-H or SMPL-X) into a Z-up :class:`SourceMotion` on the SMPL body joints.
+
+    Finger, jaw and eye rotations are not used (Anny keeps its rest hands and face).
+    Raises:
+        InputError: missing keys or wrong shapes.
+    """
+    path = Path(path)
+    if arrays is None:
+        from morf.motion.library import read_npz
+
+        arrays = read_npz(path)
+    if "poses" in arrays:
+        poses = np.asarray(arrays["poses"], dtype=np.float64)
+        if poses.ndim != 2 or poses.shape[1] not in (72, 156, 165):
+            raise InputError(f"{path}: 'poses' has shape {poses.shape}; expected (T, 156) SMPL-H or (T, 165) SMPL-X")
+        kind = {72: "smpl", 156: "smplh", 165: "smplx"}[poses.shape[1]]
+        body = poses[:, :66]
+    elif "root_orient" in arrays and "pose_body" in arrays:
+        body = np.concatenate([arrays["root_orient"], arrays["pose_body"]], axis=1).astype(np.float64)
+        if body.ndim != 2 or body.shape[1] != 66:
+            raise InputError(f"{path}: 'root_orient' + 'pose_body' give shape {body.shape}; expected (T, 66)")
+        kind = "smplx"
+    else:
+        raise InputError(f"{path}: not an AMASS motion (no 'poses' or 'root_orient'/'pose_body' arrays)")
+    T = body.shape[0]
+    if T == 0:
+        raise InputError(f"{path}: no frames")
+    trans = np.asarray(arrays.get("trans", np.zeros((T, 3))), dtype=np.float64)
+    if trans.shape != (T, 3):
+        raise InputError(f"{path}: 'trans' has shape {trans.shape}; expected ({T}, 3)")
+    fps_key = next((k for k in ("mocap_framerate", "mocap_frame_rate") if k in arrays), None)
+    fps = float(np.asarray(arrays[fps_key]).reshape(-1)[0]) if fps_key else 30.0
+    if not np.isfinite(fps) or fps <= 0:
+        raise InputError(f"{path}: bad frame rate {fps}")
+    if not np.all(np.isfinite(body)) or not np.all(np.isfinite(trans)):
+        raise InputError(f"{path}: poses or trans contain NaN or inf")
+    gender = _text(np.asarray(arrays["gender"])) if "gender" in arrays else "neutral"
+
+    sk = smpl_skeleton()
+    local = np.broadcast_to(np.eye(3), (T, sk.num_joints, 3, 3)).copy()
+    local[:, :22] = rotvec_to_matrix(body.reshape(T, 22, 3))
+    # SMPL rotates the body about the rest pelvis and then adds trans: the pelvis lands at trans + J_pelvis.
+    root = trans + SMPL_REST[0]
+    return SourceMotion(sk, local, root, fps, up_axis="z", name=path.stem,
+                        source=f"amass:{path.name} ({kind}, {gender})", kind=kind)

@@ -1,0 +1,117 @@
+"""A motion in the body model's own pose parameters: what the player and the studio animate."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from morf.body.model import BodyPose
+from morf.errors import InputError
+from morf.io import save_npz
+from morf.motion.so3 import slerp_rotvecs
+
+CLIP_FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True)
+class MotionClip:
+    """A sequence of Anny poses.
+
+    Fields:
+        rotvecs: (T, J, 3) float32 axis-angle per Anny bone in the body model's own parameters
+            (:class:`~morf.body.model.BodyPose`: "local-ref", world-aligned axes about each
+            bone's head, composed after the parent's; bone 0 = root/global orientation).
+        transl: (T, 3) float32 root translation, metres, Anny's world (Z up, person faces -Y).
+        fps: frames per second.
+        name: short name for pickers; source: where it came from (file, format, notes).
+    """
+
+    rotvecs: np.ndarray
+    transl: np.ndarray
+    fps: float
+    name: str = ""
+    source: str = ""
+
+    def __post_init__(self):
+        r, t = np.asarray(self.rotvecs), np.asarray(self.transl)
+        if r.ndim != 3 or r.shape[2] != 3 or t.shape != (r.shape[0], 3):
+            raise ValueError(f"MotionClip wants rotvecs (T, J, 3) and transl (T, 3), got {r.shape} and {t.shape}")
+        if not self.fps > 0:
+            raise ValueError(f"MotionClip fps must be positive, got {self.fps}")
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.rotvecs.shape[0])
+
+    @property
+    def duration(self) -> float:
+        """Seconds from the first to the last frame."""
+        return (self.num_frames - 1) / self.fps
+
+    def __len__(self) -> int:
+        return self.num_frames
+
+    def __getitem__(self, i: int) -> BodyPose:
+        return self.pose(i)
+
+    def pose(self, i: int, device: str | torch.device = "cpu") -> BodyPose:
+        """Frame ``i`` (negative counts from the end) as a batch-1 :class:`BodyPose`, float32."""
+        return self.poses(np.array([i]), device)
+
+    def poses(self, frames: np.ndarray | slice, device: str | torch.device = "cpu") -> BodyPose:
+        """Several frames as one batch: rotvecs (B, J, 3), transl (B, 3)."""
+        r = torch.as_tensor(np.asarray(self.rotvecs[frames], dtype=np.float32), device=device)
+        t = torch.as_tensor(np.asarray(self.transl[frames], dtype=np.float32), device=device)
+        return BodyPose(r, t)
+
+    def frame_at(self, seconds: float, loop: bool = True) -> int:
+        """The frame shown at time ``seconds`` (wrapping round when ``loop``, else held at the end)."""
+        i = int(np.floor(seconds * self.fps + 1e-6))
+        return i % self.num_frames if loop else int(np.clip(i, 0, self.num_frames - 1))
+
+
+def resample(clip: MotionClip, fps: float) -> MotionClip:
+    """The clip at another frame rate over the same duration: slerp for rotations, linear for
+    translation. Frames fall at k / fps for k = 0 .. floor(duration * fps)."""
+    if not fps > 0:
+        raise ValueError(f"fps must be positive, got {fps}")
+    if clip.num_frames == 1 or abs(fps - clip.fps) < 1e-9:
+        return replace(clip, fps=float(fps))
+    n = int(np.floor(clip.duration * fps + 1e-6)) + 1
+    src = np.arange(n) / fps * clip.fps  # fractional source frame of each new frame
+    i0 = np.clip(np.floor(src).astype(int), 0, clip.num_frames - 1)
+    i1 = np.minimum(i0 + 1, clip.num_frames - 1)
+    w = src - i0
+    rot = slerp_rotvecs(clip.rotvecs[i0], clip.rotvecs[i1], w)
+    tr = clip.transl[i0] * (1 - w)[:, None] + clip.transl[i1] * w[:, None]
+    return replace(clip, rotvecs=rot.astype(np.float32), transl=tr.astype(np.float32), fps=float(fps))
+
+
+def save_clip(clip: MotionClip, path: str | os.PathLike) -> None:
+    """Write a clip as .npz (atomic, no pickle)."""
+    save_npz(path, morf_motion_version=np.int32(CLIP_FORMAT_VERSION), rotvecs=clip.rotvecs.astype(np.float32),
+             transl=clip.transl.astype(np.float32), fps=np.float64(clip.fps), name=np.str_(clip.name),
+             source=np.str_(clip.source))
+
+
+def clip_from_arrays(arrays: dict[str, np.ndarray], path: str | os.PathLike = "") -> MotionClip:
+    """A clip from the arrays of a file written by :func:`save_clip`; InputError if they do not fit."""
+    version = int(np.asarray(arrays.get("morf_motion_version", -1)))
+    if version != CLIP_FORMAT_VERSION:
+        raise InputError(f"{path}: motion clip format version {version}; this build reads {CLIP_FORMAT_VERSION}")
+    try:
+        return MotionClip(np.asarray(arrays["rotvecs"], dtype=np.float32), np.asarray(arrays["transl"], dtype=np.float32),
+                          float(arrays["fps"]), str(arrays.get("name", Path(path).stem)), str(arrays.get("source", "")))
+    except (KeyError, ValueError, TypeError) as e:
+        raise InputError(f"{path}: not a valid motion clip ({e})") from None
+
+
+def load_clip(path: str | os.PathLike) -> MotionClip:
+    """Read a clip written by :func:`save_clip`."""
+    from morf.motion.library import read_npz
+
+    return clip_from_arrays(read_npz(Path(path)), path)

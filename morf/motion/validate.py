@@ -1,0 +1,58 @@
+"""How well a retargeted motion follows its source: bone directions compared on the posed body."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from morf.body.model import BodyPose
+from morf.motion.retarget import Retargeted
+
+# (label, Anny bone at the segment start, Anny bone at its end); the source segment runs between
+# the joints the joint map assigns to the same two bones.
+SEGMENTS = (
+    ("upper arm L", "upperarm01.L", "lowerarm01.L"), ("upper arm R", "upperarm01.R", "lowerarm01.R"),
+    ("forearm L", "lowerarm01.L", "wrist.L"), ("forearm R", "lowerarm01.R", "wrist.R"),
+    ("thigh L", "upperleg01.L", "lowerleg01.L"), ("thigh R", "upperleg01.R", "lowerleg01.R"),
+    ("shin L", "lowerleg01.L", "foot.L"), ("shin R", "lowerleg01.R", "foot.R"),
+    ("spine", "root", "neck01"),
+)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
+
+
+@torch.no_grad()
+def direction_errors(r: Retargeted, source_names: tuple[str, ...], model, shape: torch.Tensor | None = None,
+                     frames: np.ndarray | None = None, batch_size: int = 64) -> dict[str, float]:
+    """Mean angle (degrees) between source and Anny segment directions, per segment of
+    :data:`SEGMENTS` (labels as keys) plus ``"mean"`` over all of them.
+
+    Args:
+        r: retargeted rotations with the source joints in the same world (``r.source_positions``).
+        source_names: the source skeleton's joint names (indexing ``r.source_positions``).
+        frames: which frames to compare (default: all).
+    """
+    shape = model.default_shape() if shape is None else shape[:1]
+    frames = np.arange(r.rotvecs.shape[0]) if frames is None else np.asarray(frames)
+    names = list(model.bone_names)
+    joints = []
+    for s in range(0, len(frames), batch_size):
+        f = frames[s:s + batch_size]
+        pose = BodyPose(torch.as_tensor(r.rotvecs[f], dtype=torch.float32),
+                        torch.as_tensor(r.transl[f], dtype=torch.float32))
+        joints.append(model(pose, shape).joints.double().cpu().numpy())
+    joints = np.concatenate(joints)
+    src = r.source_positions[frames]
+    out = {}
+    for label, a, b in SEGMENTS:
+        ja, jb = r.joint_map.joint_for(a), r.joint_map.joint_for(b)
+        if ja is None or jb is None:
+            continue
+        d_src = _unit(src[:, source_names.index(jb)] - src[:, source_names.index(ja)])
+        d_anny = _unit(joints[:, names.index(b)] - joints[:, names.index(a)])
+        cos = np.clip((d_src * d_anny).sum(-1), -1.0, 1.0)
+        out[label] = float(np.degrees(np.arccos(cos)).mean())
+    out["mean"] = float(np.mean(list(out.values())))
+    return out

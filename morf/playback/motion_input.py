@@ -1,0 +1,64 @@
+"""Motions for playback: a MotionClip-like .npz, or anything morf.motion can read (BVH, ...)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from morf.errors import InputError
+
+
+@dataclass(frozen=True)
+class PlaybackMotion:
+    """Poses to play.
+
+    Fields:
+        rotvecs: (T, J, 3) float32 axis-angle per bone (Anny "local-ref"); transl: (T, 3) float32; fps: frames/s.
+    """
+
+    rotvecs: np.ndarray
+    transl: np.ndarray
+    fps: float
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.rotvecs.shape[0])
+
+
+def load_playback_motion(path: str | Path, num_bones: int) -> PlaybackMotion:
+    """Read ``path``: ``.npz`` with ``rotvecs`` (T, J, 3), ``transl`` (T, 3), ``fps``; other
+    formats go through ``morf.motion.load_motion`` when it is available."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"motion file not found: {path}")
+    if path.suffix.lower() == ".npz":
+        from morf.io import load_npz
+
+        a = load_npz(path)
+        missing = {"rotvecs", "transl"} - set(a)
+        if missing:
+            raise InputError(f"{path} lacks {', '.join(sorted(missing))} (need rotvecs (T, J, 3), transl (T, 3), fps)")
+        clip = PlaybackMotion(a["rotvecs"].astype(np.float32), a["transl"].astype(np.float32),
+                              float(a["fps"]) if "fps" in a else 30.0)
+    else:
+        try:
+            from morf.motion import load_motion
+        except ImportError:
+            raise InputError(f"cannot read {path.suffix} motions in this build; give a .npz with rotvecs, transl, fps") from None
+        m = load_motion(path)
+        clip = PlaybackMotion(np.asarray(m.rotvecs, np.float32), np.asarray(m.transl, np.float32), float(m.fps))
+    T = clip.rotvecs.shape[0]
+    if clip.rotvecs.ndim != 3 or clip.rotvecs.shape[1:] != (num_bones, 3) or clip.transl.shape != (T, 3) or T == 0:
+        raise InputError(f"{path}: motion must be rotvecs (T, {num_bones}, 3) and transl (T, 3), "
+                         f"got {clip.rotvecs.shape} and {clip.transl.shape}")
+    return clip
+
+
+def resample(clip: PlaybackMotion, fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest-frame resampling to ``fps`` (playback speed is kept): rotvecs (N, J, 3), transl (N, 3)."""
+    duration = clip.num_frames / clip.fps
+    n = max(1, int(round(duration * fps)))
+    idx = np.minimum(np.round(np.arange(n) * clip.fps / fps).astype(int), clip.num_frames - 1)
+    return clip.rotvecs[idx], clip.transl[idx]

@@ -1,0 +1,151 @@
+"""Real-time playback of an exported avatar: pose in, composited image out (torch-free).
+
+Per frame: numpy forward kinematics (bone matrices) -> GL neural rasterization (skinning in the
+vertex shader, 16 uint8 channels into four RGBA8 attachments) -> read-back -> int8 renderer
+(onnxruntime) -> composite over the background. :meth:`Player.render_sequence` overlaps the GL
+work of frame t+1 with the renderer on frame t (onnxruntime releases the GIL).
+"""
+
+from __future__ import annotations
+
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Iterable, Iterator
+
+import numpy as np
+
+from morf.errors import InputError
+from morf.export.avatar_folder import ExportedAvatar, load_exported_avatar
+from morf.playback.composite import composite
+from morf.playback.neural_raster import NeuralRasterizer, create_headless_context, planes_to_nchw
+from morf.playback.onnx_renderer import OnnxRenderer
+
+
+class Player:
+    """Plays an exported avatar.
+
+    Args:
+        avatar_dir: a folder written by ``morf export`` (or an :class:`ExportedAvatar`).
+        size: output side in pixels (square; a multiple of the renderer's size multiple).
+        ctx: a moderngl context to draw in (e.g. the studio window's); None makes a headless one.
+        precision: "int8" (default) or "fp32" renderer.
+        background: RGB colour triple or (size, size, 3) uint8 image.
+        threads: onnxruntime intra-op threads; spinning: let idle ORT threads spin (benchmarks only).
+    """
+
+    def __init__(self, avatar_dir, size: int = 640, ctx=None, precision: str = "int8",
+                 background=(255, 255, 255), threads: int = 2, spinning: bool = False):
+        self.avatar = avatar_dir if isinstance(avatar_dir, ExportedAvatar) else load_exported_avatar(avatar_dir)
+        mult = self.avatar.size_multiple
+        if size <= 0 or size % mult:
+            raise InputError(f"player size must be a positive multiple of {mult}, got {size}")
+        self.size = int(size)
+        self._own_ctx = ctx is None
+        self.ctx = ctx or create_headless_context()
+        self.raster = NeuralRasterizer(self.ctx, self.avatar.mesh, self.avatar.texture, size, size,
+                                       self.avatar.skeleton.num_bones)
+        self.renderer = OnnxRenderer(self.avatar.renderer_path(precision), threads=threads, spinning=spinning)
+        self.background = background
+        self._planes = np.empty((4, size, size, 4), np.uint8)
+        self._nchw = np.empty((1, 16, size, size), np.uint8)
+        self.output_texture = None
+        self.last_timings: dict[str, float] = {}
+
+    # ---- the stages ------------------------------------------------------------------------
+    def _camera(self, camera):
+        if (camera.width, camera.height) == (self.size, self.size):
+            return camera
+        if camera.width != camera.height:
+            raise InputError(f"camera is {camera.width}x{camera.height}; the player renders square {self.size}px images")
+        return camera.scaled(self.size / camera.width)
+
+    def rasterize(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera, out: np.ndarray | None = None) -> np.ndarray:
+        """The renderer input for one pose, in the renderer's layout (uint8)."""
+        t0 = time.perf_counter()
+        T = self.avatar.skeleton.bone_transforms(pose_rotvecs, transl)
+        t1 = time.perf_counter()
+        self.raster.draw(T, self._camera(camera))
+        self.ctx.finish()
+        t2 = time.perf_counter()
+        if self.avatar.input_layout == "planes":
+            # The read-back already is the renderer input: read straight into the caller's buffer.
+            x = self.raster.read(self._planes if out is None else out)
+            t3 = time.perf_counter()
+        else:
+            planes = self.raster.read(self._planes)
+            t3 = time.perf_counter()
+            x = planes_to_nchw(planes, self._nchw if out is None else out)
+        t4 = time.perf_counter()
+        self.last_timings.update(bones_ms=(t1 - t0) * 1e3, raster_ms=(t2 - t1) * 1e3, readback_ms=(t3 - t2) * 1e3,
+                                 layout_ms=(t4 - t3) * 1e3)
+        return x
+
+    def shade(self, raster: np.ndarray) -> np.ndarray:
+        """Renderer + composite: uint8 raster -> (H, W, 3) uint8."""
+        t0 = time.perf_counter()
+        rgba = self.renderer(raster)
+        t1 = time.perf_counter()
+        img = composite(rgba, self.background)
+        t2 = time.perf_counter()
+        self.last_timings.update(renderer_ms=(t1 - t0) * 1e3, composite_ms=(t2 - t1) * 1e3)
+        return img
+
+    # ---- public entry points -----------------------------------------------------------------
+    def render(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera) -> np.ndarray:
+        """One frame: (J, 3) axis-angle pose, (3,) translation, a PinholeCamera -> (size, size, 3) uint8."""
+        return self.shade(self.rasterize(pose_rotvecs, transl, camera))
+
+    def render_texture(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera):
+        """Like :meth:`render` but leaves the image in a moderngl RGB8 texture (for the studio).
+
+        The texture is reused between calls; row 0 of the texture is the image's top row.
+        """
+        img = self.render(pose_rotvecs, transl, camera)
+        if self.output_texture is None:
+            self.output_texture = self.ctx.texture((self.size, self.size), 3)
+            self.output_texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+        self.output_texture.write(np.ascontiguousarray(img).tobytes())
+        return self.output_texture
+
+    def render_sequence(self, frames: Iterable[tuple[np.ndarray, np.ndarray, object]],
+                        pipelined: bool = True) -> Iterator[np.ndarray]:
+        """Render (rotvecs, transl, camera) frames in order; yields (size, size, 3) uint8 images.
+
+        With ``pipelined`` the renderer runs frame t in a worker thread while this thread
+        rasterizes frame t+1 (GL stays on the thread whose context is current).
+        """
+        if not pipelined:
+            for rot, tr, cam in frames:
+                yield self.render(rot, tr, cam)
+            return
+        buffers = [np.empty_like(self._planes if self.avatar.input_layout == "planes" else self._nchw) for _ in range(2)]
+        with ThreadPoolExecutor(max_workers=1) as pool:
+            pending = None
+            for i, (rot, tr, cam) in enumerate(frames):
+                x = self.rasterize(rot, tr, cam, out=buffers[i % 2])
+                if pending is not None:
+                    yield pending.result()
+                pending = pool.submit(self.shade, x)
+            if pending is not None:
+                yield pending.result()
+
+    def release(self) -> None:
+        self.raster.release()
+        if self.output_texture is not None:
+            self.output_texture.release()
+        if self._own_ctx:
+            self.ctx.release()
+
+    def __enter__(self) -> "Player":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
+def open_player(avatar_dir: str | Path, **kwargs) -> Player:
+    """:class:`Player` with one-line errors for a missing folder."""
+    if not Path(avatar_dir).is_dir():
+        raise InputError(f"avatar folder not found: {avatar_dir}")
+    return Player(avatar_dir, **kwargs)

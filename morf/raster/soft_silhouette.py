@@ -1,0 +1,200 @@
+"""A differentiable soft silhouette rasterizer in plain torch (runs on the CPU; CUDA if given).
+
+In the spirit of SoftRas (Liu et al. 2019), a pixel near a triangle's border is partly covered:
+every triangle whose bounding box, grown by ``margin`` pixels, contains a pixel centre adds
+``softplus(d / sigma)`` to that pixel, where ``d`` is the signed distance of the pixel centre to the
+triangle (positive inside, estimated as the smallest signed distance to its three edge lines);
+the silhouette is ``1 - exp(-sum)``, i.e. SoftRas's probabilistic union ``1 - prod(1 - D_f)``
+with ``D_f = sigmoid(d / sigma)``.
+
+Two things keep it fast enough to run inside a fitting loop on two CPU cores:
+
+* bounding-box culling: (pixel, triangle) pairs are enumerated only inside each triangle's grown
+  box, never the full pixels x triangles product;
+* interior culling: a pixel whose centre lies inside any triangle is simply covered (value 1, no
+  gradient), so only triangles near the outline, whose grown box holds an uncovered pixel, take
+  part in the soft pass. The gradient reaches the outline from the uncovered fringe, which is
+  where a silhouette loss needs it (pixels there pull the outline outwards or push it inwards).
+  Interior pixels would otherwise dip at shared edges of small triangles and bias a Dice loss
+  towards a fatter body.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+import torch.nn.functional as F
+
+
+@dataclass(frozen=True)
+class PixelTrianglePairs:
+    """(pixel, triangle) pairs to evaluate.
+
+    Fields:
+        batch: (P,) long batch index.
+        face: (P,) long triangle index.
+        pixel: (P,) long flat pixel index ``y * W + x``.
+    """
+
+    batch: torch.Tensor
+    face: torch.Tensor
+    pixel: torch.Tensor
+
+
+def _boxes(tri: torch.Tensor, margin: float, height: int, width: int):
+    """Integer pixel ranges [x0, x1] x [y0, y1] whose centres lie in each grown triangle box."""
+    lo = tri.amin(dim=-2) - margin - 0.5
+    hi = tri.amax(dim=-2) + margin - 0.5
+    x0 = torch.ceil(lo[..., 0]).clamp(0, width).long()
+    y0 = torch.ceil(lo[..., 1]).clamp(0, height).long()
+    x1 = torch.floor(hi[..., 0]).clamp(-1, width - 1).long()
+    y1 = torch.floor(hi[..., 1]).clamp(-1, height - 1).long()
+    return x0, y0, (x1 - x0 + 1).clamp_min(0), (y1 - y0 + 1).clamp_min(0)
+
+
+def enumerate_pairs(tri: torch.Tensor, keep: torch.Tensor, margin: float, height: int, width: int,
+                    window: int | None = None) -> PixelTrianglePairs:
+    """All (pixel, triangle) pairs with the pixel centre inside the triangle's box grown by ``margin``.
+
+    Small triangles (box at most ``window`` pixels wide) are expanded over a fixed
+    ``window`` x ``window`` grid of dense tensors; the few larger ones over their exact box.
+    ``window`` defaults to the 95th percentile of the box sizes (at most 8).
+
+    Args:
+        tri: (B, F, 3, 2) triangle corners in pixels (x right, y down; pixel centres at i + 0.5).
+        keep: (B, F) bool, triangles to consider.
+    """
+    with torch.no_grad():
+        x0, y0, nx, ny = _boxes(tri, margin, height, width)
+        keep = keep & (nx > 0) & (ny > 0)
+        if window is None:
+            sizes = torch.maximum(nx, ny)[keep]
+            window = int(torch.quantile(sizes.float(), 0.95)) if sizes.numel() else 1
+            window = max(1, min(window, 8))
+        small = keep & (nx <= window) & (ny <= window)
+        b, f = small.nonzero(as_tuple=True)
+        d = torch.arange(window, device=tri.device)
+        dx, dy = d.repeat(window), d.repeat_interleave(window)
+        inbox = (dx < nx[b, f, None]) & (dy < ny[b, f, None])
+        row, col = inbox.nonzero(as_tuple=True)
+        bs, fs = b[row], f[row]
+        pix = (y0[bs, fs] + dy[col]) * width + x0[bs, fs] + dx[col]
+        large = keep & ~small
+        if bool(large.any()):
+            count = torch.where(large, nx * ny, torch.zeros_like(nx)).reshape(-1)
+            total = int(count.sum())
+            flat = torch.repeat_interleave(torch.arange(count.numel(), device=tri.device), count)
+            start = torch.cumsum(count, 0) - count
+            offset = torch.arange(total, device=tri.device) - start[flat]
+            nxf = nx.reshape(-1)[flat]
+            px = x0.reshape(-1)[flat] + offset % nxf
+            py = y0.reshape(-1)[flat] + torch.div(offset, nxf, rounding_mode="floor")
+            Fn = tri.shape[1]
+            bs = torch.cat([bs, flat // Fn])
+            fs = torch.cat([fs, flat % Fn])
+            pix = torch.cat([pix, py * width + px])
+        return PixelTrianglePairs(batch=bs, face=fs, pixel=pix)
+
+
+def signed_distance(tri: torch.Tensor, points: torch.Tensor) -> torch.Tensor:
+    """Signed distance proxy of ``points`` to triangles: min over the three edge lines.
+
+    Args:
+        tri: (P, 3, 2) triangle corners; points: (P, 2).
+    Returns:
+        (P,) positive inside, negative outside; its magnitude never exceeds the true distance.
+    """
+    a, b, c = tri.unbind(-2)
+    area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    orient = torch.sign(area2).detach()
+    dists = []
+    for p0, p1 in ((a, b), (b, c), (c, a)):
+        e = p1 - p0
+        q = points - p0
+        length = torch.sqrt((e * e).sum(-1) + 1e-12)
+        dists.append(orient * (e[:, 0] * q[:, 1] - e[:, 1] * q[:, 0]) / length)
+    return torch.stack(dists, -1).amin(-1)
+
+
+def _pixel_centres(pixel: torch.Tensor, width: int, dtype) -> torch.Tensor:
+    x = (pixel % width).to(dtype) + 0.5
+    y = torch.div(pixel, width, rounding_mode="floor").to(dtype) + 0.5
+    return torch.stack([x, y], -1)
+
+
+def hard_coverage(tri: torch.Tensor, valid: torch.Tensor, height: int, width: int) -> torch.Tensor:
+    """(B, H, W) bool: pixel centres inside at least one valid triangle (no gradient)."""
+    B = tri.shape[0]
+    with torch.no_grad():
+        pairs = enumerate_pairs(tri, valid, 0.0, height, width)
+        t = tri[pairs.batch, pairs.face]
+        inside = signed_distance(t, _pixel_centres(pairs.pixel, width, tri.dtype)) >= 0
+        cov = torch.zeros(B * height * width, dtype=torch.bool, device=tri.device)
+        cov[(pairs.batch * height * width + pairs.pixel)[inside]] = True
+        return cov.reshape(B, height, width)
+
+
+def _outline_faces(tri, valid, covered, margin, height, width) -> torch.Tensor:
+    """(B, F) bool: valid triangles whose grown box holds at least one uncovered pixel centre."""
+    with torch.no_grad():
+        B = tri.shape[0]
+        free = (~covered).to(torch.int32)
+        sat = F.pad(free.cumsum(1).cumsum(2), (1, 0, 1, 0))  # (B, H+1, W+1) summed-area table
+        x0, y0, nx, ny = _boxes(tri, margin, height, width)
+        x1, y1 = x0 + nx, y0 + ny
+        b = torch.arange(B, device=tri.device)[:, None].expand_as(x0)
+        n_free = sat[b, y1, x1] - sat[b, y0, x1] - sat[b, y1, x0] + sat[b, y0, x0]
+        return valid & (nx > 0) & (ny > 0) & (n_free > 0)
+
+
+def soft_silhouette(pixels: torch.Tensor, faces: torch.Tensor, height: int, width: int, *,
+                    sigma: float = 0.5, margin_sigmas: float = 3.0,
+                    face_mask: torch.Tensor | None = None) -> torch.Tensor:
+    """Differentiable silhouette of triangle meshes already projected to pixels.
+
+    Args:
+        pixels: (B, V, 2) vertex positions in pixels of the target raster (x right, y down).
+        faces: (F, 3) long triangles.
+        height, width: raster size.
+        sigma: softness in pixels (SoftRas's sigma, but in pixel units).
+        margin_sigmas: how far outside a triangle, in sigmas, it still contributes.
+        face_mask: optional (B, F) bool, triangles to draw (e.g. those in front of the camera).
+    Returns:
+        (B, H, W) coverage in [0, 1], differentiable with respect to ``pixels``.
+    """
+    B = pixels.shape[0]
+    tri = pixels[:, faces]  # (B, F, 3, 2)
+    with torch.no_grad():
+        a, b, c = tri.unbind(-2)
+        area2 = (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0])
+        valid = area2.abs() > 1e-9
+        if face_mask is not None:
+            valid = valid & face_mask
+    covered = hard_coverage(tri.detach(), valid, height, width)
+    margin = sigma * margin_sigmas
+    outline = _outline_faces(tri.detach(), valid, covered, margin, height, width)
+    pairs = enumerate_pairs(tri.detach(), outline, margin, height, width)
+    with torch.no_grad():
+        flat = pairs.batch * height * width + pairs.pixel
+        free = ~covered.reshape(-1)[flat]
+    pairs = PixelTrianglePairs(pairs.batch[free], pairs.face[free], pairs.pixel[free])
+    d = signed_distance(tri[pairs.batch, pairs.face], _pixel_centres(pairs.pixel, width, pixels.dtype))
+    acc = pixels.new_zeros(B * height * width)
+    acc = acc.index_add(0, pairs.batch * height * width + pairs.pixel, F.softplus(d / sigma))
+    soft = 1.0 - torch.exp(-acc.reshape(B, height, width))
+    return torch.where(covered, torch.ones_like(soft), soft)
+
+
+class SoftSilhouetteRenderer(torch.nn.Module):
+    """Holds a mesh topology and a raster size; ``forward(pixels)`` -> (B, H, W) soft silhouettes."""
+
+    def __init__(self, faces: torch.Tensor, height: int, width: int, sigma: float = 0.5, margin_sigmas: float = 3.0):
+        super().__init__()
+        self.register_buffer("faces", faces.long(), persistent=False)
+        self.height, self.width = int(height), int(width)
+        self.sigma, self.margin_sigmas = float(sigma), float(margin_sigmas)
+
+    def forward(self, pixels: torch.Tensor, face_mask: torch.Tensor | None = None) -> torch.Tensor:
+        return soft_silhouette(pixels, self.faces, self.height, self.width, sigma=self.sigma,
+                               margin_sigmas=self.margin_sigmas, face_mask=face_mask)

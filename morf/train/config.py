@@ -1,0 +1,127 @@
+"""Training configuration and its named presets (tiny / cpu / gpu), all in one place.
+
+The resolved config is saved as ``runs/<name>/config.json`` and read back on resume.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+from morf.avatar.renderer import RendererConfig
+from morf.avatar.warp import WarpConfig
+from morf.errors import InputError
+
+METHODS = ("morf", "stylepeople", "anr")
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything that defines a training run."""
+
+    method: str = "morf"  # morf (warping) | stylepeople (no warping) | anr (split optimisation)
+    preset: str = "cpu"  # the preset this config started from (informational)
+    resolution: int = 256  # side of the square working image the capture is cropped + resized to
+    crop: int = 0  # side of random training crops inside it (0: whole image)
+    batch_size: int = 4  # images per step
+    steps: int = 3000  # optimisation steps of the main stage
+    texture_channels: int = 16  # C of the neural texture
+    texture_size: int = 256  # Ht = Wt of the neural texture
+    texture_dilate: int = 4  # texels the spectral init is grown past the UV islands
+    renderer: RendererConfig = field(default_factory=RendererConfig)  # U-Net size
+    warp: WarpConfig = field(default_factory=WarpConfig)  # warp network sizes (method morf only)
+    lr_texture: float = 2e-3  # small, so the spectral init is not washed out
+    lr_renderer: float = 1e-3  # Adam on the renderer
+    lr_warp: float = 1e-4  # Adam on W, E, F
+    lr_latent: float = 1e-3  # Adam on the per-frame latents
+    lr_discriminator: float = 4e-4  # Adam on the discriminator
+    w_l1: float = 1.0  # L1 on premultiplied RGB
+    w_perceptual: float = 1.0  # VGG-16 perceptual loss (when weights are available)
+    w_feature_matching: float = 1.0  # discriminator feature matching (used when VGG weights are absent)
+    w_gan: float = 0.02  # non-saturating GAN loss
+    w_dice: float = 1.0  # Dice on the mask
+    w_tv_rgb: float = 0.01  # low-weight TV on the image
+    w_warp_l2: float = 10.0  # offsets -> 0 (offsets in texture grid units)
+    w_warp_tv: float = 10.0  # TV on the offset field
+    gan_start: int = 0  # step from which the adversarial terms are on
+    disc_width: int = 32  # first-layer channels of each PatchGAN
+    disc_scales: int = 2  # number of PatchGAN scales
+    disc_layers: int = 3  # strided layers per PatchGAN
+    inpaint_steps: int = 200  # fine-tuning steps on unseen texels after training (0: off)
+    inpaint_views: int = 16  # pseudo ground-truth renders in extreme poses / views
+    inpaint_lr: float = 5e-3  # Adam on the unseen texels of the baked texture
+    anr_texture_every: int = 2  # anr: steps alternate; every this-many-th step updates the texture only
+    checkpoint_minutes: float = 5.0  # checkpoint period (and always at the end / on stop)
+    report_every: int = 10  # steps between Progress reports (and preview images)
+    log_every: int = 10  # steps between metrics.jsonl lines
+    seed: int = 0  # RNG seed (frame order, crops, init)
+    device: str = "auto"  # auto: CUDA when present, else CPU
+
+    # ---- (de)serialisation ----------------------------------------------------------------
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @staticmethod
+    def from_dict(d: dict) -> "TrainConfig":
+        d = dict(d)
+        known = {f.name for f in dataclasses.fields(TrainConfig)}
+        unknown = set(d) - known
+        if unknown:
+            raise InputError(f"unknown training config keys: {sorted(unknown)}")
+        if isinstance(d.get("renderer"), dict):
+            d["renderer"] = RendererConfig(**d["renderer"])
+        if isinstance(d.get("warp"), dict):
+            d["warp"] = WarpConfig(**d["warp"])
+        cfg = TrainConfig(**d)
+        cfg.validate()
+        return cfg
+
+    def replace(self, **changes) -> "TrainConfig":
+        cfg = dataclasses.replace(self, **changes)
+        cfg.validate()
+        return cfg
+
+    def validate(self) -> None:
+        if self.method not in METHODS:
+            raise InputError(f"unknown method {self.method!r}; choose one of {', '.join(METHODS)}")
+        m = self.renderer.multiple
+        side = self.crop or self.resolution
+        if side % m or self.resolution % m:
+            raise InputError(f"resolution {self.resolution} and crop {self.crop} must be multiples of {m} for this renderer")
+        if self.crop > self.resolution:
+            raise InputError("crop must not exceed resolution")
+        if self.renderer.in_channels != self.texture_channels:
+            raise InputError("renderer input channels must equal texture channels")
+        if self.batch_size < 1 or self.steps < 0:
+            raise InputError("batch size must be >= 1 and steps >= 0")
+
+
+PRESETS: dict[str, TrainConfig] = {
+    # CI: seconds on 2 cores. Tiny everything.
+    "tiny": TrainConfig(
+        preset="tiny", resolution=64, batch_size=2, steps=30, texture_channels=8, texture_size=64,
+        renderer=RendererConfig(in_channels=8, width=8, depth=2, stem=2, skip_hidden=8),
+        warp=WarpConfig(latent_dim=8, style_dim=16, mlp_layers=2, fourier_freqs=3, base_resolution=16, width=8, levels=2),
+        disc_width=8, disc_scales=1, disc_layers=2, inpaint_steps=5, inpaint_views=2,
+        checkpoint_minutes=1.0, report_every=5, log_every=5),
+    # A few tens of minutes on 2 CPU cores at 256 px; ~0.5M-parameter renderer.
+    "cpu": TrainConfig(
+        preset="cpu", resolution=256, batch_size=4, steps=3000, texture_channels=16, texture_size=256,
+        renderer=RendererConfig(in_channels=16, width=16, depth=4, max_width=64, stem=2, skip_hidden=16),
+        warp=WarpConfig(latent_dim=16, style_dim=64, mlp_layers=3, fourier_freqs=5, base_resolution=32, width=16, levels=3),
+        disc_width=16, disc_scales=2, disc_layers=3, inpaint_steps=200, inpaint_views=16),
+    # Paper sizes: 640 px, 1024^2 texture, ~14M-parameter U-Net; meant for a GPU.
+    "gpu": TrainConfig(
+        preset="gpu", resolution=640, crop=512, batch_size=8, steps=100000, texture_channels=16, texture_size=1024,
+        renderer=RendererConfig(in_channels=16, width=48, depth=5, max_width=352, stem=1),
+        warp=WarpConfig(latent_dim=32, style_dim=128, mlp_layers=4, fourier_freqs=8, base_resolution=128, width=32, levels=4),
+        disc_width=64, disc_scales=3, disc_layers=3, inpaint_steps=2000, inpaint_views=64,
+        checkpoint_minutes=10.0, report_every=50, log_every=50),
+}
+
+
+def preset(name: str, method: str = "morf", **overrides) -> TrainConfig:
+    """A named preset for ``method`` with field overrides applied."""
+    if name not in PRESETS:
+        raise InputError(f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}")
+    return PRESETS[name].replace(method=method, **overrides)

@@ -1,0 +1,255 @@
+"""From a capture project to a :class:`FrameSet`: body fits -> posed meshes -> rasterized UV maps,
+plus the images and masks cropped to a square around the person and resized.
+
+Computed once per project, fits version and resolution, and cached in
+``PROJECT/runs/.cache/frames-<key>.npz`` so training never rasterizes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import torch
+
+from morf.camera import PinholeCamera
+from morf.errors import ProjectError
+from morf.io import load_npz, save_npz
+from morf.pipeline.control import Progress, StageControl
+from morf.train.frames import UV_SCALE, FrameSet
+
+CACHE_VERSION = 1
+FIT_SOURCES = ("auto", "fits", "ground-truth")
+
+
+@dataclass(frozen=True)
+class BodyFitArrays:
+    """Body fits of every project frame.
+
+    Fields:
+        rotvecs: (N, J, 3) float32; transl: (N, 3) float32; shape: (1, S) float32;
+        valid: (N,) bool frames the fit covers; source: "fits" | "ground-truth".
+    """
+
+    rotvecs: np.ndarray
+    transl: np.ndarray
+    shape: np.ndarray
+    valid: np.ndarray
+    source: str
+
+
+def _from_npz(path: Path, source: str) -> BodyFitArrays:
+    d = load_npz(path)
+    for k in ("rotvecs", "transl", "shape"):
+        if k not in d:
+            raise ProjectError(f"{path} lacks {k!r}")
+    rot = d["rotvecs"].astype(np.float32)
+    shape = d["shape"].astype(np.float32)
+    if shape.ndim == 2 and shape.shape[0] > 1:  # per-frame shapes: the avatar uses their mean
+        shape = shape.mean(0, keepdims=True)
+    valid = d["valid"].astype(bool) if "valid" in d else np.ones(len(rot), bool)
+    return BodyFitArrays(rot, d["transl"].astype(np.float32), shape.reshape(1, -1), valid, source)
+
+
+def load_body_fits(project, source: str = "auto") -> BodyFitArrays:
+    """The project's body fits (``fits/fits.npz``), or the synthetic ground truth
+    (``ground_truth/gt.npz``) when asked for or when no fits exist on a synthetic project."""
+    if source not in FIT_SOURCES:
+        raise ProjectError(f"unknown fits source {source!r}; choose one of {', '.join(FIT_SOURCES)}")
+    fits = project.fits_dir / "fits.npz"
+    gt = project.ground_truth_dir / "gt.npz"
+    if source == "fits" or (source == "auto" and fits.is_file()):
+        if not fits.is_file():
+            raise ProjectError(f"no body fits in {project.root}; run 'morf fit {project.root}' first")
+        return _from_npz(fits, "fits")
+    if gt.is_file():
+        return _from_npz(gt, "ground-truth")
+    if source == "ground-truth":
+        raise ProjectError(f"{project.root} has no ground truth (only synthetic captures do)")
+    raise ProjectError(f"no body fits in {project.root}; run 'morf fit {project.root}' first")
+
+
+def person_square(masks: list[np.ndarray], margin: float = 0.08) -> tuple[float, float, float]:
+    """(x0, y0, side) of a square holding every mask's person, with a margin (may leave the image)."""
+    xs0, ys0, xs1, ys1 = [], [], [], []
+    for m in masks:
+        ys, xs = np.nonzero(m)
+        if len(xs):
+            xs0.append(xs.min()); xs1.append(xs.max() + 1); ys0.append(ys.min()); ys1.append(ys.max() + 1)
+    if not xs0:
+        raise ProjectError("no person pixels in any training mask")
+    x0, x1, y0, y1 = min(xs0), max(xs1), min(ys0), max(ys1)
+    side = max(x1 - x0, y1 - y0) * (1 + 2 * margin)
+    return (x0 + x1) / 2 - side / 2, (y0 + y1) / 2 - side / 2, side
+
+
+def crop_camera(cam: PinholeCamera, x0: float, y0: float, side: float, resolution: int) -> PinholeCamera:
+    """The camera of the square crop [x0, x0+side] x [y0, y0+side] resized to ``resolution``."""
+    s = resolution / side
+    return PinholeCamera(cam.fx * s, cam.fy * s, (cam.cx - x0) * s, (cam.cy - y0) * s, resolution, resolution,
+                         cam.R, cam.t)
+
+
+def crop_image(img: np.ndarray, x0: float, y0: float, side: float, resolution: int) -> np.ndarray:
+    """Crop (zero padding outside the image) and resize with area averaging."""
+    xi, yi, si = int(round(x0)), int(round(y0)), int(round(side))
+    H, W = img.shape[:2]
+    pad = max(0, -xi, -yi, xi + si - W, yi + si - H)
+    if pad:
+        img = cv2.copyMakeBorder(img, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0)
+    crop = img[yi + pad:yi + pad + si, xi + pad:xi + pad + si]
+    interp = cv2.INTER_AREA if si > resolution else cv2.INTER_LINEAR
+    return cv2.resize(crop, (resolution, resolution), interpolation=interp)
+
+
+def facing_map(verts: np.ndarray, faces: np.ndarray, face_id: np.ndarray, cam: PinholeCamera) -> np.ndarray:
+    """(H, W) uint8 |cos| between each visible face's normal and its view ray, times 255."""
+    tri = verts[faces]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True) + 1e-12
+    ray = tri.mean(1) - cam.position[None]
+    ray /= np.linalg.norm(ray, axis=1, keepdims=True) + 1e-12
+    cos = np.abs((n * ray).sum(1))
+    out = np.zeros(face_id.shape, np.uint8)
+    ok = face_id >= 0
+    out[ok] = np.round(cos[face_id[ok]] * 255).astype(np.uint8)
+    return out
+
+
+def posed_render_vertices(model, rotvecs: np.ndarray, transl: np.ndarray, shape: np.ndarray) -> np.ndarray:
+    """(B, Vr, 3) posed render-mesh vertices."""
+    from morf.body import BodyPose
+    from morf.body.render_mesh import render_mesh_for
+
+    with torch.no_grad():
+        out = model(BodyPose(torch.from_numpy(rotvecs).float(), torch.from_numpy(transl).float()),
+                    torch.from_numpy(shape).float())
+        return render_mesh_for(model).gather(out.vertices).numpy()
+
+
+def rasterize_frames(model, rotvecs, transl, shape, camera: PinholeCamera, chunk: int = 16):
+    """Yield (uv (B, H, W, 2) float32, uv_mask (B, H, W) bool, facing (B, H, W) uint8) per chunk."""
+    from morf.body.render_mesh import render_mesh_for
+    from morf.raster import rasterize_uv_batch
+
+    rm = render_mesh_for(model)
+    for s in range(0, len(rotvecs), chunk):
+        verts = posed_render_vertices(model, rotvecs[s:s + chunk], transl[s:s + chunk], shape)
+        r = rasterize_uv_batch(verts, rm, camera)
+        facing = np.stack([facing_map(v, rm.faces, f, camera) for v, f in zip(verts, r.face_id)])
+        yield r.uv, r.mask, facing
+
+
+@dataclass(frozen=True)
+class ProjectFrames:
+    """A project's training frames and what was needed to build them.
+
+    Fields:
+        frames: the FrameSet; camera: the working camera (square crop, ``resolution`` px);
+        fits: the body fits used; cache_path: where the FrameSet is cached.
+    """
+
+    frames: FrameSet
+    camera: PinholeCamera
+    fits: BodyFitArrays
+    cache_path: Path
+
+
+def build_frames(project, model, resolution: int, fits_source: str = "auto",
+                 control: StageControl | None = None) -> ProjectFrames:
+    """Load (or build and cache) the training FrameSet of a project at ``resolution``."""
+    control = control or StageControl()
+    fits = load_body_fits(project, fits_source)
+    n_fit = len(fits.rotvecs)
+    if fits.rotvecs.shape[1] != len(model.bone_names):
+        raise ProjectError(f"fits have {fits.rotvecs.shape[1]} bones, the body model {len(model.bone_names)}")
+    ids = [i for i in project.training_frames() if i < n_fit and fits.valid[i]]
+    if not ids:
+        raise ProjectError(f"no usable training frames in {project.root} (all dropped or without fits)")
+    digest = hashlib.sha1()
+    for a in (fits.rotvecs, fits.transl, fits.shape):
+        digest.update(np.ascontiguousarray(a).tobytes())
+    key_src = {"v": CACHE_VERSION, "res": resolution, "ids": ids, "fits": digest.hexdigest(),
+               "camera": project.camera().to_dict(), "size": list(project.image_size)}
+    key = hashlib.sha1(json.dumps(key_src, sort_keys=True).encode()).hexdigest()[:16]
+    path = project.runs_dir / ".cache" / f"frames-{key}.npz"
+    if path.is_file():
+        try:
+            d = load_npz(path)
+            cam = PinholeCamera.from_dict(json.loads(str(d["camera"])))
+            fs = FrameSet(d["images"], d["masks"], d["uv"], d["uv_mask"], d["facing"], d["rotvecs"], d["frame_ids"])
+            return ProjectFrames(fs, cam, fits, path)
+        except (ProjectError, KeyError, ValueError):
+            pass  # rebuilt below
+    step = max(1, len(ids) // 64)
+    x0, y0, side = person_square([project.load_mask(i) for i in ids[::step]])
+    cam = crop_camera(project.camera(), x0, y0, side, resolution)
+    images, masks, uvs, uv_masks, facings = [], [], [], [], []
+    rot, tr = fits.rotvecs[ids], fits.transl[ids]
+    done = 0
+    for uv, uvm, fac in rasterize_frames(model, rot, tr, fits.shape, cam):
+        for j in range(len(uv)):
+            i = ids[done + j]
+            images.append(crop_image(project.load_frame(i), x0, y0, side, resolution))
+            m = crop_image(project.load_mask(i).astype(np.uint8) * 255, x0, y0, side, resolution)
+            masks.append(m > 127)
+        done += len(uv)
+        uvs.append(np.round(np.clip(uv, 0, 1) * UV_SCALE).astype(np.uint16))
+        uv_masks.append(uvm)
+        facings.append(fac)
+        control.report(Progress("train", 0, None, f"preparing training frames {done}/{len(ids)}"))
+        control.check()
+    fs = FrameSet(np.stack(images), np.stack(masks), np.concatenate(uvs), np.concatenate(uv_masks),
+                  np.concatenate(facings), rot.astype(np.float32), np.asarray(ids, np.int64))
+    save_npz(path, images=fs.images, masks=fs.masks, uv=fs.uv, uv_mask=fs.uv_mask, facing=fs.facing,
+             rotvecs=fs.rotvecs, frame_ids=fs.frame_ids, camera=np.array(json.dumps(cam.to_dict())))
+    return ProjectFrames(fs, cam, fits, path)
+
+
+def crop_of(camera: PinholeCamera, working: PinholeCamera) -> tuple[float, float, float]:
+    """(x0, y0, side) of the square crop that turned ``camera`` into ``working`` (see crop_camera)."""
+    s = working.fx / camera.fx
+    return camera.cx - working.cx / s, camera.cy - working.cy / s, working.width / s
+
+
+def build_holdout_frames(project, model, working: PinholeCamera, shape: np.ndarray) -> FrameSet | None:
+    """The synthetic hold-out sequence (``ground_truth/holdout``) as a FrameSet at the training crop.
+
+    Poses are the hold-out ground truth; the shape is the avatar's. None when the project has no
+    hold-out sequence.
+    """
+    gt = project.ground_truth_dir
+    path = gt / "holdout.npz"
+    if not path.is_file():
+        return None
+    d = load_npz(path)
+    rot, tr = d["rotvecs"].astype(np.float32), d["transl"].astype(np.float32)
+    if len(rot) == 0:
+        return None
+    cam = project.camera()
+    if "K" in d:
+        K = d["K"]
+        cam = PinholeCamera(float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2]), int(d["width"]),
+                            int(d["height"]), d["R"].astype(float), d["t"].astype(float))
+    x0, y0, side = crop_of(cam, working)
+    R = working.width
+    images, masks, uvs, uvms, facings = [], [], [], [], []
+    done = 0
+    for uv, uvm, fac in rasterize_frames(model, rot, tr, shape.reshape(1, -1), working):
+        for j in range(len(uv)):
+            from morf.io import read_image
+
+            i = done + j
+            images.append(crop_image(read_image(gt / "holdout" / "frames" / f"{i:06d}.png"), x0, y0, side, R))
+            m = read_image(gt / "holdout" / "masks" / f"{i:06d}.png", grayscale=True)
+            masks.append(crop_image(m, x0, y0, side, R) > 127)
+        done += len(uv)
+        uvs.append(np.round(np.clip(uv, 0, 1) * UV_SCALE).astype(np.uint16))
+        uvms.append(uvm)
+        facings.append(fac)
+    return FrameSet(np.stack(images), np.stack(masks), np.concatenate(uvs), np.concatenate(uvms),
+                    np.concatenate(facings), rot, np.arange(len(rot), dtype=np.int64))

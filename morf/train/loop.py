@@ -1,0 +1,169 @@
+"""``train_avatar``: the training stage on a FrameSet, resumable, stoppable, with progress.
+
+Order of work: main optimisation (checkpoint every few minutes, and before honouring a stop) ->
+bake the texture (warp at neutral pose + mean latent) -> inpainting fine-tune of unseen texels
+(when pseudo views are available) -> ``avatar.pt``. A killed or stopped run resumes from its
+last checkpoint; a finished run is not trained again.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import torch
+
+from morf.avatar.trained import save_trained_avatar
+from morf.avatar.warp import offsets_to_rgb
+from morf.errors import InputError, TrainingDiverged
+from morf.pipeline.control import Progress, StageControl
+from morf.train.config import TrainConfig
+from morf.train.frames import FrameSet
+from morf.train.run_dir import RunDir
+from morf.train.trainer import Trainer
+
+
+@dataclass(frozen=True)
+class InpaintViews:
+    """What the inpainting fine-tune needs besides the frames.
+
+    Fields:
+        covered: (Ht, Wt) bool texels inside the UV islands.
+        make_views: callable () -> (uv (V, H, W, 2) float tensor, uv_mask (V, H, W) bool tensor),
+            rasterizations in extreme poses / views (called once, after the main stage).
+    """
+
+    covered: np.ndarray
+    make_views: Callable[[], tuple[torch.Tensor, torch.Tensor]]
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    """Outcome of :func:`train_avatar`.
+
+    Fields:
+        run_dir: the run folder; step: steps done; losses: last logged losses;
+        train_minutes: wall time over all sessions; resumed_from: the step this session started at.
+    """
+
+    run_dir: Path
+    step: int
+    losses: dict[str, float]
+    train_minutes: float
+    resumed_from: int
+
+
+def _preview(out, batch) -> dict[str, np.ndarray]:
+    def img(t):
+        return (t.detach().clamp(0, 1).permute(1, 2, 0).cpu().numpy() * 255).astype(np.uint8)
+
+    images = {"render": img(out.rgb[0]), "target": img(batch.image[0] * batch.mask[0])}
+    if out.offsets is not None:
+        images["warp"] = offsets_to_rgb(out.offsets[0]).numpy()
+    return images
+
+
+def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, texture_init: torch.Tensor,
+                 control: StageControl | None = None, perceptual=None, inpaint: InpaintViews | None = None,
+                 shape: torch.Tensor | None = None, camera=None, notes: list[str] | None = None) -> TrainResult:
+    """Train (or resume) a run in ``run_dir``.
+
+    Args:
+        frames: the training frames; texture_init: (C, Ht, Wt) initial neural texture (ignored on resume);
+        control: progress + pause/stop; perceptual: a PerceptualLoss or None (then the discriminator's
+        feature matching is used, and the log says so); inpaint: pseudo views for the fine-tune or None;
+        shape, camera: stored with the avatar for export; notes: extra lines for the log.
+    Raises:
+        TrainingDiverged: NaN/inf; the last good checkpoint is kept.
+        StopRequested: the user stopped; a checkpoint of the current step was written first.
+    """
+    control = control or StageControl()
+    run = RunDir(run_dir)
+    run.root.mkdir(parents=True, exist_ok=True)
+    if run.config_path.is_file():
+        saved = run.load_config()
+        if saved != cfg:
+            raise InputError(f"run {run.root} was started with a different configuration; "
+                             "resume it with the same options, or use --restart or another --name")
+    else:
+        run.save_config(cfg)
+    trainer = Trainer(cfg, frames, texture_init, perceptual=perceptual)
+    if run.has_checkpoint:
+        trainer.load_state_dict(run.load_checkpoint(map_location=trainer.device))
+        run.log(f"resumed at step {trainer.step}")
+    else:
+        run.log(f"start: method {cfg.method}, preset {cfg.preset}, {frames.num_frames} frames at "
+                f"{frames.resolution} px, device {trainer.device}")
+        run.log("perceptual loss: VGG-16" if perceptual is not None else
+                "perceptual loss: no VGG-16 weights (--vgg / MORF_VGG16_WEIGHTS); using discriminator feature matching instead")
+        for line in notes or []:
+            run.log(line)
+    resumed_from = trainer.step
+    if run.is_done and trainer.step >= cfg.steps:
+        return TrainResult(run.root, trainer.step, {}, trainer.elapsed_s / 60, resumed_from)
+
+    def save():
+        trainer.elapsed_s += time.monotonic() - t_session
+        run.save_checkpoint(trainer.state_dict())
+        return time.monotonic()
+
+    t_session = time.monotonic()
+    last_ckpt = time.monotonic()
+    losses: dict[str, float] = {}
+    while trainer.step < cfg.steps:
+        if control.stop_requested:
+            t_session = save()
+            run.log(f"stopped at step {trainer.step}")
+        control.check()
+        try:
+            losses, out, batch = trainer.train_step()
+        except TrainingDiverged as e:
+            kept = f"; the last good checkpoint ({run.checkpoint_path}) is kept" if run.has_checkpoint else ""
+            run.log(f"diverged: {e}")
+            raise TrainingDiverged(f"{e}{kept}") from None
+        s = trainer.step
+        if s % cfg.log_every == 0 or s == cfg.steps:
+            run.append_metrics({"step": s, "time_s": trainer.elapsed_s + time.monotonic() - t_session, **losses})
+        if s % cfg.report_every == 0 or s == cfg.steps:
+            control.report(Progress("train", s, cfg.steps, f"training {cfg.method}", losses, _preview(out, batch)))
+        if time.monotonic() - last_ckpt > cfg.checkpoint_minutes * 60:
+            t_session = save()
+            last_ckpt = t_session
+    t_session = save()
+    run.log(f"main stage done at step {trainer.step}: " + ", ".join(f"{k} {v:.4f}" for k, v in losses.items()))
+
+    texture = trainer.model.bake()
+    renderer = trainer.model.renderer
+    extra = {"steps": trainer.step}
+    if inpaint is not None and cfg.inpaint_steps > 0:
+        texture, extra["inpaint"] = _inpaint(trainer, frames, texture, inpaint, run, control)
+    save_trained_avatar(run.avatar_path, texture, renderer, cfg.to_dict(), shape, camera, extra)
+    run.log(f"avatar written: {run.avatar_path}")
+    control.report(Progress("train", trainer.step, cfg.steps, "done", losses))
+    return TrainResult(run.root, trainer.step, losses, trainer.elapsed_s / 60, resumed_from)
+
+
+def _inpaint(trainer: Trainer, frames: FrameSet, texture: torch.Tensor, inpaint: InpaintViews, run: RunDir,
+             control: StageControl):
+    from morf.train.inpaint import close_seen, fill_unseen, finetune_unseen, project_rgb_texture
+
+    cfg = trainer.cfg
+    size = texture.shape[-1]
+    control.report(Progress("train", trainer.step, cfg.steps, "inpainting unseen body parts"))
+    rgb, seen = project_rgb_texture(frames, size)
+    seen = close_seen(seen)
+    covered = inpaint.covered
+    rgb = fill_unseen(rgb, seen, covered)
+    uv, uv_mask = inpaint.make_views()
+    dev = trainer.device
+    new_tex, hist = finetune_unseen(texture.to(dev), trainer.model.renderer, uv.to(dev), uv_mask.to(dev),
+                                    torch.from_numpy(rgb).permute(2, 0, 1).to(dev),
+                                    torch.from_numpy(seen | ~covered).to(dev), cfg.inpaint_steps, cfg.inpaint_lr,
+                                    seed=cfg.seed)
+    info = {"seen_fraction": float((seen & covered).sum() / max(covered.sum(), 1)), "views": int(uv.shape[0]),
+            "loss_first": hist[0] if hist else None, "loss_last": hist[-1] if hist else None}
+    run.log(f"inpainting: {info}")
+    return new_tex, info

@@ -1,0 +1,56 @@
+"""The training objective (MoRF Sec. 4.3): generator and discriminator losses for one batch."""
+
+from __future__ import annotations
+
+import torch
+
+from morf.avatar.losses import (dice_loss, feature_matching_loss, gan_discriminator_loss, gan_generator_loss,
+                                l1_loss, offset_l2, tv_loss)
+from morf.avatar.model import AvatarModel, AvatarOutput
+from morf.avatar.warp import pose_features
+from morf.train.config import TrainConfig
+from morf.train.frames import Batch
+
+
+def render_batch(model: AvatarModel, batch: Batch) -> AvatarOutput:
+    pose = pose_features(batch.rotvecs) if model.warp is not None else None
+    return model(batch.uv, batch.uv_mask, pose, batch.index)
+
+
+def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=None, perceptual=None,
+                     gan_on: bool = False) -> dict[str, torch.Tensor]:
+    """Unweighted loss terms of the generator side (texture, warp, renderer).
+
+    Keys: l1, dice, tv_rgb, and when applicable perceptual, warp_l2, warp_tv, gan, feature_matching.
+    The RGB target is the frame premultiplied by its person mask (the renderer's convention).
+    """
+    target = batch.image * batch.mask
+    L = {"l1": l1_loss(out.rgb, target), "dice": dice_loss(out.mask, batch.mask), "tv_rgb": tv_loss(out.rgb)}
+    if perceptual is not None:
+        L["perceptual"] = perceptual(out.rgb, target)
+    if out.offsets is not None:
+        L["warp_l2"] = offset_l2(out.offsets)
+        L["warp_tv"] = tv_loss(out.offsets)
+    if disc is not None and gan_on:
+        fake = disc(torch.cat([out.rgb, out.mask], dim=1))
+        L["gan"] = gan_generator_loss([f[-1] for f in fake])
+        if perceptual is None:  # no VGG weights: discriminator feature matching stands in
+            with torch.no_grad():
+                real = disc(torch.cat([target, batch.mask], dim=1))
+            L["feature_matching"] = feature_matching_loss(real, fake)
+    return L
+
+
+WEIGHTS = {"l1": "w_l1", "dice": "w_dice", "tv_rgb": "w_tv_rgb", "perceptual": "w_perceptual",
+           "warp_l2": "w_warp_l2", "warp_tv": "w_warp_tv", "gan": "w_gan", "feature_matching": "w_feature_matching"}
+
+
+def weighted_total(cfg: TrainConfig, losses: dict[str, torch.Tensor]) -> torch.Tensor:
+    return sum(getattr(cfg, WEIGHTS[k]) * v for k, v in losses.items())
+
+
+def discriminator_loss(disc, out: AvatarOutput, batch: Batch) -> torch.Tensor:
+    """Non-saturating discriminator loss on real frames vs the (detached) renders."""
+    real = disc(torch.cat([batch.image * batch.mask, batch.mask], dim=1))
+    fake = disc(torch.cat([out.rgb, out.mask], dim=1).detach())
+    return gan_discriminator_loss([r[-1] for r in real], [f[-1] for f in fake])

@@ -1,0 +1,88 @@
+"""Train an avatar for a capture project: the function behind ``morf train`` and the studio.
+
+Resolves the run folder, prepares (or loads the cached) training frames, the spectral texture,
+the perceptual loss and the inpainting views, then calls :func:`morf.train.loop.train_avatar`.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import torch
+
+from morf.errors import InputError
+from morf.pipeline.control import Progress, StageControl
+from morf.train.config import TrainConfig
+from morf.train.loop import InpaintViews, TrainResult, train_avatar
+from morf.train.run_dir import RunDir
+
+
+def default_run_name(cfg: TrainConfig) -> str:
+    return f"{cfg.method}-{cfg.preset}"
+
+
+def train_project(project, cfg: TrainConfig, name: str | None = None, control: StageControl | None = None,
+                  fits_source: str = "auto", vgg: str | None = None, restart: bool = False,
+                  model=None) -> TrainResult:
+    """Train (or resume) ``PROJECT/runs/<name>``.
+
+    Args:
+        project: a CaptureProject; cfg: the resolved config (resuming needs the same config);
+        name: run name (default ``<method>-<preset>``); fits_source: auto | fits | ground-truth;
+        vgg: VGG-16 weights path (else ``$MORF_VGG16_WEIGHTS``; none: feature matching);
+        restart: delete an existing run of that name first; model: a loaded body model (optional).
+    """
+    from morf.avatar.spectral import body_uv_atlas, spectral_texture
+    from morf.avatar.vgg import PerceptualLoss, load_vgg16, resolve_vgg_path
+    from morf.body import load_body_model
+    from morf.train.data import build_frames
+    from morf.train.pseudo_views import make_pseudo_views
+
+    control = control or StageControl()
+    run = RunDir(project.runs_dir / (name or default_run_name(cfg)))
+    if restart and run.root.exists():
+        shutil.rmtree(run.root)
+    if run.config_path.is_file() and run.load_config() != cfg:
+        raise InputError(f"run {run.root.name!r} exists with a different configuration; resume it with the same "
+                         "options, or pass --restart or another --name")
+    control.report(Progress("train", 0, cfg.steps, "loading body model"))
+    model = model or load_body_model("anny")
+    pf = build_frames(project, model, cfg.resolution, fits_source, control)
+    notes = [f"fits: {pf.fits.source}; frames cache: {pf.cache_path}"]
+    tex = torch.from_numpy(spectral_texture(model, cfg.texture_channels, cfg.texture_size, cfg.texture_size,
+                                            cfg.texture_dilate))
+    vgg_path = resolve_vgg_path(vgg)
+    perceptual = PerceptualLoss(load_vgg16(vgg_path)) if vgg_path is not None else None
+    if vgg_path is not None:
+        notes.append(f"VGG-16 weights: {vgg_path}")
+    atlas = body_uv_atlas(model, cfg.texture_size, cfg.texture_size)
+    fs = pf.frames
+    mid = fs.num_frames // 2
+    centre = pf.fits.transl[fs.frame_ids].mean(0)
+
+    def views():
+        return make_pseudo_views(model, pf.fits.shape, pf.camera, fs.rotvecs[mid], centre, cfg.inpaint_views)
+
+    return train_avatar(fs, run.root, cfg, tex, control, perceptual, InpaintViews(atlas.covered, views),
+                        shape=torch.from_numpy(pf.fits.shape), camera=pf.camera, notes=notes)
+
+
+def evaluate_frames(avatar, frames) -> dict:
+    """Render every frame of a FrameSet with a TrainedAvatar; PSNR / SSIM over the whole image and
+    the person, and temporal flicker (frames in order)."""
+    from morf.avatar.metrics import psnr, ssim, summarize, temporal_flicker
+
+    preds, gts, masks = [], [], []
+    p_all, p_person, s_all, s_person = [], [], [], []
+    for i in range(frames.num_frames):
+        b = frames.batch([i])
+        rgb, _ = avatar.render(b.uv, b.uv_mask)
+        gt = b.image * b.mask
+        p_all.append(psnr(rgb, gt)); s_all.append(ssim(rgb, gt))
+        p_person.append(psnr(rgb, gt, b.mask)); s_person.append(ssim(rgb, gt, b.mask))
+        preds.append(rgb[0]); gts.append(gt[0]); masks.append(b.mask[0])
+    return {"psnr": summarize(p_all), "ssim": summarize(s_all), "psnr_person": summarize(p_person),
+            "ssim_person": summarize(s_person),
+            "temporal": temporal_flicker(torch.stack(preds), torch.stack(gts), torch.stack(masks)),
+            "frames": frames.num_frames}

@@ -1,0 +1,139 @@
+"""The trainer: owns the avatar, the discriminator and their optimizers; runs one step at a time.
+
+Methods (same code path, MoRF Sec. 5 "Scenario B"):
+
+* ``morf``: neural texture + warp field + renderer, all optimised jointly every step.
+* ``stylepeople``: the same without warping (DNR with spectral init and MoRF's losses/renderer).
+* ``anr``: StylePeople plus ANR's split optimisation, implemented as alternating updates: on
+  every ``anr_texture_every``-th step only the neural texture is updated, on the other steps only
+  the renderer. Decoupling the two keeps the renderer from absorbing what the texture should hold
+  (ANR's motivation for splitting); the paper's exact schedule is in its supplementary material,
+  which is not available here, so this alternation is our reading of it.
+
+Every step draws its frames and crops from ``default_rng((seed, step))``: a resumed run sees the
+same data order as an uninterrupted one without storing RNG state.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+
+from morf.avatar.discriminator import MultiScaleDiscriminator
+from morf.avatar.model import AvatarModel, AvatarOutput
+from morf.avatar.warp import pose_features
+from morf.errors import TrainingDiverged
+from morf.train.config import TrainConfig
+from morf.train.frames import Batch, FrameSet
+from morf.train.objective import discriminator_loss, generator_losses, render_batch, weighted_total
+
+
+def pick_device(name: str = "auto") -> torch.device:
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    return torch.device(name)
+
+
+class Trainer:
+    """Training state for one run. Use :meth:`train_step`; save with :meth:`state_dict`."""
+
+    def __init__(self, cfg: TrainConfig, frames: FrameSet, texture_init: torch.Tensor, device=None, perceptual=None):
+        self.cfg = cfg
+        self.frames = frames
+        self.device = torch.device(device) if device is not None else pick_device(cfg.device)
+        torch.manual_seed(cfg.seed)
+        self.model = AvatarModel(texture_init.float(), cfg.renderer, cfg.warp if cfg.method == "morf" else None,
+                                 frames.num_frames).to(self.device)
+        if self.model.warp is not None:
+            poses = pose_features(torch.from_numpy(frames.rotvecs).float()).to(self.device)
+            if poses.shape[1] != cfg.warp.pose_dim:
+                raise ValueError(f"pose vector has {poses.shape[1]} values, warp expects {cfg.warp.pose_dim}")
+            self.model.warp.set_pose_statistics(poses)
+        groups = [{"params": [self.model.texture.texture], "lr": cfg.lr_texture, "name": "texture"},
+                  {"params": list(self.model.renderer.parameters()), "lr": cfg.lr_renderer, "name": "renderer"}]
+        if self.model.warp is not None:
+            lat = self.model.warp.latents.weight
+            nets = [p for p in self.model.warp.parameters() if p is not lat]
+            groups += [{"params": nets, "lr": cfg.lr_warp, "name": "warp"},
+                       {"params": [lat], "lr": cfg.lr_latent, "name": "latent"}]
+        self.opt = torch.optim.Adam(groups)
+        self.disc = None
+        if cfg.w_gan > 0:
+            self.disc = MultiScaleDiscriminator(4, cfg.disc_width, cfg.disc_layers, cfg.disc_scales).to(self.device)
+            self.opt_d = torch.optim.Adam(self.disc.parameters(), lr=cfg.lr_discriminator, betas=(0.5, 0.999))
+        self.perceptual = perceptual.to(self.device) if perceptual is not None else None
+        self.step = 0
+        self.elapsed_s = 0.0  # training wall time over all sessions of this run
+
+    # ---- state ----------------------------------------------------------------------------
+    def state_dict(self) -> dict:
+        d = {"step": self.step, "elapsed_s": self.elapsed_s, "model": self.model.state_dict(),
+             "opt": self.opt.state_dict()}
+        if self.disc is not None:
+            d["disc"] = self.disc.state_dict()
+            d["opt_d"] = self.opt_d.state_dict()
+        return d
+
+    def load_state_dict(self, d: dict) -> None:
+        self.model.load_state_dict(d["model"])
+        self.opt.load_state_dict(d["opt"])
+        if self.disc is not None and "disc" in d:
+            self.disc.load_state_dict(d["disc"])
+            self.opt_d.load_state_dict(d["opt_d"])
+        self.step = int(d["step"])
+        self.elapsed_s = float(d.get("elapsed_s", 0.0))
+
+    def parameters_finite(self) -> bool:
+        return all(bool(torch.isfinite(p).all()) for p in self.model.parameters())
+
+    # ---- one step -------------------------------------------------------------------------
+    def next_batch(self) -> Batch:
+        rng = np.random.default_rng([self.cfg.seed, self.step])
+        N, B = self.frames.num_frames, self.cfg.batch_size
+        idx = rng.choice(N, size=B, replace=N < B)
+        return self.frames.batch(idx, self.cfg.crop, rng, self.device)
+
+    def train_step(self) -> tuple[dict[str, float], AvatarOutput, Batch]:
+        """One optimisation step. Raises :class:`TrainingDiverged` on NaN/inf (nothing is updated then)."""
+        cfg = self.cfg
+        batch = self.next_batch()
+        gan_on = self.disc is not None and self.step >= cfg.gan_start
+        self.model.train()
+        out = render_batch(self.model, batch)
+        losses = generator_losses(cfg, out, batch, self.disc, self.perceptual, gan_on)
+        total = weighted_total(cfg, losses)
+        if not torch.isfinite(total):
+            bad = [k for k, v in losses.items() if not torch.isfinite(v)]
+            raise TrainingDiverged(f"training diverged at step {self.step}: loss {', '.join(bad) or 'total'} is not finite")
+        self.opt.zero_grad(set_to_none=True)
+        total.backward()
+        if cfg.method == "anr":
+            texture_phase = self.step % cfg.anr_texture_every == 0
+            for g in self.opt.param_groups:
+                if (g["name"] == "texture") != texture_phase:
+                    for p in g["params"]:
+                        p.grad = None  # Adam skips parameters without a gradient
+        params = [p for g in self.opt.param_groups for p in g["params"] if p.grad is not None]
+        gnorm = torch.nn.utils.clip_grad_norm_(params, float("inf"))
+        if not torch.isfinite(gnorm):
+            raise TrainingDiverged(f"training diverged at step {self.step}: gradient is not finite")
+        self.opt.step()
+        if gan_on:
+            self.opt_d.zero_grad(set_to_none=True)
+            ld = discriminator_loss(self.disc, out, batch)
+            if torch.isfinite(ld):
+                ld.backward()
+                self.opt_d.step()
+            losses["disc"] = ld
+        if not self.parameters_finite():
+            raise TrainingDiverged(f"training diverged at step {self.step}: parameters became non-finite")
+        self.step += 1
+        values = {k: float(v.detach()) for k, v in losses.items()}
+        values["total"] = float(total)
+        return values, out, batch
+
+
+def finite(values: dict[str, float]) -> bool:
+    return all(math.isfinite(v) for v in values.values())

@@ -1,0 +1,372 @@
+"""``morf-studio``: the desktop app. This file owns the GL context and the frame loop.
+
+One GLFW window with an OpenGL context; imgui-bundle's native GLFW and OpenGL3 backends draw the
+UI; moderngl shares the same context for textures. Without a display (or with
+``--headless-frames``) GLFW's null platform with an EGL context renders off-screen, which is also
+how the screenshot tests run. Frames are deterministic there: no imgui.ini, no cursor blink, a
+fixed frame time and the bundled font.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+from imgui_bundle import imgui, implot  # before glfw: glfw must load imgui-bundle's GLFW library
+
+import glfw  # noqa: E402  (import order above is required)
+import moderngl  # noqa: E402
+
+from morf.errors import MorfError  # noqa: E402
+from studio.actions import advance_playback, make_actions  # noqa: E402
+from studio.commands import Command, OpenProject, StartStage  # noqa: E402
+from studio.context import UiContext  # noqa: E402
+from studio.keys import handle_keys  # noqa: E402
+from studio.layout import draw_ui  # noqa: E402
+from studio.loader import ImageLoader  # noqa: E402
+from studio.player import open_player  # noqa: E402
+from studio.project_view import ProjectView  # noqa: E402
+from studio.stages import LIBRARY_STAGES, cpu_load_stage, find_library_stages  # noqa: E402
+from studio.state import AppState  # noqa: E402
+from studio.textures import TextureCache  # noqa: E402
+from studio.worker import StageFn, Worker  # noqa: E402
+
+FONT_PATH = Path(__file__).resolve().parents[1] / "resources" / "fonts" / "DejaVuSans.ttf"
+FONT_SIZE = 15.0
+FIXED_DT = 1.0 / 60.0
+CLEAR_RGB = (0.06, 0.06, 0.07)
+DEFAULT_MOTION_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "motion"
+
+
+class StudioApp:
+    """The studio: window, GL context, UI state, worker. Drive it with :meth:`frame` or :meth:`run`.
+
+    Args:
+        project: a project folder to open (a bad one shows its error on the start screen).
+        size: window size in pixels.
+        headless: GLFW null platform + EGL (no display needed); also fixes the frame time.
+        stages: stage name -> function for the worker; None: the library's stages.
+        unavailable: stage name -> why it is missing (with ``stages``).
+        player_opener: avatar folder -> (player, note); None: :func:`studio.player.open_player`.
+    """
+
+    def __init__(self, project: str | os.PathLike | None = None, *, size: tuple[int, int] = (1280, 800),
+                 headless: bool = True, stages: dict[str, StageFn] | None = None,
+                 unavailable: dict[str, str] | None = None,
+                 player_opener: Callable[[Path], tuple[Any, str | None]] | None = None,
+                 motion_dir: str | os.PathLike | None = None):
+        self._headless = headless
+        self._fixed_dt = FIXED_DT if headless else None
+        self._init_window(size, headless)
+        self._init_imgui()
+        if stages is None:
+            stages, unavailable = find_library_stages()
+        self._stage_labels = {s.name: s.label for s in LIBRARY_STAGES}
+        shown = [s.name for s in LIBRARY_STAGES] + [n for n in stages if n not in self._stage_labels]
+        self._stage_status = {n: None if n in stages else (unavailable or {}).get(n, "not part of this build")
+                              for n in shown}
+        stages = {**stages, "cpu-load": cpu_load_stage}  # benchmark only, not shown as a button
+        self.worker = Worker(stages, unavailable).start()
+        self.state = AppState(motion_dir=str(motion_dir if motion_dir is not None else DEFAULT_MOTION_DIR))
+        self.view: ProjectView | None = None
+        self.loader: ImageLoader | None = None
+        self.textures = TextureCache(self.ctx, None)
+        self.player: Any = None
+        self.player_note: str | None = None
+        self._player_opener = player_opener or open_player
+        self._live: dict = {}
+        self._review_rev = 0
+        self.frame_times: list[float] = []  # seconds per frame (UI work, without waiting for vsync)
+        self._actions = make_actions(self.state, lambda: self.view, self.send)
+        self._closed = False
+        if project is not None:
+            self.open_project(str(project))
+
+    # ---- window and contexts ------------------------------------------------------------
+    def _init_window(self, size: tuple[int, int], headless: bool) -> None:
+        if headless:
+            glfw.init_hint(glfw.PLATFORM, glfw.PLATFORM_NULL)
+        if not glfw.init():
+            raise MorfError("cannot start GLFW (no display? try --headless-frames N --screenshot PNG)")
+        if headless:
+            glfw.window_hint(glfw.CONTEXT_CREATION_API, glfw.EGL_CONTEXT_API)
+            glfw.window_hint(glfw.VISIBLE, glfw.FALSE)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 3)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
+        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+        glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, glfw.TRUE)
+        self.window = glfw.create_window(int(size[0]), int(size[1]), "MoRF Studio", None, None)
+        if not self.window:
+            glfw.terminate()
+            raise MorfError("cannot open an OpenGL 3.3 window (is libEGL / a GL driver installed?)")
+        glfw.make_context_current(self.window)
+        if not headless:
+            glfw.swap_interval(1)
+        self.ctx = moderngl.create_context()
+        self._window_addr = ctypes.cast(self.window, ctypes.c_void_p).value
+
+    def _init_imgui(self) -> None:
+        imgui.create_context()
+        implot.create_context()
+        io = imgui.get_io()
+        io.set_ini_filename(None)  # no imgui.ini: layouts never leak between runs (or tests)
+        io.config_input_text_cursor_blink = False
+        imgui.style_colors_dark()
+        style = imgui.get_style()
+        style.window_rounding = style.frame_rounding = style.tab_rounding = 2.0
+        if FONT_PATH.is_file():
+            io.fonts.add_font_from_file_ttf(str(FONT_PATH), FONT_SIZE)
+        imgui.backends.glfw_init_for_opengl(self._window_addr, True)
+        imgui.backends.opengl3_init("#version 330")
+        # GLFW's null platform never reports the cursor entering the window; without this,
+        # injected mouse positions are dropped.
+        imgui.backends.glfw_cursor_enter_callback(self._window_addr, 1)
+
+    # ---- project ------------------------------------------------------------------------
+    def open_project(self, path: str) -> bool:
+        """Open a project folder; on failure the start screen shows why. True when it opened."""
+        self._close_project()
+        self.state.open_path = path
+        try:
+            view = ProjectView.open(path)
+        except MorfError as e:
+            self.state.project_root, self.state.project_error = None, str(e)
+            self.send(OpenProject(None))
+            return False
+        self.view = view
+        self.state.project_root, self.state.project_error = str(view.root), None
+        self.state.frame, self.state.scroll_strip, self.state.note = 0, True, ""
+        self.loader = ImageLoader({"frame": view.project.frame_path, "mask": view.project.mask_path,
+                                   "fit": view.fit_overlay_path})
+        self.textures = TextureCache(self.ctx, self.loader)
+        if view.avatar_ready():
+            self.player, self.player_note = self._player_opener(view.project.avatar_dir)
+        self.send(OpenProject(str(view.root)))
+        return True
+
+    def _close_project(self) -> None:
+        if self.loader is not None:
+            self.loader.close()
+        self.textures.release()
+        self.view, self.loader, self.player, self.player_note = None, None, None, None
+        self._live.clear()
+
+    # ---- the frame loop -----------------------------------------------------------------
+    def send(self, command: Command) -> None:
+        self.worker.send(command)
+
+    def frame(self, capture: bool = False) -> np.ndarray | None:
+        """Run one UI frame; with ``capture``, return the screen as (H, W, 3) uint8 RGB."""
+        t0 = time.perf_counter()
+        glfw.poll_events()
+        imgui.backends.opengl3_new_frame()
+        imgui.backends.glfw_new_frame()
+        io = imgui.get_io()
+        if self._fixed_dt is not None:
+            io.delta_time = self._fixed_dt
+        imgui.new_frame()
+        ui = self._ui_context()
+        handle_keys(ui.actions)
+        advance_playback(self.state, self.view, io.delta_time)
+        draw_ui(self.state, ui)
+        imgui.render()
+        fw, fh = glfw.get_framebuffer_size(self.window)
+        self.ctx.screen.use()
+        self.ctx.viewport = (0, 0, fw, fh)
+        self.ctx.clear(*CLEAR_RGB)
+        imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
+        self.frame_times.append(time.perf_counter() - t0)
+        shot = None
+        if capture:  # read before swapping: the back buffer is undefined afterwards
+            data = self.ctx.screen.read(viewport=(0, 0, fw, fh), components=3, alignment=1)
+            shot = np.frombuffer(data, np.uint8).reshape(fh, fw, 3)[::-1].copy()
+        glfw.swap_buffers(self.window)
+        return shot
+
+    def _ui_context(self) -> UiContext:
+        snap = self.worker.latest()
+        if snap.review_rev != self._review_rev:
+            self._review_rev = snap.review_rev
+            if self.view is not None:
+                try:
+                    self.view.reload_decisions()
+                except MorfError as e:
+                    self.state.note = str(e)
+        self.textures.pump()
+        return UiContext(view=self.view, textures=self.textures, snapshot=snap, send=self.send,
+                         stages=self._stage_status, stage_labels=self._stage_labels, actions=self._actions,
+                         open_project=self.open_project, player=self.player, player_note=self.player_note,
+                         frame_ms=1000 * self.frame_times[-1] if self.frame_times else 0.0, live=self._live)
+
+    def run(self, max_frames: int | None = None, pace_hz: float | None = None, capture_last: bool = False) -> np.ndarray | None:
+        """Loop until the window closes or ``max_frames`` ran; ``pace_hz`` sleeps like vsync would."""
+        n, shot = 0, None
+        while not glfw.window_should_close(self.window) and (max_frames is None or n < max_frames):
+            start = time.perf_counter()
+            last = max_frames is not None and n == max_frames - 1
+            shot = self.frame(capture=capture_last and last)
+            n += 1
+            if pace_hz:
+                time.sleep(max(0.0, 1.0 / pace_hz - (time.perf_counter() - start)))
+        return shot
+
+    def settle(self, max_frames: int = 300, timeout_s: float = 20.0) -> None:
+        """Run frames until decoded images are uploaded and the worker applied every command."""
+        end = time.monotonic() + timeout_s
+        for _ in range(max_frames):
+            self.frame()
+            if self.textures.settled() and self.worker.pending() == 0 and \
+                    self.worker.latest().review_rev == self._review_rev:
+                break
+            if time.monotonic() > end:
+                break
+            time.sleep(0.005)  # let the loader / worker threads run
+        for _ in range(2):  # auto-sized windows take a frame to measure themselves
+            self.frame()
+
+    # ---- injected input (tests, scripted screenshots) --------------------------------------
+    def press(self, key: imgui.Key, mods: tuple[imgui.Key, ...] = ()) -> None:
+        """Press and release ``key`` over two frames."""
+        io = imgui.get_io()
+        for m in mods:
+            io.add_key_event(m, True)
+        io.add_key_event(key, True)
+        self.frame()
+        io.add_key_event(key, False)
+        for m in mods:
+            io.add_key_event(m, False)
+        self.frame()
+
+    def move_mouse(self, x: float, y: float) -> None:
+        imgui.get_io().add_mouse_pos_event(float(x), float(y))
+        self.frame()
+
+    def click(self, x: float, y: float, button: int = 0) -> None:
+        io = imgui.get_io()
+        io.add_mouse_pos_event(float(x), float(y))
+        self.frame()
+        io.add_mouse_button_event(button, True)
+        self.frame()
+        io.add_mouse_button_event(button, False)
+        self.frame()
+
+    def type_text(self, text: str) -> None:
+        imgui.get_io().add_input_characters_utf8(text)
+        self.frame()
+
+    # ---- shutting down ------------------------------------------------------------------
+    def close(self) -> None:
+        """Stop the worker (and any running stage), free GL objects, close the window."""
+        if self._closed:
+            return
+        self._closed = True
+        stopped = self.worker.close(timeout=15.0)
+        if not stopped:
+            print("morf-studio: the running stage did not stop within 15 s; leaving it behind", file=sys.stderr)
+        self._close_project()
+        imgui.backends.opengl3_shutdown()
+        imgui.backends.glfw_shutdown()
+        implot.destroy_context()
+        imgui.destroy_context()
+        self.ctx.release()
+        glfw.destroy_window(self.window)
+        glfw.terminate()
+
+    def __enter__(self) -> "StudioApp":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+# ---- command line ---------------------------------------------------------------------------
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="morf-studio", description="MoRF Studio: review captures, train and play avatars.")
+    p.add_argument("project", nargs="?", help="capture project folder to open")
+    p.add_argument("--size", default="1280x800", help="window size WxH (default 1280x800)")
+    p.add_argument("--headless-frames", type=int, metavar="N",
+                   help="render N frames off-screen (no display needed) and exit")
+    p.add_argument("--screenshot", metavar="PNG", help="with --headless-frames: save the last frame")
+    p.add_argument("--frame-times", action="store_true", help="print p50 / p95 UI frame times at exit")
+    p.add_argument("--stage", metavar="NAME", help="start a stage at launch (fit, train, export; cpu-load for a UI load test)")
+    p.add_argument("--panel", type=int, choices=range(1, 6), metavar="1-5", help="panel to show first")
+    p.add_argument("--frame", type=int, default=0, metavar="I", help="frame to show first")
+    p.add_argument("--help-overlay", action="store_true", help="open the key help at start")
+    p.add_argument("--play", action="store_true", help="start playing the frames (as Space does)")
+    return p
+
+
+def frame_time_report(times_s: list[float], skip: int = 10) -> str:
+    """'UI frame time over N frames: p50 x ms, p95 y ms, max z ms' (first ``skip`` frames left out)."""
+    t = np.asarray(times_s[skip:] if len(times_s) > skip else times_s) * 1000.0
+    if t.size == 0:
+        return "UI frame time: no frames"
+    return (f"UI frame time over {t.size} frames: p50 {np.percentile(t, 50):.1f} ms, "
+            f"p95 {np.percentile(t, 95):.1f} ms, max {t.max():.1f} ms")
+
+
+def _parse_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+        if w < 320 or h < 240:
+            raise ValueError
+        return w, h
+    except ValueError:
+        raise MorfError(f"--size wants WxH of at least 320x240, got {text!r}") from None
+
+
+def run_cli(args: argparse.Namespace) -> int:
+    size = _parse_size(args.size)
+    if args.screenshot and not args.headless_frames:
+        raise MorfError("--screenshot needs --headless-frames N")
+    headless = bool(args.headless_frames) or not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    if headless and not args.headless_frames:
+        raise MorfError("no display found (DISPLAY / WAYLAND_DISPLAY unset); use --headless-frames N --screenshot PNG")
+    with StudioApp(args.project, size=size, headless=headless) as app:
+        if args.panel:
+            app.state.panel = args.panel - 1
+        if app.view is not None:
+            app.state.frame = max(0, min(args.frame, app.view.num_frames - 1))
+        app.state.show_help = args.help_overlay
+        app.state.playing = args.play
+        if args.stage:
+            app.send(StartStage(args.stage))
+        if args.headless_frames:
+            if args.screenshot and not args.stage:
+                app.settle()  # every image decoded and uploaded: a complete picture
+            shot = app.run(args.headless_frames, pace_hz=60.0, capture_last=bool(args.screenshot))
+            if args.screenshot and shot is not None:
+                from morf.io import write_image
+
+                write_image(args.screenshot, shot)
+                print(f"screenshot: {args.screenshot}")
+        else:
+            app.run()
+        if app.worker.latest().error:
+            print(f"morf-studio: last error: {app.worker.latest().error}", file=sys.stderr)
+        if args.frame_times:
+            print(frame_time_report(app.frame_times))
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return run_cli(args)
+    except MorfError as e:
+        if os.environ.get("MORF_DEBUG"):
+            raise
+        print(f"morf-studio: error: {e}", file=sys.stderr)
+        return e.exit_code
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,29 @@
+"""What the panels get besides :class:`AppState`: the open project, textures, the worker's newest snapshot."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from studio.commands import Command
+from studio.project_view import ProjectView
+from studio.snapshot import Snapshot
+from studio.textures import TextureCache
+
+
+@dataclass
+class UiContext:
+    """Rebuilt by the app each frame (cheap: references only)."""
+
+    view: ProjectView | None  # the open project, None on the start screen
+    textures: TextureCache
+    snapshot: Snapshot  # the worker's newest snapshot
+    send: Callable[[Command], None]  # to the worker's command queue
+    stages: dict[str, str | None]  # stage name -> None when available, else why not
+    stage_labels: dict[str, str]  # stage name -> button text
+    actions: dict[str, Callable[[], None]]  # keyboard actions (buttons reuse them)
+    open_project: Callable[[str], bool]  # the start screen's "Open"
+    player: Any = None  # the live-render player, when an avatar was exported
+    player_note: str | None = None  # why there is no player
+    frame_ms: float = 0.0  # the UI's own recent frame time
+    live: dict = field(default_factory=dict)  # live-render panel's per-session scratch (fps, motion list)

@@ -1,0 +1,95 @@
+"""Training: start stages, pause / resume / stop, progress, time per step, ETA and loss curves."""
+
+from __future__ import annotations
+
+from imgui_bundle import ImVec2, imgui, implot
+
+from studio.commands import Pause, Resume, StartStage, Stop
+from studio.context import UiContext
+from studio.snapshot import STATE_WORDS
+from studio.state import AppState
+from studio.widgets import GREY, RED, fit_size, hms, tex_ref
+
+PREVIEW_H = 150
+
+
+def draw(state: AppState, ui: UiContext) -> None:
+    snap = ui.snapshot
+    _stage_buttons(ui)
+    imgui.separator()
+    if snap.stage is None:
+        imgui.text_colored(GREY, "Nothing has run in this session. Fit the body first, then train the avatar.")
+        return
+    imgui.text(f"{snap.stage}: {STATE_WORDS.get(snap.state, snap.state)}")
+    p = snap.progress
+    if p is not None and p.message:
+        imgui.same_line()
+        imgui.text_colored(GREY, f"- {p.message}")
+    if p is not None:
+        frac = p.step / p.total if p.total else 0.0
+        label = f"step {p.step} / {p.total}" if p.total else f"step {p.step}"
+        imgui.progress_bar(min(max(frac, 0.0), 1.0), ImVec2(-1, 0), label)
+    sps = snap.seconds_per_step
+    imgui.text(f"time per step: {sps:.3f} s" if sps is not None else "time per step: --")
+    imgui.same_line(spacing=30)
+    imgui.text(f"elapsed: {hms(snap.elapsed_s)}")
+    imgui.same_line(spacing=30)
+    imgui.text(f"ETA: {hms(snap.eta_s)}")
+    if snap.error:
+        imgui.text_colored(RED, snap.error)
+    if p is not None and p.losses:
+        imgui.text("latest: " + "   ".join(f"{k} {v:.4g}" for k, v in p.losses.items()))
+    avail = imgui.get_content_region_avail()
+    has_previews = p is not None and bool(p.images)
+    plot_h = max(avail.y - (PREVIEW_H + 30 if has_previews else 0), 120)
+    _loss_plot(snap, plot_h)
+    if has_previews:
+        for k, (name, img) in enumerate(p.images.items()):
+            tex = ui.textures.preview(f"train:{name}", img, snap.seq)
+            w, h = fit_size(tex.width, tex.height, 3 * PREVIEW_H, PREVIEW_H)
+            if k:
+                imgui.same_line()
+            imgui.begin_group()
+            imgui.image(tex_ref(tex), ImVec2(w, h))
+            imgui.text_colored(GREY, name)
+            imgui.end_group()
+
+
+def _stage_buttons(ui: UiContext) -> None:
+    snap = ui.snapshot
+    for k, (name, why) in enumerate(ui.stages.items()):
+        if k:
+            imgui.same_line()
+        imgui.begin_disabled(why is not None or snap.busy or ui.view is None)
+        if imgui.button(ui.stage_labels.get(name, name)):
+            ui.send(StartStage(name))
+        imgui.end_disabled()
+        if why is not None and imgui.is_item_hovered(imgui.HoveredFlags_.allow_when_disabled):
+            imgui.set_tooltip(why)
+    imgui.same_line(spacing=30)
+    imgui.begin_disabled(not snap.busy)
+    if snap.state == "paused":
+        if imgui.button("Resume"):
+            ui.send(Resume())
+    elif imgui.button("Pause"):
+        ui.send(Pause())
+    imgui.same_line()
+    if imgui.button("Stop"):
+        ui.send(Stop())
+    imgui.end_disabled()
+    missing = [f"{ui.stage_labels.get(n, n)}: not available ({why})" for n, why in ui.stages.items() if why]
+    for line in missing:
+        imgui.text_colored(GREY, line)
+
+
+def _loss_plot(snap, height: float) -> None:
+    if not snap.curves:
+        imgui.text_colored(GREY, "no losses reported yet")
+        return
+    if implot.begin_plot("losses", ImVec2(-1, height)):
+        implot.setup_axes("step", "loss", implot.AxisFlags_.auto_fit, implot.AxisFlags_.auto_fit)
+        implot.setup_axis_scale(implot.ImAxis_.y1, implot.Scale_.log10)
+        for name, curve in snap.curves.items():
+            if len(curve.steps):
+                implot.plot_line(name, curve.steps, curve.values)
+        implot.end_plot()

@@ -1,0 +1,97 @@
+"""The open project as the UI sees it: sizes, keypoints, frame decisions and fit residuals.
+
+Loaded once when a project opens (small files only: the manifest, keypoints.npz, review.json and
+fits/filter.json); images are decoded later by :mod:`studio.loader`.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from morf.capture.project import CaptureProject, FrameDecision, Keypoints2D
+from morf.errors import ProjectError
+
+
+class ProjectView:
+    """Read-only facts about one project; :meth:`reload_decisions` after the worker changed review.json.
+
+    Attributes:
+        project: the :class:`CaptureProject`.
+        keypoints: :class:`Keypoints2D` with points (N, 23, 3), or None when keypoints.npz is absent.
+        decisions: per frame :class:`FrameDecision` (user choices override the automatic filter).
+        residuals: frame -> mean keypoint residual of the body fit in pixels (empty before fitting).
+    """
+
+    def __init__(self, project: CaptureProject):
+        self.project = project
+        kp_path = project.root / "keypoints.npz"
+        self.keypoints: Keypoints2D | None = project.load_keypoints() if kp_path.is_file() else None
+        self.decisions: list[FrameDecision] = project.frame_decisions()
+        self.residuals: dict[int, float] = _load_residuals(project)
+
+    @classmethod
+    def open(cls, root: str | Path) -> "ProjectView":
+        """Open a project folder; raises :class:`ProjectError` with a one-line reason."""
+        return cls(CaptureProject.open(root))
+
+    @property
+    def root(self) -> Path:
+        return self.project.root
+
+    @property
+    def num_frames(self) -> int:
+        return self.project.num_frames
+
+    @property
+    def name(self) -> str:
+        return self.project.root.name
+
+    def reload_decisions(self) -> None:
+        self.decisions = self.project.frame_decisions()
+
+    def flagged(self, i: int) -> bool:
+        """A frame the user should look at: not used for training."""
+        return 0 <= i < len(self.decisions) and not self.decisions[i].used
+
+    def next_flagged(self, after: int) -> int | None:
+        """The next flagged frame after ``after`` (wrapping around), or None when none is flagged."""
+        n = self.num_frames
+        for k in range(1, n + 1):
+            if self.flagged((after + k) % n):
+                return (after + k) % n
+        return None
+
+    def user_dropped(self, i: int) -> bool:
+        return 0 <= i < len(self.decisions) and self.decisions[i].reason == "dropped by user"
+
+    def fit_overlay_path(self, i: int) -> Path:
+        """A rendered fitted-mesh overlay for frame i (written by fitting, when it makes them)."""
+        return self.project.fits_dir / "overlays" / f"{i:06d}.png"
+
+    def has_fit_overlays(self) -> bool:
+        return (self.project.fits_dir / "overlays").is_dir()
+
+    def avatar_ready(self) -> bool:
+        d = self.project.avatar_dir
+        return d.is_dir() and any(d.iterdir())
+
+    def keypoints_of(self, i: int) -> np.ndarray | None:
+        """(23, 3) x, y, confidence of frame i, or None without keypoints or detection."""
+        if self.keypoints is None or not self.keypoints.detected[i]:
+            return None
+        return self.keypoints.points[i]
+
+
+def _load_residuals(project: CaptureProject) -> dict[int, float]:
+    """Per-frame fit residuals from fits/filter.json's optional ``"residuals": {frame: px}``."""
+    p = project.fits_dir / "filter.json"
+    if not p.is_file():
+        return {}
+    try:
+        d = json.loads(p.read_text())
+        return {int(k): float(v) for k, v in (d.get("residuals") or {}).items()}
+    except (json.JSONDecodeError, TypeError, ValueError, AttributeError) as e:
+        raise ProjectError(f"damaged filter file {p}: {e}") from None

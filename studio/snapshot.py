@@ -1,0 +1,91 @@
+"""What the worker tells the UI: frozen snapshots in a one-slot, newest-wins mailbox.
+
+The UI reads the newest snapshot once per frame; older ones are simply replaced, so a slow UI
+never makes the worker wait and a fast worker never floods the UI.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from morf.pipeline.control import Progress
+
+# Worker states, in the words the status line uses.
+STATE_WORDS = {
+    "idle": "idle",
+    "running": "running",
+    "paused": "paused",
+    "stopping": "stopping",
+    "finished": "finished",
+    "stopped": "stopped",
+    "failed": "failed",
+}
+
+
+@dataclass(frozen=True)
+class LossCurve:
+    """One loss over the run so far (decimated to a bounded length).
+
+    Fields:
+        steps: (K,) float64 step numbers; values: (K,) float64 loss values. Read-only arrays.
+    """
+
+    steps: np.ndarray
+    values: np.ndarray
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """One view of the worker, safe to read from the UI thread.
+
+    Fields:
+        seq: increases with every publish (the UI re-uploads preview images only when it changes).
+        state: a key of ``STATE_WORDS``.
+        stage: the stage running or last run ("fit", "train", ...), or None.
+        progress: the stage's newest :class:`Progress` (images are read-only copies), or None.
+        curves: loss name -> :class:`LossCurve`.
+        elapsed_s: running time of the stage, pauses excluded.
+        seconds_per_step: smoothed time per step, None until two reports arrived.
+        eta_s: estimated time left, None when unknown.
+        error: one line of text when the last stage or command failed, else None.
+        message: the worker's last event in words ("frame 12 dropped").
+        review_rev: increases whenever the worker changed review.json.
+        project: the project folder the worker has open, or None.
+    """
+
+    seq: int = 0
+    state: str = "idle"
+    stage: str | None = None
+    progress: Progress | None = None
+    curves: dict[str, LossCurve] = field(default_factory=dict)
+    elapsed_s: float = 0.0
+    seconds_per_step: float | None = None
+    eta_s: float | None = None
+    error: str | None = None
+    message: str = ""
+    review_rev: int = 0
+    project: str | None = None
+
+    @property
+    def busy(self) -> bool:
+        """True while a stage holds the worker (running, paused or stopping)."""
+        return self.state in ("running", "paused", "stopping")
+
+
+class Mailbox:
+    """One slot, newest wins. The lock is held only to swap a reference."""
+
+    def __init__(self, initial: Snapshot | None = None):
+        self._lock = threading.Lock()
+        self._value = initial if initial is not None else Snapshot()
+
+    def publish(self, snapshot: Snapshot) -> None:
+        with self._lock:
+            self._value = snapshot
+
+    def latest(self) -> Snapshot:
+        with self._lock:
+            return self._value

@@ -1,0 +1,103 @@
+"""Which pipeline stages the studio can drive, found lazily in the library.
+
+The fitting, training and export stages live in ``morf.fitting``, ``morf.train`` and
+``morf.export``. They are imported only when the studio starts, and a stage whose module or
+function is missing is listed as unavailable with the reason (the UI shows it, greyed out).
+
+A library stage is a function ``f(project, config, control)`` (any of those parameter names may be
+positional or keyword). Its config, when it has one, is the module's config dataclass built with
+defaults and the UI's overrides applied with ``dataclasses.replace``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import inspect
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+from morf.capture.project import CaptureProject
+from morf.pipeline.control import Progress, StageControl
+from studio.worker import StageFn
+
+
+@dataclass(frozen=True)
+class StageSpec:
+    """Where to look for one stage in the library."""
+
+    name: str  # the key the UI uses ("fit")
+    label: str  # button text ("Fit body")
+    module: str  # "morf.fitting"
+    functions: tuple[str, ...]  # candidate function names, first found wins
+    configs: tuple[str, ...]  # candidate config dataclass names
+
+
+LIBRARY_STAGES = (
+    StageSpec("fit", "Fit body", "morf.fitting", ("fit_project", "fit_capture", "run_fit", "fit"),
+              ("FitConfig", "FittingConfig")),
+    StageSpec("train", "Train avatar", "morf.train", ("train_project", "train", "run_training"),
+              ("TrainConfig", "TrainingConfig")),
+    StageSpec("export", "Export", "morf.export", ("export_project", "export_avatar", "export"),
+              ("ExportConfig",)),
+)
+
+
+def _adapt(fn: Callable, config_cls: type | None) -> StageFn:
+    params = inspect.signature(fn).parameters
+
+    def run(project: CaptureProject, control: StageControl, options: dict):
+        config = dataclasses.replace(config_cls(), **options) if config_cls is not None else None
+        kwargs = {}
+        for name in params:
+            if name in ("project", "capture"):
+                kwargs[name] = project
+            elif name in ("config", "cfg") and config is not None:
+                kwargs[name] = config
+            elif name == "control":
+                kwargs[name] = control
+        return fn(**kwargs)
+
+    return run
+
+
+def find_library_stages() -> tuple[dict[str, StageFn], dict[str, str]]:
+    """(available name -> stage function, unavailable name -> reason in words)."""
+    found: dict[str, StageFn] = {}
+    missing: dict[str, str] = {}
+    for spec in LIBRARY_STAGES:
+        try:
+            module = importlib.import_module(spec.module)
+        except ImportError as e:
+            missing[spec.name] = f"{spec.module} cannot be imported ({e})"
+            continue
+        fn = next((getattr(module, n) for n in spec.functions if callable(getattr(module, n, None))), None)
+        if fn is None:
+            missing[spec.name] = f"{spec.module} has no stage function ({', '.join(spec.functions)})"
+            continue
+        config_cls = next((getattr(module, n) for n in spec.configs
+                           if dataclasses.is_dataclass(getattr(module, n, None))), None)
+        found[spec.name] = _adapt(fn, config_cls)
+    return found, missing
+
+
+def cpu_load_stage(project: CaptureProject, control: StageControl, options: dict) -> None:
+    """A benchmark-only stage: matrix products that keep the worker's cores busy for a while.
+
+    Used by ``morf-studio --stage cpu-load --frame-times`` to measure UI frame times under load
+    when no real stage is wanted. options: ``seconds`` (default 30), ``size`` (default 512).
+    """
+    import torch
+
+    seconds, size = float(options.get("seconds", 30.0)), int(options.get("size", 512))
+    a = torch.randn(size, size)
+    start, step = time.monotonic(), 0
+    while time.monotonic() - start < seconds:
+        control.check()
+        b = a @ a
+        a = b / b.norm()
+        step += 1
+        if step % 10 == 0:
+            control.report(Progress("cpu-load", step=step, message="keeping the CPU busy",
+                                    losses={"norm": float(b.norm())}))

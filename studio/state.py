@@ -1,0 +1,35 @@
+"""UI state of the studio: what the user is looking at. No models, no GL objects, no threads."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from studio.orbit import OrbitCamera
+
+PANELS = ("Frames", "Filtered frames", "Warp field", "Training", "Live render")
+
+
+@dataclass
+class AppState:
+    """Everything the panels read and change from one frame to the next."""
+
+    project_root: str | None = None  # the open project's folder, None on the start screen
+    project_error: str | None = None  # why the last open failed (shown on the start screen)
+    open_path: str = ""  # the start screen's path field
+    panel: int = 0  # index into PANELS
+    panel_request: int | None = None  # a panel chosen by key; the tab bar selects it next frame
+    frame: int = 0  # the current frame index
+    scroll_strip: bool = True  # bring the current frame's thumbnail into view
+    show_keypoints: bool = True
+    show_mask: bool = True
+    show_fit: bool = True
+    show_help: bool = False
+    playing: bool = False  # frames advance at the capture's fps (Space)
+    play_clock: float = 0.0  # seconds accumulated towards the next frame while playing
+    note: str = ""  # the UI's own last event in words ("frame 3 dropped")
+    motion_dir: str = ""  # folder the motion picker lists
+    motion_file: str | None = None  # chosen .bvh / .npz motion
+    orbit: OrbitCamera = field(default_factory=OrbitCamera)
+
+    def select_panel(self, index: int) -> None:
+        self.panel_request = index % len(PANELS)

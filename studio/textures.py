@@ -1,0 +1,101 @@
+"""GL textures for images: decoded by the loader thread, uploaded here a few per frame.
+
+Uploading a large frame costs milliseconds, so at most ``upload_budget`` images go up per UI
+frame; thumbnails stay cached for the life of the project, large images in a small LRU.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+
+import moderngl
+import numpy as np
+
+from studio.loader import MISSING, ImageLoader, Key
+
+
+def upload(ctx: moderngl.Context, image: np.ndarray, texture: moderngl.Texture | None = None) -> moderngl.Texture:
+    """(H, W, 3|4) uint8 -> texture (reused when it has the same size and channels)."""
+    image = np.ascontiguousarray(image)
+    h, w, c = image.shape
+    if texture is None or texture.size != (w, h) or texture.components != c:
+        if texture is not None:
+            texture.release()
+        texture = ctx.texture((w, h), c, alignment=1)
+        texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+    texture.write(image.tobytes(), alignment=1)
+    return texture
+
+
+class TextureCache:
+    """Textures of project images (through an :class:`ImageLoader`) and of preview images."""
+
+    def __init__(self, ctx: moderngl.Context, loader: ImageLoader | None, upload_budget: int = 3,
+                 max_large: int = 24):
+        self._ctx = ctx
+        self._loader = loader
+        self._budget = upload_budget
+        self._max_large = max_large
+        self._thumbs: dict[Key, moderngl.Texture | None] = {}
+        self._large: "OrderedDict[Key, moderngl.Texture | None]" = OrderedDict()
+        self._requested: set[Key] = set()
+        self._previews: dict[str, tuple[int, moderngl.Texture]] = {}
+
+    # ---- project images -------------------------------------------------------------------
+    def get(self, key: Key) -> moderngl.Texture | None:
+        """The texture for ``key`` if uploaded; otherwise ask the loader and return None.
+
+        A file that does not exist or cannot be read also gives None (once decoded, not re-asked).
+        """
+        store = self._thumbs if key[0] == "thumb" else self._large
+        if key in store:
+            if store is self._large:
+                self._large.move_to_end(key)
+            return store[key]
+        if key not in self._requested and self._loader is not None:
+            self._requested.add(key)
+            self._loader.request(key)
+        return None
+
+    def known(self, key: Key) -> bool:
+        """True once ``key`` was decoded (even if the file was missing)."""
+        return key in self._thumbs or key in self._large
+
+    def pump(self) -> None:
+        """Upload up to the budget of decoded images; call once per UI frame."""
+        if self._loader is None:
+            return
+        for key, image in self._loader.take_ready(self._budget):
+            self._requested.discard(key)
+            tex = None if image is MISSING or image.size == 0 else upload(self._ctx, image)
+            if key[0] == "thumb":
+                self._thumbs[key] = tex
+            else:
+                self._large[key] = tex
+                while len(self._large) > self._max_large:
+                    _, old = self._large.popitem(last=False)
+                    if old is not None:
+                        old.release()
+
+    def settled(self) -> bool:
+        """Nothing requested is still on its way (for tests and screenshots)."""
+        return not self._requested and (self._loader is None or self._loader.idle())
+
+    # ---- preview images from worker snapshots -------------------------------------------
+    def preview(self, name: str, image: np.ndarray, version: int) -> moderngl.Texture:
+        """Texture of a preview image; re-uploaded only when ``version`` changed."""
+        old = self._previews.get(name)
+        if old is not None and old[0] == version:
+            return old[1]
+        tex = upload(self._ctx, image, old[1] if old else None)
+        self._previews[name] = (version, tex)
+        return tex
+
+    def release(self) -> None:
+        for tex in list(self._thumbs.values()) + list(self._large.values()) + [t for _, t in self._previews.values()]:
+            if tex is not None:
+                tex.release()
+        self._thumbs.clear()
+        self._large.clear()
+        self._previews.clear()
+        self._requested.clear()

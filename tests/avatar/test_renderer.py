@@ -1,0 +1,54 @@
+import numpy as np
+import pytest
+import torch
+
+from morf.avatar.model import AvatarModel
+from morf.avatar.renderer import RendererConfig, UNetRenderer, count_parameters
+
+
+@pytest.mark.parametrize("stem", [1, 2, 4])
+def test_output_shape_and_ranges(stem):
+    r = UNetRenderer(RendererConfig(in_channels=6, width=4, depth=2, stem=stem, skip_hidden=4))
+    out = r(torch.randn(2, 6, 32, 48))
+    assert out.shape == (2, 4, 32, 48)
+    assert out[:, :3].min() >= 0 and out[:, :3].max() <= 1
+
+
+def test_presets_sizes():
+    from morf.train.config import PRESETS
+
+    cpu = count_parameters(UNetRenderer(PRESETS["cpu"].renderer))
+    gpu = count_parameters(UNetRenderer(PRESETS["gpu"].renderer))
+    assert 0.3e6 <= cpu <= 1e6
+    assert 12e6 <= gpu <= 17e6
+
+
+def test_no_pixel_unshuffle():
+    r = UNetRenderer(RendererConfig(stem=4))
+    assert not any(isinstance(m, (torch.nn.PixelUnshuffle, torch.nn.PixelShuffle)) for m in r.modules())
+
+
+def test_avatar_model_forward():
+    m = AvatarModel(torch.rand(4, 16, 16), RendererConfig(in_channels=4, width=4, depth=1, stem=2, skip_hidden=4), None, 3)
+    out = m(torch.rand(2, 8, 8, 2), torch.ones(2, 8, 8, dtype=torch.bool))
+    assert out.rgb.shape == (2, 3, 8, 8) and out.mask_logit.shape == (2, 1, 8, 8) and out.offsets is None
+
+
+def test_onnx_export_matches_torch(tmp_path):
+    ort = pytest.importorskip("onnxruntime")
+    pytest.importorskip("onnx")
+    torch.manual_seed(0)
+    r = UNetRenderer(RendererConfig(in_channels=8, width=8, depth=2, stem=2, skip_hidden=8)).eval()
+    x = torch.randn(1, 8, 64, 64)
+    path = tmp_path / "r.onnx"
+    torch.onnx.export(r, (x,), str(path), opset_version=17, input_names=["features"], output_names=["out"],
+                      dynamo=False)
+    import onnx
+
+    ops = {n.op_type for n in onnx.load(str(path)).graph.node}
+    assert "SpaceToDepth" not in ops and "DepthToSpace" not in ops
+    sess = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    got = sess.run(None, {"features": x.numpy()})[0]
+    with torch.no_grad():
+        ref = r(x).numpy()
+    np.testing.assert_allclose(got, ref, atol=1e-4, rtol=1e-4)

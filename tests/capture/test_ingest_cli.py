@@ -1,0 +1,219 @@
+"""`morf ingest` end to end without MediaPipe (keypoints and masks imported), bad inputs, re-runs."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from morf.capture.project import CaptureProject
+from morf.cli.main import main
+from tests.capture.helpers import write_frames, write_masks, write_openpose, write_video
+
+
+def snapshot(root: Path) -> dict[str, str]:
+    """Every file under root -> content hash (to prove a project was left untouched)."""
+    return {str(p.relative_to(root)): hashlib.sha1(p.read_bytes()).hexdigest() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def run_cli(capsys, *argv) -> tuple[int, str, str]:
+    rc = main(["ingest", *map(str, argv)])
+    out = capsys.readouterr()
+    return rc, out.out, out.err
+
+
+@pytest.fixture
+def inputs(tmp_path):
+    d = tmp_path / "in"
+    d.mkdir()
+    return {
+        "video": write_video(d / "clip.avi", 6),
+        "kp": write_openpose(d / "kp", 6, [(10, 8, 30, 40)]),
+        "masks": write_masks(d / "masks", 6),
+    }
+
+
+@pytest.fixture
+def project(tmp_path, inputs, capsys):
+    root = tmp_path / "proj"
+    rc, out, err = run_cli(capsys, root, "--video", inputs["video"], "--keypoints", inputs["kp"], "--masks", inputs["masks"])
+    assert rc == 0, err
+    return root
+
+
+def test_ingest_video_with_imported_keypoints_and_masks(project, inputs):
+    p = CaptureProject.open(project)
+    assert p.num_frames == 6 and p.image_size == (64, 48)
+    assert p.fps == pytest.approx(10.0)
+    kp = p.load_keypoints()
+    assert kp.detected.all() and set(kp.source) == {"openpose"}
+    # OpenPose puts pixel centres on integers, MoRF at +0.5
+    raw = json.loads((inputs["kp"] / "video_000000000000_keypoints.json").read_text())["people"][0]["pose_keypoints_2d"]
+    assert kp.points[0, 0, 0] == pytest.approx(raw[0] + 0.5)  # nose is BODY_25 point 0
+    mask = p.load_mask(3)
+    expected = cv2.imread(str(inputs["masks"] / "mask_0003.png"), 0) > 127
+    assert (mask == expected).all()
+    assert sorted(f.name for f in (project / "frames").iterdir()) == [f"{i:06d}.png" for i in range(6)]
+    assert p.manifest["ingest"]["keypoints_from"] == "openpose"
+    assert p.manifest["ingest"]["source_frames"] == list(range(6))
+    assert not list(project.parent.glob(".proj.ingest-*")), "staging folder left behind"
+
+
+def test_every_max_frames_resize_focal(tmp_path, inputs, capsys):
+    root = tmp_path / "p2"
+    rc, out, err = run_cli(capsys, root, "--video", inputs["video"], "--keypoints", inputs["kp"], "--masks", inputs["masks"],
+                           "--every", "2", "--max-frames", "2", "--resize", "128", "--focal", "100")
+    assert rc == 0, err
+    p = CaptureProject.open(root)
+    assert p.num_frames == 2 and p.image_size == (128, 96)
+    assert p.manifest["ingest"]["source_frames"] == [0, 2]
+    assert p.fps == pytest.approx(5.0)
+    assert p.camera().fx == pytest.approx(200.0)  # focal given in source pixels, scaled with the frames
+    assert p.load_mask(1).shape == (96, 128)
+    raw = json.loads((inputs["kp"] / "video_000000000002_keypoints.json").read_text())["people"][0]["pose_keypoints_2d"]
+    assert p.load_keypoints().points[1, 0, 0] == pytest.approx((raw[0] + 0.5) * 2)
+
+
+def test_rerun_replaces_outputs(project, tmp_path, inputs, capsys):
+    rc, out, err = run_cli(capsys, project, "--video", inputs["video"], "--keypoints", inputs["kp"], "--masks", inputs["masks"],
+                           "--max-frames", "3")
+    assert rc == 0, err
+    assert "replaced" in out
+    p = CaptureProject.open(project)
+    assert p.num_frames == 3
+    assert len(list((project / "frames").iterdir())) == 3  # no stale frames 3..5
+    assert len(list((project / "masks").iterdir())) == 3
+    assert p.load_keypoints().points.shape[0] == 3
+
+
+def test_later_stages_need_force(project, inputs, capsys):
+    (project / "fits").mkdir()
+    (project / "fits" / "fits.npz").write_bytes(b"x")
+    before = snapshot(project)
+    rc, out, err = run_cli(capsys, project, "--video", inputs["video"], "--keypoints", inputs["kp"], "--masks", inputs["masks"])
+    assert rc != 0 and "--force" in err
+    assert snapshot(project) == before
+    rc, out, err = run_cli(capsys, project, "--video", inputs["video"], "--keypoints", inputs["kp"], "--masks", inputs["masks"], "--force")
+    assert rc == 0, err
+    assert not (project / "fits").exists()
+
+
+def _bad_inputs(tmp: Path, inputs) -> dict[str, tuple[list, str]]:
+    """name -> (extra CLI args, a word the one-line message must contain)."""
+    text = tmp / "notes.mp4"
+    text.write_text("this is not a video\n" * 20)
+    zero = tmp / "zero.avi"
+    vw = cv2.VideoWriter(str(zero), cv2.VideoWriter_fourcc(*"MJPG"), 10, (64, 48))
+    vw.release()
+    tiny = write_video(tmp / "tiny.avi", 3, 24, 16)
+    huge = tmp / "huge.png"
+    cv2.imwrite(str(huge), np.zeros((40, 8200, 3), np.uint8))
+    bad_json = tmp / "kp_bad"
+    write_openpose(bad_json, 6, [(10, 8, 30, 40)])
+    (bad_json / "video_000000000003_keypoints.json").write_text('{"people": [ {"pose_keypoints_2d": [1, 2,')
+    short_json = tmp / "kp_short"
+    write_openpose(short_json, 6, [(10, 8, 30, 40)])
+    (short_json / "video_000000000002_keypoints.json").write_text('{"people": [{"pose_keypoints_2d": [1, 2, 3]}]}')
+    few_masks = write_masks(tmp / "few_masks", 4, pattern="m{i}.png")
+    for f in few_masks.iterdir():  # names without numbers: only the count can pair them
+        f.rename(f.with_name(f.stem.replace("0", "a").replace("1", "b").replace("2", "c").replace("3", "d") + ".png"))
+    big_masks = write_masks(tmp / "big_masks", 6, 128, 96)
+    empty = tmp / "empty"
+    empty.mkdir()
+    v = ["--video", inputs["video"]]
+    return {
+        "missing video": (["--video", tmp / "nope.mp4"], "not found"),
+        "text as video": (["--video", text], "not a readable video"),
+        "zero frames": (["--video", zero], "video"),
+        "too small": (["--video", tiny], "at least 32"),
+        "too large": (["--frames", huge], "--resize"),
+        "empty folder": (["--frames", empty], "no images"),
+        "malformed json": (v + ["--keypoints", bad_json, "--masks", inputs["masks"]], "video_000000000003_keypoints.json"),
+        "short pose list": (v + ["--keypoints", short_json, "--masks", inputs["masks"]], "pose_keypoints_2d"),
+        "mask count": (v + ["--keypoints", inputs["kp"], "--masks", few_masks], "no mask file for frame 4"),
+        "mask size": (v + ["--keypoints", inputs["kp"], "--masks", big_masks], "128x96"),
+        "bad every": (v + ["--every", "0"], "--every"),
+    }
+
+
+def test_bad_inputs_fail_with_one_line_and_keep_project(project, tmp_path, inputs, capsys):
+    before = snapshot(project)
+    for name, (args, word) in _bad_inputs(tmp_path, inputs).items():
+        rc, out, err = run_cli(capsys, project, *args)
+        lines = [line for line in err.splitlines() if line.strip()]
+        assert rc != 0, name
+        assert len(lines) == 1 and lines[0].startswith("morf ingest: error:"), f"{name}: {err!r}"
+        assert word in lines[0], f"{name}: {lines[0]}"
+        assert snapshot(project) == before, name
+    assert not list(tmp_path.glob(".proj.ingest-*")), "staging folder left behind"
+
+
+def test_not_a_project_folder_is_refused(tmp_path, inputs, capsys):
+    d = tmp_path / "docs"
+    d.mkdir()
+    (d / "thesis.txt").write_text("precious")
+    rc, out, err = run_cli(capsys, d, "--video", inputs["video"], "--keypoints", inputs["kp"], "--masks", inputs["masks"])
+    assert rc != 0 and "not a MoRF project" in err
+    assert (d / "thesis.txt").read_text() == "precious"
+
+
+def test_truncated_video_keeps_decodable_frames(tmp_path, inputs, capsys):
+    data = write_video(tmp_path / "full.avi", 20).read_bytes()
+    cut = tmp_path / "cut.avi"
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    masks = write_masks(tmp_path / "m", 20)
+    kp = write_openpose(tmp_path / "k", 20, [(10, 8, 30, 40)])
+    root = tmp_path / "pc"
+    rc, out, err = run_cli(capsys, root, "--video", cut, "--keypoints", kp, "--masks", masks)
+    assert rc == 0, err
+    assert "warning" in err and "could be decoded" in err
+    p = CaptureProject.open(root)
+    assert 0 < p.num_frames < 20
+    assert p.manifest["ingest"]["warnings"]
+
+
+def test_openpose_hands_face_and_largest_person(tmp_path, capsys):
+    frames = write_frames(tmp_path / "frames", 4)
+    # two people in every file; the second is larger and must be the one followed
+    kp = write_openpose(tmp_path / "kp", 4, [(2, 2, 12, 20), (20, 5, 60, 45)], hands=True, pattern="img_{i}_keypoints.json")
+    masks = write_masks(tmp_path / "masks", 4, pattern="img_{i}_mask.png")
+    root = tmp_path / "p"
+    rc, out, err = run_cli(capsys, root, "--frames", frames, "--keypoints", kp, "--masks", masks)
+    assert rc == 0, err
+    assert "2 people seen; following the largest" in out
+    p = CaptureProject.open(root)
+    pts = p.load_keypoints().points
+    seen = pts[..., 2] > 0
+    assert (pts[..., 0][seen] >= 20).all(), "followed the smaller person"
+    assert p.manifest["ingest"]["people"]["seen"] == 2
+    from morf.io import load_npz
+
+    hf = load_npz(root / p.manifest["ingest"]["hands_face"])
+    assert hf["hand_left"].shape == (4, 21, 3) and hf["face"].shape == (4, 70, 3)
+    assert hf["present"].all()
+    assert hf["hand_right"][0, 0].tolist() == pytest.approx([3.5, 4.5, 0.6])
+
+
+def test_stop_midway_leaves_the_previous_project(project, inputs):
+    from morf.capture.ingest import IngestConfig, ingest
+    from morf.pipeline.control import StageControl, StopRequested
+
+    before = snapshot(project)
+    seen = []
+
+    def on_progress(p):
+        seen.append(p.step)
+        if p.step == 2:
+            control.stop()
+
+    control = StageControl(on_progress)
+    config = IngestConfig(video=inputs["video"], keypoints=inputs["kp"], masks=inputs["masks"], max_frames=3)
+    with pytest.raises(StopRequested):
+        ingest(project, config, control, log=lambda s: None)
+    assert seen == [1, 2]
+    assert snapshot(project) == before
+    assert not list(project.parent.glob(".proj.ingest-*"))

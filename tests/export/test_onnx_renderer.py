@@ -1,0 +1,81 @@
+"""ONNX renderers: fp32 graph against torch (tight), int8 against fp32 (PSNR bound), uint8 input."""
+
+import numpy as np
+import onnx
+import onnxruntime as ort
+import pytest
+import torch
+
+from morf.avatar.renderer import RendererConfig, UNetRenderer
+from morf.export.onnx_renderer import export_fp32, export_int8
+from morf.export.texture_quant import quantize_texture, spectral_texture
+
+H = W = 32
+
+
+def _rasters(n, seed):
+    """Smooth uint8 rasterizations with a background band (128)."""
+    q = quantize_texture(spectral_texture(16, H, seed=seed))
+    out = []
+    for k in range(n):
+        x = np.roll(q.data, 3 * k, axis=1).transpose(2, 0, 1)[None].copy()
+        x[..., : 6 + k, :] = 128
+        out.append(x)
+    return out, q.scales
+
+
+def _torch_reference(renderer, x, scales):
+    with torch.no_grad():
+        y = renderer(torch.from_numpy((x.astype(np.float32) - 128) * scales[None, :, None, None]))
+    return torch.cat([y[:, :3], torch.sigmoid(y[:, 3:])], 1).numpy()
+
+
+def _run(path, x):
+    return ort.InferenceSession(str(path), providers=["CPUExecutionProvider"]).run(None, {"raster": x})[0]
+
+
+@pytest.fixture(scope="module")
+def renderers():
+    torch.manual_seed(0)
+    return {"stem2": UNetRenderer(RendererConfig(width=8, depth=2, stem=2, skip_hidden=8)).eval(),
+            "stem1": UNetRenderer(RendererConfig(width=8, depth=2, stem=1)).eval()}
+
+
+@pytest.mark.parametrize("name", ["stem2", "stem1"])
+@pytest.mark.parametrize("layout", ["nchw", "planes"])
+def test_fp32_matches_torch(tmp_path, renderers, name, layout):
+    rasters, scales = _rasters(1, seed=1)
+    export_fp32(renderers[name], scales, tmp_path / "r.onnx", layout)
+    model = onnx.load(tmp_path / "r.onnx")
+    assert model.graph.input[0].type.tensor_type.elem_type == onnx.TensorProto.UINT8
+    # The per-channel dequantisation was folded into the convolutions: no Mul on the input path.
+    assert "Mul" not in [n.op_type for n in model.graph.node[:4]]
+    x = rasters[0]
+    feed = x if layout == "nchw" else np.ascontiguousarray(x[0].reshape(4, 4, H, W).transpose(0, 2, 3, 1))
+    np.testing.assert_allclose(_run(tmp_path / "r.onnx", feed), _torch_reference(renderers[name], x, scales), atol=2e-5)
+
+
+def test_int8_close_to_fp32(tmp_path, renderers):
+    calib, scales = _rasters(4, seed=2)
+    held, _ = _rasters(2, seed=5)
+    r = renderers["stem2"]
+    export_fp32(r, scales, tmp_path / "f.onnx")
+    export_int8(r, scales, tmp_path / "q.onnx", calib)
+    ops = {n.op_type for n in onnx.load(tmp_path / "q.onnx").graph.node}
+    assert "QuantizeLinear" in ops and "DequantizeLinear" in ops
+    for x in held:
+        a, b = _run(tmp_path / "f.onnx", x), _run(tmp_path / "q.onnx", x)
+        psnr = -10 * np.log10(np.mean((a - b) ** 2))
+        assert 30 < psnr < 120  # close, yet really quantised
+
+
+def test_small_renderer_reads_first_channels(tmp_path):
+    torch.manual_seed(1)
+    r = UNetRenderer(RendererConfig(in_channels=8, width=8, depth=2, stem=2, skip_hidden=8)).eval()
+    rasters, scales = _rasters(1, seed=3)
+    export_fp32(r, scales, tmp_path / "r.onnx")
+    x = rasters[0]
+    with torch.no_grad():
+        y = r(torch.from_numpy((x[:, :8].astype(np.float32) - 128) * scales[None, :8, None, None]))
+    ref = torch.cat([y[:, :3], torch.sigmoid(y[:, 3:])], 1).numpy()
+    np.testing.assert_allclose(_run(tmp_path / "r.onnx", x), ref, atol=2e-5)

@@ -1,0 +1,46 @@
+"""The Player on a tiny exported avatar: a person appears where the body is, in every mode."""
+
+import numpy as np
+import pytest
+
+from morf.errors import InputError
+from morf.playback.camera_paths import front_camera
+from morf.playback.player import Player
+
+SIZE = 128  # as in conftest.py
+
+
+def test_renders_a_person(tiny_avatar, still_pose):
+    rot, tr = still_pose
+    with Player(tiny_avatar, size=SIZE, background=(0, 0, 255)) as p:
+        img = p.render(rot, tr, front_camera(SIZE))
+        raster = p.rasterize(rot, tr, front_camera(SIZE))
+        assert set(p.last_timings) >= {"bones_ms", "raster_ms", "readback_ms", "layout_ms", "renderer_ms", "composite_ms"}
+    assert img.shape == (SIZE, SIZE, 3) and img.dtype == np.uint8
+    covered = raster[0, 0] > 200  # coverage channel: 255 on the body, 128 elsewhere
+    person = ~((img[..., 0] < 8) & (img[..., 1] < 8) & (img[..., 2] > 247))
+    assert 0.03 < covered.mean() < 0.5
+    assert (person == covered).mean() > 0.98
+    assert img[covered].std() > 5  # textured, not a flat fill
+
+
+def test_texture_sequence_and_fp32_agree(tiny_avatar, still_pose):
+    rot, tr = still_pose
+    cams = [front_camera(SIZE, yaw_deg=a) for a in (0, 40, 80)]
+    with Player(tiny_avatar, size=SIZE) as p:
+        single = [p.render(rot, tr, c) for c in cams]
+        piped = list(p.render_sequence((rot, tr, c) for c in cams))
+        tex = p.render_texture(rot, tr, cams[0])
+        from_tex = np.frombuffer(tex.read(), np.uint8).reshape(SIZE, SIZE, 3)
+    for a, b in zip(single, piped):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(from_tex, single[0])
+    with Player(tiny_avatar, size=SIZE, precision="fp32") as p32:
+        f = p32.render(rot, tr, cams[0]).astype(np.float32)
+    mse = np.mean((f - single[0]) ** 2) / 255.0 ** 2
+    assert -10 * np.log10(max(mse, 1e-12)) > 35
+
+
+def test_bad_size_is_a_user_error(tiny_avatar):
+    with pytest.raises(InputError):
+        Player(tiny_avatar, size=100)

@@ -1,0 +1,66 @@
+"""Fixtures for the studio tests: a tiny capture project written from scratch, no other stage needed."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from morf.capture.project import CaptureProject, Keypoints2D
+from morf.capture.keypoint_layout import NUM_KEYPOINTS
+
+FRAMES, WIDTH, HEIGHT = 6, 96, 128
+
+
+def _stick_figure(i: int) -> np.ndarray:
+    """(23, 2) keypoints of a person turning a little with ``i``."""
+    cx, s = WIDTH / 2 + 3 * np.sin(i), 1.0 + 0.05 * i
+    pts = {
+        0: (0, 18), 1: (-3, 15), 2: (3, 15), 3: (-6, 17), 4: (6, 17),
+        5: (-14, 32), 6: (14, 32), 7: (-20, 50), 8: (20, 50), 9: (-22, 66), 10: (22, 66),
+        11: (-9, 68), 12: (9, 68), 13: (-10, 92), 14: (10, 92), 15: (-10, 114), 16: (10, 114),
+        17: (-14, 120), 18: (-16, 119), 19: (-9, 117), 20: (14, 120), 21: (16, 119), 22: (9, 117),
+    }
+    out = np.zeros((NUM_KEYPOINTS, 2), np.float32)
+    for k, (dx, y) in pts.items():
+        out[k] = (cx + s * dx, y)
+    return out
+
+
+def make_tiny_project(root, *, with_filter: bool = True) -> CaptureProject:
+    """6 frames of 96x128: a coloured backdrop, a figure, its mask and keypoints; frame 4 has no person."""
+    project = CaptureProject.create(root, num_frames=FRAMES, width=WIDTH, height=HEIGHT, fps=10.0,
+                                    source={"kind": "test"})
+    points = np.zeros((FRAMES, NUM_KEYPOINTS, 3), np.float32)
+    detected = np.ones(FRAMES, bool)
+    yy, xx = np.mgrid[0:HEIGHT, 0:WIDTH]
+    for i in range(FRAMES):
+        kp = _stick_figure(i)
+        img = np.zeros((HEIGHT, WIDTH, 3), np.uint8)
+        img[..., 0] = 40 + 30 * i
+        img[..., 1] = (yy * 120 // HEIGHT).astype(np.uint8)
+        img[..., 2] = 90
+        mask = (np.abs(xx - kp[11:13, 0].mean()) < 14) & (yy > 10) & (yy < 120)
+        if i == 4:
+            mask[:] = False
+            detected[i] = False
+        else:
+            img[mask] = (220, 190, 160)
+            points[i, :, :2] = kp
+            points[i, :, 2] = 0.9
+        project.save_frame(i, img)
+        project.save_mask(i, mask)
+    project.save_keypoints(Keypoints2D(points, detected, np.array(["test"] * FRAMES)))
+    if with_filter:
+        (root / "fits").mkdir(exist_ok=True)
+        (root / "fits" / "filter.json").write_text(json.dumps({
+            "rejected": {"1": "keypoint residual 41 px"},
+            "residuals": {str(i): 3.0 + i for i in range(FRAMES) if i != 4},
+        }))
+    return project
+
+
+@pytest.fixture
+def tiny_project(tmp_path) -> CaptureProject:
+    return make_tiny_project(tmp_path / "capture")

@@ -1,0 +1,128 @@
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from morf.avatar.trained import load_trained_avatar
+from morf.errors import InputError, TrainingDiverged
+from morf.pipeline.control import StageControl, StopRequested
+from morf.train.config import preset
+from morf.train.loop import train_avatar
+from morf.train.run_dir import RunDir
+from morf.train.trainer import Trainer
+
+
+def tiny(method, **kw):
+    base = dict(resolution=32, steps=40, batch_size=2, texture_size=32, inpaint_steps=0, report_every=5,
+                log_every=5, device="cpu")
+    base.update(kw)
+    return preset("tiny", method, **base)
+
+
+def texture_init(cfg):
+    g = torch.Generator().manual_seed(0)
+    return torch.randn(cfg.texture_channels, cfg.texture_size, cfg.texture_size, generator=g) * 0.5
+
+
+@pytest.mark.parametrize("method", ["morf", "stylepeople", "anr"])
+def test_tiny_run_loss_decreases(method, frames_factory):
+    torch.manual_seed(0)
+    frames = frames_factory()
+    cfg = tiny(method, steps=60, w_gan=0.0, lr_renderer=3e-3)
+    tr = Trainer(cfg, frames, texture_init(cfg))
+    hist = [tr.train_step()[0]["l1"] for _ in range(cfg.steps)]
+    assert np.mean(hist[-10:]) < 0.8 * np.mean(hist[:5])
+    if method == "morf":
+        assert tr.model.warp is not None
+    else:
+        assert tr.model.warp is None
+
+
+def test_anr_alternates_texture_and_renderer(frames_factory):
+    cfg = tiny("anr", w_gan=0.0)
+    tr = Trainer(cfg, frames_factory(), texture_init(cfg))
+    tex0 = tr.model.texture.texture.detach().clone()
+    ren0 = [p.detach().clone() for p in tr.model.renderer.parameters()]
+    tr.train_step()  # step 0: texture only
+    assert not torch.equal(tr.model.texture.texture, tex0)
+    assert all(torch.equal(a, b) for a, b in zip(ren0, tr.model.renderer.parameters()))
+    tex1 = tr.model.texture.texture.detach().clone()
+    tr.train_step()  # step 1: renderer only
+    assert torch.equal(tr.model.texture.texture, tex1)
+    assert not all(torch.equal(a, b) for a, b in zip(ren0, tr.model.renderer.parameters()))
+
+
+def test_full_run_with_progress_writes_avatar(frames_factory, tmp_path):
+    frames = frames_factory()
+    cfg = tiny("morf", steps=10)
+    seen = []
+    res = train_avatar(frames, tmp_path / "run", cfg, texture_init(cfg), StageControl(seen.append),
+                       shape=torch.full((1, 6), 0.5))
+    assert res.step == 10 and res.resumed_from == 0
+    trains = [p for p in seen if p.images]
+    assert trains and {"render", "warp"} <= set(trains[-1].images)
+    assert trains[-1].images["render"].shape == (32, 32, 3) and trains[-1].images["render"].dtype == np.uint8
+    run = RunDir(tmp_path / "run")
+    assert json.loads(run.config_path.read_text())["method"] == "morf"
+    assert [m["step"] for m in run.read_metrics()] == [5, 10]
+    assert "feature matching" in run.log_path.read_text()
+    av = load_trained_avatar(run.root)
+    assert av.texture.shape == (cfg.texture_channels, 32, 32) and av.method == "morf"
+    rgb, mask = av.render(torch.rand(1, 32, 32, 2), torch.ones(1, 32, 32, dtype=torch.bool))
+    assert rgb.shape == (1, 3, 32, 32) and mask.shape == (1, 1, 32, 32)
+    # a finished run is not trained again
+    assert train_avatar(frames, run.root, cfg, texture_init(cfg)).resumed_from == 10
+
+
+def test_stop_then_resume_continues_from_step_k(frames_factory, tmp_path):
+    frames = frames_factory()
+    cfg = tiny("morf", steps=12, checkpoint_minutes=1e6)
+    k = 5
+    control = StageControl()
+
+    def on_progress(p):
+        if p.step >= k:
+            control.stop()
+
+    control._on_progress = on_progress
+    with pytest.raises(StopRequested):
+        train_avatar(frames, tmp_path / "run", cfg.replace(report_every=1), texture_init(cfg), control)
+    run = RunDir(tmp_path / "run")
+    assert run.load_checkpoint()["step"] == k and not run.is_done
+    with pytest.raises(InputError):  # a different config is refused on resume
+        train_avatar(frames, run.root, cfg.replace(steps=99), texture_init(cfg))
+    res = train_avatar(frames, run.root, cfg.replace(report_every=1), texture_init(cfg))
+    assert res.resumed_from == k and res.step == 12
+    # identical to an uninterrupted run: same data order and state
+    straight = train_avatar(frames, tmp_path / "straight", cfg.replace(report_every=1), texture_init(cfg))
+    a = load_trained_avatar(run.root).texture
+    b = load_trained_avatar(straight.run_dir).texture
+    assert torch.allclose(a, b, atol=1e-5)
+
+
+def test_nan_raises_and_keeps_last_good_checkpoint(frames_factory, tmp_path, monkeypatch):
+    frames = frames_factory()
+    cfg = tiny("stylepeople", steps=6, checkpoint_minutes=1e6)
+    control = StageControl()
+    control._on_progress = lambda p: control.stop() if p.step >= 3 else None
+    with pytest.raises(StopRequested):
+        train_avatar(frames, tmp_path / "run", cfg.replace(report_every=1), texture_init(cfg), control)
+    run = RunDir(tmp_path / "run")
+    before = run.load_checkpoint()
+    import morf.train.trainer as trainer_mod
+
+    real = trainer_mod.generator_losses
+
+    def poisoned(*a, **k):
+        losses = real(*a, **k)
+        losses["l1"] = losses["l1"] * float("nan")
+        return losses
+
+    monkeypatch.setattr(trainer_mod, "generator_losses", poisoned)
+    with pytest.raises(TrainingDiverged, match="kept"):
+        train_avatar(frames, run.root, cfg.replace(report_every=1), texture_init(cfg))
+    after = run.load_checkpoint()
+    assert after["step"] == before["step"] == 3
+    assert all(torch.isfinite(v).all() for v in after["model"].values() if v.is_floating_point())
+    assert not run.is_done
