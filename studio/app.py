@@ -14,6 +14,7 @@ import ctypes
 import os
 import sys
 import time
+import traceback
 from pathlib import Path
 from typing import Any, Callable
 
@@ -72,7 +73,7 @@ class StudioApp:
         self._stage_status = {n: None if n in stages else (unavailable or {}).get(n, "not part of this build")
                               for n in shown}
         stages = {**stages, "cpu-load": cpu_load_stage}  # benchmark only, not shown as a button
-        self.worker = Worker(stages, unavailable).start()
+        self.worker = Worker(stages, unavailable, stage_threads=max(1, (os.cpu_count() or 2) - 1)).start()
         self.state = AppState(motion_dir=str(motion_dir if motion_dir is not None else DEFAULT_MOTION_DIR))
         self.view: ProjectView | None = None
         self.loader: ImageLoader | None = None
@@ -82,6 +83,7 @@ class StudioApp:
         self._player_opener = player_opener or open_player
         self._live: dict = {}
         self._review_rev = 0
+        self._was_busy = False
         self.frame_times: list[float] = []  # seconds per frame (UI work, without waiting for vsync)
         self._actions = make_actions(self.state, lambda: self.view, self.send)
         self._closed = False
@@ -172,9 +174,19 @@ class StudioApp:
             io.delta_time = self._fixed_dt
         imgui.new_frame()
         ui = self._ui_context()
-        handle_keys(ui.actions)
-        advance_playback(self.state, self.view, io.delta_time)
-        draw_ui(self.state, ui)
+        recovery = imgui.internal.ErrorRecoveryState()
+        imgui.internal.error_recovery_store_state(recovery)
+        try:
+            handle_keys(ui.actions)
+            advance_playback(self.state, self.view, io.delta_time)
+            draw_ui(self.state, ui)
+        except Exception as e:  # a bug in one panel must not close the app with the user's work
+            traceback.print_exc(file=sys.stderr)
+            self.state.note = f"display error: {type(e).__name__}: {e}"
+            io.config_error_recovery_enable_assert = False  # recover quietly, just this once
+            io.config_error_recovery_enable_tooltip = False
+            imgui.internal.error_recovery_try_to_recover_state(recovery)
+            io.config_error_recovery_enable_assert = True
         imgui.render()
         fw, fh = glfw.get_framebuffer_size(self.window)
         self.ctx.screen.use()
@@ -191,13 +203,17 @@ class StudioApp:
 
     def _ui_context(self) -> UiContext:
         snap = self.worker.latest()
-        if snap.review_rev != self._review_rev:
+        stage_ended = self._was_busy and not snap.busy
+        self._was_busy = snap.busy
+        if snap.review_rev != self._review_rev or stage_ended:
             self._review_rev = snap.review_rev
             if self.view is not None:
                 try:
-                    self.view.reload_decisions()
+                    self.view.refresh() if stage_ended else self.view.reload_decisions()
                 except MorfError as e:
                     self.state.note = str(e)
+                if stage_ended and self.player is None and self.view.avatar_ready():
+                    self.player, self.player_note = self._player_opener(self.view.project.avatar_dir)
         self.textures.pump()
         return UiContext(view=self.view, textures=self.textures, snapshot=snap, send=self.send,
                          stages=self._stage_status, stage_labels=self._stage_labels, actions=self._actions,
@@ -330,7 +346,7 @@ def run_cli(args: argparse.Namespace) -> int:
         raise MorfError("no display found (DISPLAY / WAYLAND_DISPLAY unset); use --headless-frames N --screenshot PNG")
     with StudioApp(args.project, size=size, headless=headless) as app:
         if args.panel:
-            app.state.panel = args.panel - 1
+            app.state.select_panel(args.panel - 1)
         if app.view is not None:
             app.state.frame = max(0, min(args.frame, app.view.num_frames - 1))
         app.state.show_help = args.help_overlay

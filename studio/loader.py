@@ -30,9 +30,10 @@ class ImageLoader:
         thumb_height: height of thumbnails in pixels.
     """
 
-    def __init__(self, paths: dict[str, Callable[[int], object]], thumb_height: int = 72):
+    def __init__(self, paths: dict[str, Callable[[int], object]], thumb_height: int = 72, max_side: int = 1280):
         self._paths = paths
         self._thumb_height = thumb_height
+        self._max_side = max_side  # larger frames are shrunk here: uploads stay cheap on the UI thread
         self._cond = threading.Condition()
         self._wanted: list[Key] = []  # a stack: newest request on top
         self._ready: dict[Key, np.ndarray] = {}
@@ -90,11 +91,18 @@ class ImageLoader:
             tw = max(1, round(w * self._thumb_height / h))
             return cv2.resize(rgb, (tw, self._thumb_height), interpolation=cv2.INTER_AREA)
         if kind == "mask":
-            m = read_image(self._paths["mask"](i), grayscale=True) > 127
+            m = self._shrink(read_image(self._paths["mask"](i), grayscale=True)) > 127
             out = np.zeros(m.shape + (4,), np.uint8)
             out[m] = MASK_TINT
             return out
         if kind == "fit":
-            return read_rgba(self._paths["fit"](i))
-        return read_image(self._paths[kind](i))
+            return self._shrink(read_rgba(self._paths["fit"](i)))
+        return self._shrink(read_image(self._paths[kind](i)))
+
+    def _shrink(self, image: np.ndarray) -> np.ndarray:
+        h, w = image.shape[:2]
+        s = self._max_side / max(h, w)
+        if s >= 1.0:
+            return image
+        return cv2.resize(image, (max(1, round(w * s)), max(1, round(h * s))), interpolation=cv2.INTER_AREA)
 

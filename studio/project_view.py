@@ -29,8 +29,15 @@ class ProjectView:
         self.project = project
         kp_path = project.root / "keypoints.npz"
         self.keypoints: Keypoints2D | None = project.load_keypoints() if kp_path.is_file() else None
-        self.decisions: list[FrameDecision] = project.frame_decisions()
-        self.residuals: dict[int, float] = _load_residuals(project)
+        self.refresh()
+
+    def refresh(self) -> None:
+        """Re-read what stages write (decisions, residuals, overlays, avatar), e.g. after a stage ended."""
+        self.decisions: list[FrameDecision] = self.project.frame_decisions()
+        self.residuals: dict[int, float] = _load_residuals(self.project)
+        self._fit_overlays = (self.project.fits_dir / "overlays").is_dir()
+        d = self.project.avatar_dir
+        self._avatar_ready = d.is_dir() and any(d.iterdir())
 
     @classmethod
     def open(cls, root: str | Path) -> "ProjectView":
@@ -72,11 +79,10 @@ class ProjectView:
         return self.project.fits_dir / "overlays" / f"{i:06d}.png"
 
     def has_fit_overlays(self) -> bool:
-        return (self.project.fits_dir / "overlays").is_dir()
+        return self._fit_overlays
 
     def avatar_ready(self) -> bool:
-        d = self.project.avatar_dir
-        return d.is_dir() and any(d.iterdir())
+        return self._avatar_ready
 
     def keypoints_of(self, i: int) -> np.ndarray | None:
         """(23, 3) x, y, confidence of frame i, or None without keypoints or detection."""

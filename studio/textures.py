@@ -1,6 +1,6 @@
 """GL textures for images: decoded by the loader thread, uploaded here a few per frame.
 
-Uploading a large frame costs milliseconds, so at most ``upload_budget`` images go up per UI
+Uploading a large frame costs milliseconds, so only about ``upload_budget`` bytes go up per UI
 frame; thumbnails stay cached for the life of the project, large images in a small LRU.
 """
 
@@ -16,6 +16,11 @@ from studio.loader import MISSING, ImageLoader, Key
 
 def upload(ctx: moderngl.Context, image: np.ndarray, texture: moderngl.Texture | None = None) -> moderngl.Texture:
     """(H, W, 3|4) uint8 -> texture (reused when it has the same size and channels)."""
+    image = np.asarray(image)
+    if image.dtype != np.uint8:  # previews may come as floats in [0, 1]
+        image = (np.clip(image, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+    if image.ndim == 2:
+        image = np.repeat(image[..., None], 3, axis=2)
     image = np.ascontiguousarray(image)
     h, w, c = image.shape
     if texture is None or texture.size != (w, h) or texture.components != c:
@@ -30,7 +35,7 @@ def upload(ctx: moderngl.Context, image: np.ndarray, texture: moderngl.Texture |
 class TextureCache:
     """Textures of project images (through an :class:`ImageLoader`) and of preview images."""
 
-    def __init__(self, ctx: moderngl.Context, loader: ImageLoader | None, upload_budget: int = 3,
+    def __init__(self, ctx: moderngl.Context, loader: ImageLoader | None, upload_budget: int = 4 << 20,
                  max_large: int = 24):
         self._ctx = ctx
         self._loader = loader
@@ -62,10 +67,16 @@ class TextureCache:
         return key in self._thumbs or key in self._large
 
     def pump(self) -> None:
-        """Upload up to the budget of decoded images; call once per UI frame."""
+        """Upload decoded images, about ``upload_budget`` bytes per call; call once per UI frame."""
         if self._loader is None:
             return
-        for key, image in self._loader.take_ready(self._budget):
+        spent = 0
+        while spent < self._budget:
+            ready = self._loader.take_ready(1)
+            if not ready:
+                return
+            key, image = ready[0]
+            spent += image.nbytes
             self._requested.discard(key)
             tex = None if image is MISSING or image.size == 0 else upload(self._ctx, image)
             if key[0] == "thumb":

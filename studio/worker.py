@@ -83,10 +83,14 @@ class Worker:
     Args:
         stages: stage name -> function; see :data:`StageFn`.
         unavailable: stage name -> why it cannot run (shown when the UI asks for it anyway).
+        stage_threads: torch threads for stages (None: leave torch's setting). The app leaves one
+            core to the UI: on a 2-core machine torch's spinning threads otherwise starve it.
     """
 
-    def __init__(self, stages: dict[str, StageFn], unavailable: dict[str, str] | None = None):
+    def __init__(self, stages: dict[str, StageFn], unavailable: dict[str, str] | None = None,
+                 stage_threads: int | None = None):
         self._stages = dict(stages)
+        self._stage_threads = stage_threads
         self._unavailable = dict(unavailable or {})
         self._commands: "queue.Queue[Command]" = queue.Queue()
         self.mailbox = Mailbox()
@@ -231,6 +235,10 @@ class Worker:
         if self._project is None:
             self._publish(error=f"open a project before running '{name}'")
             return
+        if self._stage_threads:
+            import torch  # the stages use it anyway; imported here, not at app start
+
+            torch.set_num_threads(self._stage_threads)
         control = _WorkerControl(self)
         self._control, self._curves = control, {}
         self._run_start, self._paused_total, self._paused_since, self._last_report = time.monotonic(), 0.0, None, None

@@ -23,7 +23,7 @@ class AvatarOutput:
     """One rendered batch.
 
     Fields:
-        rgb: (B, 3, H, W) premultiplied RGB in [0, 1].
+        rgb: (B, 3, H, W) premultiplied linear RGB (about [0, 1]; not clamped, the loss sees it raw).
         mask_logit: (B, 1, H, W) person mask logits.
         features: (B, C, H, W) the neural rasterization fed to the renderer.
         offsets: (B, 2, Ht, Wt) texture offsets, or None without warping.
@@ -98,6 +98,7 @@ def bake_texture(texture: torch.Tensor, warp: WarpField | None) -> torch.Tensor:
 
 def render_with_texture(renderer: nn.Module, texture: torch.Tensor, uv: torch.Tensor,
                         uv_mask: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """Inference path: (C, Ht, Wt) baked texture + (B, H, W, 2) UVs -> RGB (B, 3, H, W), mask (B, 1, H, W)."""
+    """Inference path: (C, Ht, Wt) baked texture + (B, H, W, 2) UVs -> RGB (B, 3, H, W) premultiplied and
+    clamped to [0, 1], mask probability (B, 1, H, W)."""
     out = renderer(sample_texture(texture, uv, uv_mask))
-    return out[:, :3], torch.sigmoid(out[:, 3:])
+    return out[:, :3].clamp(0, 1), torch.sigmoid(out[:, 3:])

@@ -11,8 +11,12 @@ Transpose):
       head: 3x3 conv at H/s; if stem > 1 it is upsampled bilinearly to H and concatenated with
             the raw input (the full-resolution skip), then two 1x1 convs -> 4 channels.
 
-Output ``(B, 4, H, W)``: channels 0-2 are RGB in [0, 1] premultiplied by the mask (black
-background), channel 3 is the mask logit. H and W must be multiples of ``stem * 2**depth``.
+Output ``(B, 4, H, W)``: channels 0-2 are linear RGB, trained towards [0, 1] premultiplied by the
+mask (black background; clamp for display), channel 3 is the mask logit. H and W must be multiples
+of ``stem * 2**depth``. The RGB head is linear on purpose: an L1 loss through a sigmoid drives the
+logits to saturate, activations blew up and the mask channel stopped learning (measured on a tiny
+capture). The mask bias starts at -2 (p = 0.12, about the person's share of a frame), which gets
+the Dice loss off its initial plateau sooner.
 """
 
 from __future__ import annotations
@@ -41,13 +45,16 @@ class RendererConfig:
         return self.stem * 2 ** self.depth
 
 
+MASK_BIAS_INIT = -2.0
+
+
 def _block(cin: int, cout: int, stride: int = 1) -> nn.Sequential:
     return nn.Sequential(nn.Conv2d(cin, cout, 3, stride, 1), nn.LeakyReLU(0.2, inplace=True),
                          nn.Conv2d(cout, cout, 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
 
 
 class UNetRenderer(nn.Module):
-    """(B, C, H, W) neural rasterization -> (B, 4, H, W) premultiplied RGB + mask logit."""
+    """(B, C, H, W) neural rasterization -> (B, 4, H, W) linear premultiplied RGB + mask logit."""
 
     def __init__(self, cfg: RendererConfig = RendererConfig()):
         super().__init__()
@@ -71,6 +78,9 @@ class UNetRenderer(nn.Module):
             self.head_low = nn.Sequential(nn.Conv2d(ch[0], ch[0], 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
             self.head = nn.Sequential(nn.Conv2d(ch[0] + cfg.in_channels, cfg.skip_hidden, 1),
                                       nn.LeakyReLU(0.2, inplace=True), nn.Conv2d(cfg.skip_hidden, 4, 1))
+        last = self.head if cfg.stem == 1 else self.head[-1]
+        with torch.no_grad():
+            last.bias[3] = MASK_BIAS_INIT
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         h = self.enc0(self.stem(x))
@@ -86,7 +96,7 @@ class UNetRenderer(nn.Module):
         else:
             h = F.interpolate(self.head_low(h), scale_factor=float(self.cfg.stem), mode="bilinear", align_corners=False)
             out = self.head(torch.cat([h, x], dim=1))
-        return torch.cat([torch.sigmoid(out[:, :3]), out[:, 3:]], dim=1)
+        return out
 
 
 def count_parameters(module: nn.Module) -> int:

@@ -77,13 +77,13 @@ def measure(avatar_dir: str, size: int, frames: int) -> dict:
             rt.append((time.perf_counter() - t1) * 1e3)
         out["breakdown_ms"] = {k: float(np.median(v)) for k, v in steps.items()}
         out["renderer_only_ms"] = float(np.median(rt))
+    out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # before the fp32 check
     out.update(frame_ms=seq * 1e3, fps_end_to_end=1.0 / seq, frame_ms_pipelined=piped * 1e3,
                fps_pipelined=1.0 / piped)
     with Player(avatar_dir, size=size, background=(255, 255, 255), precision="fp32") as p32:
         ref = [p32.render(rot[i], tr[i], cams[i]) for i in range(5, 5 + min(5, frames))]
     mse = np.mean([np.mean((a.astype(np.float32) - b) ** 2) for a, b in zip(ref, images)]) / 255.0 ** 2
     out["int8_psnr_vs_fp32_image_db"] = float(-10 * np.log10(max(mse, 1e-12)))
-    out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     return out
 
 

@@ -6,8 +6,8 @@ change from frame to frame. MoRF makes the choice explicit:
 * **Finding people** (:func:`find_people`): run the detector on the (downscaled) frame and on
   square tiles of it, paint each found person's box over with the frame's mean colour and run
   it again, until nobody more is found. No extra model is needed, and every person found comes
-  with keypoints and a mask. (OpenCV's HOG people detector was tried on the real two-person
-  sample first: it missed both people and fired on a wall in every frame.)
+  with keypoints and a mask. (OpenCV's HOG people detector was tried first on the real
+  two-person sample: it missed both people and fired on the same empty spot in every frame.)
 * **Choosing**: in the first frame where anybody is found, the largest person (box area) is
   chosen; the first ``probe_frames`` frames are searched whole, so their people are counted.
 * **Following** (:class:`PersonTracker`): each later frame is cropped around the followed

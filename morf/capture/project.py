@@ -3,11 +3,14 @@
 Layout (format "morf-capture", version 1)::
 
     PROJECT/
-      morf_project.json   manifest: version, source, frame count, image size, fps, camera
+      morf_project.json   manifest: version, source, frame count, image size, fps, camera,
+                          frame_ext (".png" or ".jpg"), and an "ingest" section (source frames,
+                          scale, people seen, where the focal length came from, warnings)
       frames/000000.png   RGB frames (PNG; JPEG for long videos)
       masks/000000.png    person masks, 0 or 255
       keypoints.npz       keypoints (N, 23, 3) x, y, confidence (COCO-17 + 6 feet);
                           detected (N,) bool; source (N,) str: mediapipe | openpose | ground_truth | none
+      keypoints_hands_face.npz  OpenPose hand and face points, when imported
       review.json         the user's per-frame decisions: {"drop": [...], "keep": [...]}
       fits/               body fits and the automatic frame filter (morf fit)
       runs/               training runs (morf train)

@@ -55,13 +55,13 @@ def run(args) -> int:
     bar = progress(total=cfg.steps, desc=f"train {cfg.method}", unit="step")
 
     def on_progress(p):
+        if p.message:
+            bar.set_description_str(p.message[:40], refresh=False)
         if p.total and p.step:
             bar.n = p.step
             if p.losses:
                 bar.set_postfix({k: f"{v:.3f}" for k, v in p.losses.items() if k in ("l1", "dice", "total")}, refresh=False)
-            bar.refresh()
-        elif p.message:
-            bar.set_description_str(p.message[:40])
+        bar.refresh()
 
     control = StageControl(on_progress)
     previous = signal.signal(signal.SIGINT, lambda *_: control.stop())
@@ -74,6 +74,9 @@ def run(args) -> int:
     finally:
         signal.signal(signal.SIGINT, previous)
         bar.close()
+    if result.resumed_from >= result.step and not result.losses:
+        print(f"{result.run_dir} is already trained ({result.step} steps); use --restart to train it again")
+        return 0
     resumed = f" (resumed at step {result.resumed_from})" if result.resumed_from else ""
     print(f"trained {result.run_dir} : {result.step} steps in {result.train_minutes:.1f} min{resumed}")
     if result.losses:

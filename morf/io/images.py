@@ -48,7 +48,14 @@ def write_image(path: str | os.PathLike, img: np.ndarray, *, jpeg_quality: int =
     if img.dtype != np.uint8:
         raise TypeError(f"write_image wants uint8, got {img.dtype}")
     out = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_RGB2BGR)
-    params = [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality] if str(path).lower().endswith((".jpg", ".jpeg")) else []
+    suffix = str(path).lower()
+    if suffix.endswith((".jpg", ".jpeg")):
+        params = [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality]
+    elif suffix.endswith(".png"):
+        # Level 1 is several times faster than OpenCV's default 3 for a few percent more bytes.
+        params = [cv2.IMWRITE_PNG_COMPRESSION, 1]
+    else:
+        params = []
     with atomic_path(path) as tmp:
         if not cv2.imwrite(str(tmp), out, params):
             raise OSError(f"cannot write image {path}")

@@ -12,7 +12,7 @@ import numpy as np
 import torch
 from scipy.ndimage import gaussian_filter1d
 
-from morf.motion.anny_rest import FOOT_KEYPOINTS, target_rest
+from morf.motion.anny_rest import FOOT_KEYPOINTS, FootPointEvaluator, target_rest
 from morf.motion.clip import MotionClip
 
 
@@ -32,14 +32,13 @@ class GroundConfig:
 def foot_points(clip: MotionClip, model, shape: torch.Tensor | None = None, batch_size: int = 64,
                 control=None) -> np.ndarray:
     """(T, 6, 3) the six foot keypoints (toes, heels) of every frame of ``clip``, metres."""
-    shape = model.default_shape() if shape is None else shape[:1]
+    evaluate = FootPointEvaluator(model, shape)
     out = np.empty((clip.num_frames, len(FOOT_KEYPOINTS), 3))
     for s in range(0, clip.num_frames, batch_size):
         if control is not None:
             control.check()
         frames = np.arange(s, min(s + batch_size, clip.num_frames))
-        kp = model(clip.poses(frames, device=shape.device), shape).keypoints3d
-        out[frames] = kp[:, list(FOOT_KEYPOINTS)].double().cpu().numpy()
+        out[frames] = evaluate(clip.poses(frames, device=evaluate.shape.device)).double().cpu().numpy()
     return out
 
 

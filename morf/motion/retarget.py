@@ -25,12 +25,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import minimum_filter1d
 
 from morf.errors import InputError
 from morf.motion.anny_rest import TargetRest
 from morf.motion.joint_maps import SPREAD_BONES, JointMap, map_for
 from morf.motion.skeleton import SourceMotion, forward_kinematics, to_z_up
-from morf.motion.so3 import axis_rotation, fraction, frame_from, matrix_to_rotvec, swing
+from morf.motion.so3 import axis_rotation, fraction, frame_from, matrix_to_rotvec, rotvec_to_matrix, swing
 
 
 @dataclass(frozen=True)
@@ -132,19 +133,36 @@ def retarget_rotations(source: SourceMotion, target: TargetRest, joint_map: Join
     scale = target.leg_length / _leg_length(src_rest, sidx, jm)
     root = sidx(jm.joint_for("root"))
     transl = scale * Xw[:, root]
-    feet = [sidx(a.joint) for a in jm.anchors if a.bone.startswith(("foot.", "toe"))]
-    feet += [sidx(a.joint_tip) for a in jm.anchors if a.bone.startswith(("foot.", "toe")) and a.joint_tip]
-    lowest = Xw[:, feet, 2].min(axis=1)
-    clearance = scale * np.clip(lowest - np.percentile(lowest, 5), 0.0, None)
+    clearance = scale * source_clearance(Xw, src_rest, [sidx(j) for j in _foot_joints(jm)], source.fps)
     return Retargeted(rotvecs, transl, clearance, scale * Xw, float(scale), jm)
+
+
+def _foot_joints(jm: JointMap) -> set[str]:
+    feet = [a for a in jm.anchors if a.bone.startswith(("foot.", "toe"))]
+    return {a.joint for a in feet} | {a.joint_tip for a in feet if a.joint_tip}
+
+
+def source_clearance(X: np.ndarray, rest: np.ndarray, feet: list[int], fps: float, window_s: float = 1.0,
+                     deadband: float = 0.02) -> np.ndarray:
+    """(T,) height of the source's soles above its floor, metres (source scale): 0 while standing.
+
+    Joint centres sit at different heights above the sole (ankle above toes), so each foot joint's
+    height is lowered by its rest height above the lowest rest foot joint before taking the
+    minimum over the feet. Mocap floors are not exact (and a dancer on tiptoe stands higher), so
+    the floor is the lowest sole height within ``window_s`` around each frame: flight phases
+    (jumps) keep their height, standing and walking get 0. Heights under ``deadband`` count as
+    contact.
+    """
+    lift = rest[feet, 2] - rest[feet, 2].min()
+    sole = (X[:, feet, 2] - lift).min(axis=1)
+    floor = minimum_filter1d(sole, size=max(1, int(round(window_s * fps))) | 1, mode="nearest")
+    return np.clip(sole - floor - deadband, 0.0, None)
 
 
 def turn_and_shift(r: Retargeted, face_forward: bool, center: bool) -> Retargeted:
     """Turn the whole motion about Z so frame 0 faces -Y, and shift it so frame 0's root is at x = y = 0."""
     rotvecs, transl, pos = r.rotvecs.copy(), r.transl.copy(), r.source_positions.copy()
     if face_forward:
-        from morf.motion.so3 import rotvec_to_matrix
-
         R0 = rotvec_to_matrix(rotvecs[:, 0])
         fwd = R0[0] @ np.array([0.0, -1.0, 0.0])
         yaw = np.degrees(np.arctan2(fwd[0], -fwd[1]))  # angle from -Y towards +X

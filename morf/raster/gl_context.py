@@ -29,8 +29,9 @@ class GLState:
     the first time; programs, framebuffers and vertex buffers are reused across frames this way.
     """
 
-    def __init__(self, ctx):
+    def __init__(self, ctx, owned: bool = True):
         self.ctx = ctx
+        self.owned = owned  # False for an adopted context: its owner releases it
         self._cache: dict[Any, Any] = {}
 
     def cached(self, key, make: Callable[[], Any]):
@@ -52,7 +53,8 @@ class GLState:
         for obj in self._cache.values():
             _release(obj)
         self._cache.clear()
-        self.ctx.release()
+        if self.owned:
+            self.ctx.release()
 
 
 def _release(obj) -> None:
@@ -81,6 +83,21 @@ def gl_state() -> GLState:
                     "install the system packages libegl1 and libgl1") from None
         state = GLState(ctx)
         _LOCAL.state = state
+    return state
+
+
+def adopt_gl_context(ctx) -> GLState:
+    """Use an existing moderngl context (e.g. an app window's) for this thread's rasterization.
+
+    Needed on a thread that already has a window context current: creating a standalone one
+    there would make it current instead. The rasterizers bind their own framebuffers and set
+    the viewport, depth test and blending; the caller re-binds its screen afterwards.
+    """
+    old = getattr(_LOCAL, "state", None)
+    if old is not None and old.ctx is not ctx:
+        old.release()
+    state = GLState(ctx, owned=False) if old is None or old.ctx is not ctx else old
+    _LOCAL.state = state
     return state
 
 

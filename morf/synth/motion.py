@@ -130,8 +130,8 @@ def holdout_motion(bone_names: list[str], n: int, rng: np.random.Generator) -> M
     p = _PoseBuilder(bone_names, n)
     arms, sway, step = (part == 0) * local, (part == 1) * local, (part == 2) * local
     # Arms: raised sideways towards horizontal and beyond, the right a little ahead of the left.
-    p.add("upperarm01.L", (0, -1, 0), np.deg2rad(95) * arms)
-    p.add("upperarm01.R", (0, 1, 0), np.deg2rad(110) * arms)
+    p.add("upperarm01.L", (0, -1, 0), np.deg2rad(80) * arms)
+    p.add("upperarm01.R", (0, 1, 0), np.deg2rad(92) * arms)
     # Hip sway: the pelvis shifts and tilts, the spine leans the other way, one knee gives.
     p.add("root", (0, 1, 0), np.deg2rad(8) * sway)
     p.add("spine03", (0, 1, 0), np.deg2rad(-10) * sway)

@@ -131,7 +131,7 @@ class Trainer:
             raise TrainingDiverged(f"training diverged at step {self.step}: parameters became non-finite")
         self.step += 1
         values = {k: float(v.detach()) for k, v in losses.items()}
-        values["total"] = float(total)
+        values["total"] = float(total.detach())
         return values, out, batch
 
 

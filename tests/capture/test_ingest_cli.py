@@ -12,7 +12,7 @@ import pytest
 
 from morf.capture.project import CaptureProject
 from morf.cli.main import main
-from tests.capture.helpers import write_frames, write_masks, write_openpose, write_video
+from capture_helpers import write_frames, write_masks, write_openpose, write_video
 
 
 def snapshot(root: Path) -> dict[str, str]:

@@ -14,7 +14,7 @@ from morf.capture.matching import match_files
 from morf.capture.openpose import HandsFace, check_pixel_coordinates, read_openpose_json
 from morf.capture.video import natural_key, open_images, open_video
 from morf.errors import InputError
-from tests.capture.helpers import body25, write_frames, write_video
+from capture_helpers import body25, write_frames, write_video
 
 
 def test_video_streams_every_kth_frame(tmp_path):
@@ -129,3 +129,17 @@ def test_mask_reading(tmp_path):
         read_mask(tmp_path / "m.png", 32, 24)
     small = resize_mask(got, 32, 24)
     assert small.shape == (24, 32) and small.sum() == 100
+
+
+def test_exif_focal_length(tmp_path):
+    from PIL import Image
+
+    from morf.capture.video import exif_focal_px
+
+    img = Image.fromarray(np.zeros((300, 400, 3), np.uint8))
+    exif = Image.Exif()
+    exif.get_ifd(0x8769)[0xA405] = 35  # FocalLengthIn35mmFilm
+    img.save(tmp_path / "e.jpg", exif=exif)
+    img.save(tmp_path / "plain.jpg")
+    assert exif_focal_px(tmp_path / "e.jpg", 400, 300) == pytest.approx(35 * 500 / 43.27)
+    assert exif_focal_px(tmp_path / "plain.jpg", 400, 300) is None

@@ -286,3 +286,22 @@ def test_filter_file_with_residuals_is_read(tiny_project):
     (tiny_project.fits_dir / "filter.json").write_text(json.dumps({"rejected": {}, "residuals": {"x": 1}}))
     with pytest.raises(MorfError):
         ProjectView(tiny_project)
+
+
+def test_a_failing_panel_is_reported_and_the_app_goes_on(make_app, tiny_project, monkeypatch):
+    import studio.layout
+
+    def broken(state, ui):
+        imgui.begin_child("half_done")  # left open: the app must recover imgui's stack
+        raise RuntimeError("panel bug")
+
+    panels = list(studio.layout.PANEL_DRAW)
+    panels[2] = broken
+    monkeypatch.setattr(studio.layout, "PANEL_DRAW", tuple(panels))
+    app = make_app("capture")
+    app.settle()
+    app.press(K._3)
+    assert "panel bug" in app.state.note
+    app.press(K._1)
+    assert app.state.panel == 0
+    assert app.frame(capture=True) is not None

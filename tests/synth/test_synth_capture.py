@@ -2,6 +2,7 @@
 
 import json
 
+import cv2
 import numpy as np
 import pytest
 import torch
@@ -80,7 +81,8 @@ def test_masks_match_the_projected_geometry(tiny, body_model):
         # the image shows the person exactly where the mask is
         frame = p.load_frame(i).astype(int)
         background = np.all(np.abs(frame - np.array([118, 124, 130])) <= 1, axis=-1)
-        assert np.array_equal(background[~mask], np.ones((~mask).sum(), bool))
+        near = cv2.dilate(mask.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0  # anti-aliased border
+        assert background[~near].all()
         assert background[mask].mean() < 0.02
         # true torso keypoints land on the person
         kp = gt["keypoints_true"][i]
