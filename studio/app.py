@@ -80,7 +80,7 @@ class StudioApp:
         self.textures = TextureCache(self.ctx, None)
         self.player: Any = None
         self.player_note: str | None = None
-        self._player_opener = player_opener or open_player
+        self._player_opener = player_opener or (lambda d: open_player(d, ctx=self.ctx))
         self._live: dict = {}
         self._review_rev = 0
         self._was_busy = False
@@ -155,6 +155,8 @@ class StudioApp:
     def _close_project(self) -> None:
         if self.loader is not None:
             self.loader.close()
+        if hasattr(self.player, "release"):
+            self.player.release()
         self.textures.release()
         self.view, self.loader, self.player, self.player_note = None, None, None, None
         self._live.clear()

@@ -1,14 +1,14 @@
 """How the live-render panel meets the avatar player (``morf.playback``).
 
 The panel needs only an object with ``render(pose, camera)`` returning either an (H, W, 3) uint8
-RGB image or a moderngl texture; ``pose`` is one frame of the chosen motion (None: the player's
-own default pose) and ``camera`` a :class:`morf.camera.PinholeCamera` from the orbit camera.
-The player is looked up lazily in the library; until it exists the panel says so.
+RGB image or a moderngl texture, and a ``size`` (the side of the square images it renders);
+``pose`` is one frame of the chosen motion (None: the rest pose) and ``camera`` a
+:class:`morf.camera.PinholeCamera` from the orbit camera. The library's player is imported lazily;
+when it is missing or the avatar cannot be opened the panel says why.
 """
 
 from __future__ import annotations
 
-import importlib
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -25,34 +25,65 @@ class Player(Protocol):
         """One frame: (H, W, 3) uint8 RGB or a moderngl.Texture of camera.width x camera.height."""
 
 
-def open_player(avatar_dir: Path) -> tuple[Player | None, str | None]:
+class PlaybackPlayer:
+    """Adapts ``morf.playback``'s player (``render_texture(rotvecs, transl, camera)``) to :class:`Player`.
+
+    ``pose`` is None (the rest pose: Anny's A-pose) or (rotvecs (J, 3), transl (3,)). It renders
+    square images of ``size`` pixels into a texture of the studio's own GL context.
+    """
+
+    def __init__(self, player: Any):
+        self._player = player
+        self.size = int(player.size)
+        self.num_bones = int(player.avatar.skeleton.num_bones)
+
+    def render(self, pose: Any, camera: PinholeCamera) -> Any:
+        if pose is None:
+            rotvecs, transl = np.zeros((self.num_bones, 3), np.float32), np.zeros(3, np.float32)
+        else:
+            rotvecs, transl = pose
+        return self._player.render_texture(rotvecs, transl, camera)
+
+    def release(self) -> None:
+        self._player.release()
+
+
+def open_player(avatar_dir: Path, ctx: Any = None) -> tuple[Player | None, str | None]:
     """(player, None) for an exported avatar, or (None, why not in words)."""
     try:
-        playback = importlib.import_module("morf.playback")
-    except ImportError:
-        return None, "the avatar player (morf.playback) is not part of this build yet"
-    opener = next((getattr(playback, n) for n in ("load_player", "open_player") if callable(getattr(playback, n, None))), None)
-    if opener is None:
-        return None, "morf.playback has no load_player(avatar_dir)"
+        from morf.playback.player import open_player as open_playback
+    except ImportError as e:
+        return None, f"the avatar player (morf.playback) cannot be loaded: {e}"
     try:
-        return opener(avatar_dir), None
+        return PlaybackPlayer(open_playback(avatar_dir, ctx=ctx)), None
     except MorfError as e:
         return None, str(e)
     except Exception as e:  # a broken avatar must not take the studio down
         return None, f"{type(e).__name__}: {e}"
 
 
-def load_motion(path: Path) -> tuple[Any | None, str | None]:
-    """A motion clip (a sequence of poses with ``len``) for the player, or (None, why not)."""
+class MotionFrames:
+    """A motion clip as a sequence of poses for :meth:`PlaybackPlayer.render`."""
+
+    def __init__(self, rotvecs: np.ndarray, transl: np.ndarray, fps: float):
+        self.rotvecs, self.transl, self.fps = rotvecs, transl, fps
+
+    def __len__(self) -> int:
+        return int(self.rotvecs.shape[0])
+
+    def __getitem__(self, t: int) -> tuple[np.ndarray, np.ndarray]:
+        return self.rotvecs[t], self.transl[t]
+
+
+def load_motion(path: Path, num_bones: int) -> tuple[MotionFrames | None, str | None]:
+    """A motion clip for the player, or (None, why not in words)."""
     try:
-        playback = importlib.import_module("morf.playback")
-    except ImportError:
-        return None, "motions need the avatar player (morf.playback)"
-    loader = getattr(playback, "load_motion", None)
-    if not callable(loader):
-        return None, "morf.playback has no load_motion(path)"
+        from morf.playback.motion_input import load_playback_motion
+    except ImportError as e:
+        return None, f"motions need the avatar player (morf.playback): {e}"
     try:
-        return loader(path), None
+        m = load_playback_motion(path, num_bones)
+        return MotionFrames(m.rotvecs, m.transl, m.fps), None
     except MorfError as e:
         return None, str(e)
     except Exception as e:

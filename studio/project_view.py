@@ -6,13 +6,13 @@ fits/filter.json); images are decoded later by :mod:`studio.loader`.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from morf.capture.project import CaptureProject, FrameDecision, Keypoints2D
 from morf.errors import ProjectError
+from morf.io import load_npz
 
 
 class ProjectView:
@@ -75,8 +75,10 @@ class ProjectView:
         return 0 <= i < len(self.decisions) and self.decisions[i].reason == "dropped by user"
 
     def fit_overlay_path(self, i: int) -> Path:
-        """A rendered fitted-mesh overlay for frame i (written by fitting, when it makes them)."""
-        return self.project.fits_dir / "overlays" / f"{i:06d}.png"
+        """The fit's overlay image of frame i (fits/overlays/000000.jpg, written by ``morf fit``)."""
+        base = self.project.fits_dir / "overlays" / f"{i:06d}"
+        png = base.with_suffix(".png")
+        return png if png.is_file() else base.with_suffix(".jpg")
 
     def has_fit_overlays(self) -> bool:
         return self._fit_overlays
@@ -92,12 +94,11 @@ class ProjectView:
 
 
 def _load_residuals(project: CaptureProject) -> dict[int, float]:
-    """Per-frame fit residuals from fits/filter.json's optional ``"residuals": {frame: px}``."""
-    p = project.fits_dir / "filter.json"
+    """Per-frame mean keypoint residual of the body fit (fits/fits.npz), empty before fitting."""
+    p = project.fits_dir / "fits.npz"
     if not p.is_file():
         return {}
-    try:
-        d = json.loads(p.read_text())
-        return {int(k): float(v) for k, v in (d.get("residuals") or {}).items()}
-    except (json.JSONDecodeError, TypeError, ValueError, AttributeError) as e:
-        raise ProjectError(f"damaged filter file {p}: {e}") from None
+    r = load_npz(p).get("keypoint_residual_px")
+    if r is None or r.ndim != 1:
+        raise ProjectError(f"damaged fits file {p}: no per-frame keypoint_residual_px")
+    return {i: float(v) for i, v in enumerate(r) if np.isfinite(v)}

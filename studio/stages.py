@@ -29,18 +29,18 @@ class StageSpec:
 
     name: str  # the key the UI uses ("fit")
     label: str  # button text ("Fit body")
-    module: str  # "morf.fitting"
+    modules: tuple[str, ...]  # where to look, in order ("morf.fitting", "morf.fitting.project_fit")
     functions: tuple[str, ...]  # candidate function names, first found wins
-    configs: tuple[str, ...]  # candidate config dataclass names
+    configs: tuple[str, ...]  # candidate config dataclass names (looked up in the same modules)
 
 
 LIBRARY_STAGES = (
-    StageSpec("fit", "Fit body", "morf.fitting", ("fit_project", "fit_capture", "run_fit", "fit"),
-              ("FitConfig", "FittingConfig")),
-    StageSpec("train", "Train avatar", "morf.train", ("train_project", "train", "run_training"),
-              ("TrainConfig", "TrainingConfig")),
-    StageSpec("export", "Export", "morf.export", ("export_project", "export_avatar", "export"),
-              ("ExportConfig",)),
+    StageSpec("fit", "Fit body", ("morf.fitting", "morf.fitting.project_fit", "morf.fitting.config"),
+              ("fit_project",), ("FitConfig",)),
+    StageSpec("train", "Train avatar", ("morf.train", "morf.train.project_run", "morf.train.config"),
+              ("train_project",), ("TrainConfig",)),
+    StageSpec("export", "Export", ("morf.export", "morf.export.export_project", "morf.export.config"),
+              ("export_project",), ("ExportConfig",)),
 )
 
 
@@ -67,17 +67,19 @@ def find_library_stages() -> tuple[dict[str, StageFn], dict[str, str]]:
     found: dict[str, StageFn] = {}
     missing: dict[str, str] = {}
     for spec in LIBRARY_STAGES:
-        try:
-            module = importlib.import_module(spec.module)
-        except ImportError as e:
-            missing[spec.name] = f"{spec.module} cannot be imported ({e})"
-            continue
-        fn = next((getattr(module, n) for n in spec.functions if callable(getattr(module, n, None))), None)
+        modules, errors = [], []
+        for name in spec.modules:
+            try:
+                modules.append(importlib.import_module(name))
+            except ImportError as e:
+                errors.append(str(e))
+        fn = next((getattr(m, n) for m in modules for n in spec.functions if callable(getattr(m, n, None))), None)
         if fn is None:
-            missing[spec.name] = f"{spec.module} has no stage function ({', '.join(spec.functions)})"
+            why = f"no {' / '.join(spec.functions)} in {spec.modules[0]}"
+            missing[spec.name] = why + (f" ({errors[0]})" if errors and not modules else "")
             continue
-        config_cls = next((getattr(module, n) for n in spec.configs
-                           if dataclasses.is_dataclass(getattr(module, n, None))), None)
+        config_cls = next((getattr(m, n) for m in modules for n in spec.configs
+                           if dataclasses.is_dataclass(getattr(m, n, None))), None)
         found[spec.name] = _adapt(fn, config_cls)
     return found, missing
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
 import torch
 
 from morf.body.model import BodyPose
@@ -22,7 +21,7 @@ from morf.fitting.proxy_mesh import ProxyMesh
 class FitBodyOutput:
     """Fields:
         keypoints3d: (B, 23, 3) world keypoints (COCO-17 + feet).
-        proxy_vertices: (B, Vp, 3) posed vertices of the silhouette proxy (empty if none).
+        proxy_vertices: (P, Vp, 3) posed vertices of the silhouette proxy for the requested rows.
     """
 
     keypoints3d: torch.Tensor
@@ -44,28 +43,36 @@ def prune_regressor(regressor: torch.Tensor, mass: float = 0.999) -> torch.Tenso
 
 
 class FitBody(torch.nn.Module):
-    """Poses the keypoints and the proxy vertices of a body model from axis-angle parameters."""
+    """Poses the keypoints and the proxy vertices of a body model from axis-angle parameters.
+
+    With one shared shape the keypoints never need posed vertices: LBS is linear, so
+    ``kp_k = sum_j T_j @ A_kj`` with ``A_kj = sum_v R_kv w_vj [v_rest; 1]`` (K x J x 4, computed
+    once per step from the shaped rest vertices) -- about 100k multiply-adds per frame instead
+    of skinning a few thousand vertices. Per-frame shapes fall back to skinning the regressor's
+    vertices.
+    """
 
     def __init__(self, model, proxy: ProxyMesh | None = None, regressor_mass: float = 0.999):
         super().__init__()
         self.model = model
         reg = prune_regressor(model.keypoint_regressor, regressor_mass)
         kp_ids = torch.nonzero(reg.abs().sum(0) > 0).squeeze(1)
-        proxy_ids = torch.as_tensor(proxy.vertex_ids if proxy is not None else np.zeros(0, np.int64),
-                                    device=kp_ids.device)
-        ids = torch.cat([kp_ids, proxy_ids])
-        self.num_keypoint_vertices = int(kp_ids.numel())
-        self.register_buffer("vertex_ids", ids, persistent=False)
+        self.register_buffer("kp_ids", kp_ids, persistent=False)
         self.register_buffer("regressor", reg[:, kp_ids].contiguous(), persistent=False)
-        self.register_buffer("skin_weights", model.skin_weights[ids].contiguous(), persistent=False)
-        self.register_buffer("skin_indices", model.skin_indices[ids].contiguous(), persistent=False)
+        self.register_buffer("kp_weights", model.dense_weights[kp_ids].contiguous(), persistent=False)
         if proxy is not None:
-            self.register_buffer("proxy_faces", torch.as_tensor(proxy.faces, device=ids.device), persistent=False)
+            ids = torch.as_tensor(proxy.vertex_ids, device=kp_ids.device)
+            self.register_buffer("proxy_ids", ids, persistent=False)
+            self.register_buffer("proxy_weights", model.dense_weights[ids].contiguous(), persistent=False)
+            self.register_buffer("proxy_faces", torch.as_tensor(proxy.faces, device=kp_ids.device), persistent=False)
         else:
-            self.proxy_faces = None
+            self.proxy_ids = self.proxy_weights = self.proxy_faces = None
 
-    def forward(self, pose: BodyPose, shape: torch.Tensor) -> FitBodyOutput:
-        """``pose``: (B, J, 3) rotvecs + (B, 3) transl; ``shape``: (1, S) shared or (B, S)."""
+    def forward(self, pose: BodyPose, shape: torch.Tensor, proxy_rows: torch.Tensor | None = None) -> FitBodyOutput:
+        """``pose``: (B, J, 3) rotvecs + (B, 3) transl; ``shape``: (1, S) shared or (B, S).
+
+        ``proxy_rows``: (P,) batch rows whose proxy vertices are needed (default: all rows).
+        """
         model = self.model
         rest = model.rest(shape)
         rest_poses = rest["rest_bone_poses"]
@@ -73,14 +80,25 @@ class FitBody(torch.nn.Module):
         if rest_poses.shape[0] == 1 and B > 1:
             rest_poses = rest_poses.expand(B, -1, -1, -1)
         T, _ = model.anny.get_bone_transforms(model.pose_to_deltas(pose), rest_poses)
-        J = T.shape[1]
-        T12 = T[:, :, :3, :].reshape(B, J, 12)
-        # (B, S, 9, 12) gathered per vertex, blended by its sparse weights
-        blended = (T12[:, self.skin_indices] * self.skin_weights[None, :, :, None]).sum(2).reshape(B, -1, 3, 4)
-        rest_v = rest["rest_vertices"][:, self.vertex_ids]
-        if rest_v.shape[0] == 1 and B > 1:
-            rest_v = rest_v.expand(B, -1, -1)
-        verts = (blended[..., :3] @ rest_v.unsqueeze(-1)).squeeze(-1) + blended[..., 3]
-        n = self.num_keypoint_vertices
-        kp = torch.einsum("kv,bvc->bkc", self.regressor, verts[:, :n])
-        return FitBodyOutput(keypoints3d=kp, proxy_vertices=verts[:, n:])
+        T34 = T[:, :, :3, :]  # (B, J, 3, 4)
+        rest_v = rest["rest_vertices"]
+        kv = rest_v[:, self.kp_ids]
+        if kv.shape[0] == 1:
+            kvh = torch.cat([kv[0], kv.new_ones(kv.shape[1], 1)], -1)  # (Sk, 4)
+            A = torch.einsum("kvd,vj->kjd", self.regressor[:, :, None] * kvh[None], self.kp_weights)
+            kp = torch.einsum("bjcd,kjd->bkc", T34, A)
+        else:
+            kp = torch.einsum("kv,bvc->bkc", self.regressor, _skin(T34, self.kp_weights, kv))
+        proxy = kp.new_zeros(0, 0, 3)
+        if self.proxy_ids is not None and (proxy_rows is None or proxy_rows.numel() > 0):
+            rows = slice(None) if proxy_rows is None else proxy_rows
+            pv = rest_v[:, self.proxy_ids]
+            proxy = _skin(T34[rows], self.proxy_weights, pv if pv.shape[0] == 1 else pv[rows])
+        return FitBodyOutput(keypoints3d=kp, proxy_vertices=proxy)
+
+
+def _skin(T34: torch.Tensor, weights: torch.Tensor, rest_v: torch.Tensor) -> torch.Tensor:
+    """LBS of a vertex subset: T34 (B, J, 3, 4), weights (S, J) dense, rest_v (1 or B, S, 3)."""
+    B, J = T34.shape[:2]
+    blended = (weights @ T34.reshape(B, J, 12)).reshape(B, -1, 3, 4)
+    return (blended[..., :3] @ rest_v.unsqueeze(-1)).squeeze(-1) + blended[..., 3]

@@ -42,21 +42,21 @@ class FitProblem:
 def _data_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, idx: torch.Tensor,
                 sil_idx: torch.Tensor | None, sil_factor: float) -> tuple[torch.Tensor, dict[str, float]]:
     """Keypoint (+ silhouette) loss of the frames ``idx`` (a chunk)."""
-    out = problem.body(params.pose(idx), params.shape(idx))
+    use_sil = sil_idx is not None and sil_idx.numel() > 0
+    local = torch.searchsorted(idx, sil_idx) if use_sil else idx.new_zeros(0)
+    out = problem.body(params.pose(idx), params.shape(idx), proxy_rows=local)
     cam = problem.inputs.camera
     proj = cam.project(out.keypoints3d)
     kp = keypoint_loss(proj, problem.keypoints[idx], problem.keypoint_scale, cfg.keypoint_robust_sigma).sum()
     total = cfg.keypoint_weight * kp
-    logs = {"keypoints": float(kp)}
-    if sil_idx is not None and sil_idx.numel() > 0:
-        local = torch.searchsorted(idx, sil_idx)
-        verts = out.proxy_vertices[local]
-        pix = problem.sil_camera.project(verts)
+    logs = {"keypoints": float(kp.detach())}
+    if use_sil:
+        pix = problem.sil_camera.project(out.proxy_vertices)
         h, w = problem.masks.shape[-2:]
         sil = soft_silhouette(pix, problem.body.proxy_faces, h, w, sigma=cfg.silhouette_sigma)
         dice = dice_loss(sil, problem.masks[sil_idx]).sum() * sil_factor
         total = total + cfg.silhouette_weight * dice
-        logs["silhouette"] = float(dice)
+        logs["silhouette"] = float(dice.detach())
     return total, logs
 
 
@@ -67,18 +67,18 @@ def _sequence_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, 
         prior = problem.prior(params.body).sum()
         l2 = params.body.pow(2).sum()
         total = total + cfg.pose_prior_weight * prior + cfg.pose_l2_weight * l2
-        logs["prior"] = float(prior)
+        logs["prior"] = float(prior.detach())
     if stage.shape:
         sh = shape_loss(params.shape(), problem.shape_mean).sum()
         total = total + cfg.shape_weight * sh
-        logs["shape"] = float(sh)
+        logs["shape"] = float(sh.detach())
     if cfg.temporal and params.num_frames > 1:
         tr = temporal_loss(params.transl).sum()
         rot = rotation_temporal_loss(params.root_matrix()).sum()
         if stage.body_pose:
             rot = rot + temporal_loss(params.body).sum()
         total = total + cfg.temporal_weight * rot + cfg.temporal_transl_weight * tr
-        logs["temporal"] = float(rot)
+        logs["temporal"] = float(rot.detach())
     return total, logs
 
 

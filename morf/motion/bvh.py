@@ -142,6 +142,8 @@ def read_bvh(path: str | os.PathLike, up_axis: str = "auto", unit: str = "auto")
         # lengths, so only their rotations are used and the rest offsets stay.
     skeleton = Skeleton(names, tuple(parsed.parents), offsets * scale, up_axis)
     fps = 1.0 / frame_time if frame_time > 0 else 30.0
+    if abs(fps - round(fps)) < 0.01:  # "Frame Time: .0083333" means 120 fps
+        fps = float(round(fps))
     return SourceMotion(skeleton, local, root_pos * scale, fps, up_axis=up_axis, name=path.stem,
                         source=f"bvh:{path.name} ({unit}, {up_axis}-up)", kind="bvh")
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from morf.body.render_mesh import RenderMesh
-from morf.raster.gl_context import GLState, gl_state
+from morf.raster.gl_context import GLState, gl_state, with_gl_context
 
 _VERT = """
 #version 330
@@ -39,6 +39,7 @@ def _program(state: GLState):
     return state.cached(("program", "atlas"), lambda: state.ctx.program(vertex_shader=_VERT, fragment_shader=_FRAG))
 
 
+@with_gl_context
 def bake_vertex_attributes(mesh: RenderMesh, attributes: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
     """Interpolate per-vertex values over the UV atlas, one sample per texel centre.
 

@@ -4,10 +4,17 @@ An OpenGL context is current on one thread only, and moderngl objects (buffers, 
 textures) belong to the context that made them. So every thread that rasterizes gets its own
 standalone EGL context, and the GL objects cached for it (programs, framebuffers, meshes)
 live beside it in a :class:`GLState`. Mesa's llvmpipe gives OpenGL 4.5 without a GPU.
+
+Every public rasterizer runs inside :func:`current`: our context is made current for the call
+and whatever context was current before (an app window, another library's) is current again
+afterwards. On a thread that owns a window, :func:`adopt_gl_context` shares the window's
+context instead of creating a second one.
 """
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import threading
 from typing import Any, Callable
 
@@ -101,6 +108,72 @@ def adopt_gl_context(ctx) -> GLState:
     return state
 
 
+def with_gl_context(fn):
+    """Run ``fn`` with this thread's context made current, restoring the previous one after.
+
+    Other code on the same thread may make its own context current (a window, another
+    standalone context); entering ours around every call keeps both working.
+    """
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        with current(gl_state()):
+            return fn(*args, **kwargs)
+
+    return wrapper
+
+
+@contextlib.contextmanager
+def current(state: GLState):
+    """Make ``state``'s context current inside the block; the previous one is current after."""
+    previous = _egl_current()
+    try:
+        with state.ctx:
+            yield state
+    finally:
+        _egl_restore(previous)
+
+
+_EGL = None
+
+
+def _egl():
+    """libEGL through ctypes, or False where it cannot be loaded."""
+    global _EGL
+    if _EGL is None:
+        import ctypes
+
+        try:
+            lib = ctypes.CDLL("libEGL.so.1")
+            for name in ("eglGetCurrentContext", "eglGetCurrentDisplay", "eglGetCurrentSurface"):
+                getattr(lib, name).restype = ctypes.c_void_p
+            lib.eglGetCurrentSurface.argtypes = [ctypes.c_int]
+            lib.eglMakeCurrent.argtypes = [ctypes.c_void_p] * 4
+            lib.eglMakeCurrent.restype = ctypes.c_uint
+            _EGL = lib
+        except (OSError, AttributeError):
+            _EGL = False
+    return _EGL
+
+
+def _egl_current():
+    """(display, draw, read, context) current on this thread, or None."""
+    lib = _egl()
+    if not lib:
+        return None
+    ctx = lib.eglGetCurrentContext()
+    if not ctx:
+        return None
+    return lib.eglGetCurrentDisplay(), lib.eglGetCurrentSurface(0x3059), lib.eglGetCurrentSurface(0x305A), ctx
+
+
+def _egl_restore(previous) -> None:
+    # moderngl's context exit on EGL does not give the previous context back; do it here so a
+    # window or another library's context stays current across our calls.
+    if previous is not None:
+        _egl().eglMakeCurrent(*previous)
+
+
 def gl_context():
     """The calling thread's moderngl context."""
     return gl_state().ctx
@@ -111,4 +184,10 @@ def release_gl_context() -> None:
     state = getattr(_LOCAL, "state", None)
     if state is not None:
         _LOCAL.state = None
-        state.release()
+        previous = _egl_current()
+        with state.ctx:
+            state.owned, owned = False, state.owned
+            state.release()  # cached objects only: the context is released after leaving it
+        if owned:
+            state.ctx.release()
+        _egl_restore(previous)

@@ -14,7 +14,7 @@ import numpy as np
 from morf.body.render_mesh import RenderMesh
 from morf.camera import PinholeCamera
 from morf.raster.gl_buffers import as_vertices, camera_uniforms, mesh_buffers, mesh_vao, set_uniforms
-from morf.raster.gl_context import GLState, gl_state
+from morf.raster.gl_context import GLState, gl_state, with_gl_context
 
 _VERT = """
 #version 330
@@ -99,6 +99,7 @@ def _vao(state: GLState, mesh: RenderMesh, prog):
     return mesh_vao(state, mesh, prog, "uv", [("position", "in_pos"), ("uv", "in_uv")])
 
 
+@with_gl_context
 def rasterize_uv(vertices, mesh: RenderMesh, camera: PinholeCamera) -> Rasterization:
     """Rasterize one posed render mesh.
 
@@ -116,6 +117,7 @@ def rasterize_uv(vertices, mesh: RenderMesh, camera: PinholeCamera) -> Rasteriza
                           _framebuffer(state, camera.width, camera.height))
 
 
+@with_gl_context
 def rasterize_uv_batch(vertices, mesh: RenderMesh, cameras) -> Rasterization:
     """Rasterize B frames; ``cameras`` is one camera for all or a sequence of B (same size).
 

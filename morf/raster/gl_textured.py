@@ -13,7 +13,7 @@ from morf.body.render_mesh import RenderMesh
 from morf.camera import PinholeCamera
 from morf.errors import InputError
 from morf.raster.gl_buffers import as_vertices, camera_uniforms, mesh_buffers, mesh_vao, set_uniforms
-from morf.raster.gl_context import GLState, gl_state
+from morf.raster.gl_context import GLState, current, gl_state, with_gl_context
 
 _VERT = """
 #version 330
@@ -71,9 +71,11 @@ class GLTexture:
         self.tex.repeat_x = self.tex.repeat_y = False
 
     def release(self) -> None:
-        self.tex.release()
+        with current(self.state):
+            self.tex.release()
 
 
+@with_gl_context
 def upload_texture(image: np.ndarray) -> GLTexture:
     """Upload an (Ht, Wt, 3) uint8 RGB texture (row 0 = top = v 1) for :func:`render_textured`."""
     return GLTexture(gl_state(), image)
@@ -134,6 +136,7 @@ class _FBOPair:
             self.draw.release()
 
 
+@with_gl_context
 def render_textured(vertices, mesh: RenderMesh, camera: PinholeCamera, texture,
                     background=(0, 0, 0), msaa: int = 4, shading: float = 0.0,
                     uvs: np.ndarray | None = None, light_dir_cam=_DEFAULT_LIGHT_CAM) -> tuple[np.ndarray, np.ndarray]:

@@ -116,7 +116,7 @@ def finetune_unseen(texture: torch.Tensor, renderer: torch.nn.Module, uv: torch.
             loss.backward()
             tex.grad.mul_(unseen)  # seen texels keep exactly their trained values
             opt.step()
-            history.append(float(loss))
+            history.append(float(loss.detach()))
     finally:
         for p, f in zip(renderer.parameters(), flags):
             p.requires_grad_(f)

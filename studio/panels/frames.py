@@ -11,7 +11,7 @@ from studio.widgets import (GREEN, GREY, ORANGE, RED, col32, draw_skeleton, empt
                              tex_ref)
 
 THUMB_H = 72
-STRIP_H = THUMB_H + 40
+STRIP_H = THUMB_H + 52  # thumbnails, their numbers and the horizontal scrollbar
 SIDEBAR_W = 300
 
 
@@ -35,6 +35,9 @@ def draw(state: AppState, ui: UiContext) -> None:
 def _draw_large(state: AppState, ui: UiContext) -> None:
     i = state.frame
     tex = ui.textures.get(("frame", i))
+    if state.show_fit and ui.view.has_fit_overlays():
+        # the fit's overlay is the frame with the fitted body drawn in: show it instead
+        tex = ui.textures.get(("fit", i)) or tex
     avail = imgui.get_content_region_avail()
     if tex is None:
         key_known = ui.textures.known(("frame", i))
@@ -50,10 +53,6 @@ def _draw_large(state: AppState, ui: UiContext) -> None:
         mask = ui.textures.get(("mask", i))
         if mask is not None:
             dl.add_image(tex_ref(mask), origin, p_max)
-    if state.show_fit and ui.view.has_fit_overlays():
-        fit = ui.textures.get(("fit", i))
-        if fit is not None:
-            dl.add_image(tex_ref(fit), origin, p_max, ImVec2(0, 0), ImVec2(1, 1), col32(1, 1, 1, 0.55))
     if state.show_keypoints:
         pts = ui.view.keypoints_of(i)
         if pts is not None:

@@ -14,7 +14,8 @@ from studio.state import AppState
 from studio.widgets import GREY, RED, empty_state, tex_ref
 
 SIDEBAR_W = 320
-RENDER_MAX = 640  # the player renders at most this many pixels on the longer side
+RENDER_MAX = 640  # side of the rendered image when the player does not say
+ANNY_BONES = 104
 
 
 def draw(state: AppState, ui: UiContext) -> None:
@@ -36,9 +37,10 @@ def draw(state: AppState, ui: UiContext) -> None:
 def _draw_render(state: AppState, ui: UiContext) -> None:
     live = ui.live
     avail = imgui.get_content_region_avail()
-    s = min(1.0, RENDER_MAX / max(avail.x, avail.y, 1))
-    w, h = max(int(avail.x * s) // 2 * 2, 16), max(int((avail.y - 24) * s) // 2 * 2, 16)
-    camera = state.orbit.camera(w, h)
+    side = max(min(avail.x, avail.y - 24), 16)  # players render square images
+    n = int(getattr(ui.player, "size", 0) or min(side, RENDER_MAX))
+    w = h = n
+    camera = state.orbit.camera(n, n)
     clip = live.get("clip")
     pose = None
     if clip is not None and len(clip):
@@ -60,8 +62,9 @@ def _draw_render(state: AppState, ui: UiContext) -> None:
     live["last_t"] = now
     tex = out if isinstance(out, moderngl.Texture) else ui.textures.preview("live", as_rgb(out), live.setdefault("n", 0))
     live["n"] = live.get("n", 0) + 1
+    imgui.set_cursor_pos_x(imgui.get_cursor_pos_x() + max((avail.x - side) / 2, 0))
     origin = imgui.get_cursor_screen_pos()
-    imgui.image(tex_ref(tex), ImVec2(w / s, h / s))
+    imgui.image(tex_ref(tex), ImVec2(side, side))
     if imgui.is_item_hovered():
         io = imgui.get_io()
         if imgui.is_mouse_dragging(imgui.MouseButton_.left):
@@ -98,7 +101,7 @@ def _draw_sidebar(state: AppState, ui: UiContext) -> None:
             name = str(p.relative_to(base)) if p.is_relative_to(base) else p.name
             if imgui.selectable(name, state.motion_file == str(p))[0]:
                 state.motion_file = str(p)
-                live["clip"], live["clip_note"] = load_motion(p)
+                live["clip"], live["clip_note"] = load_motion(p, int(getattr(ui.player, "num_bones", ANNY_BONES)))
                 live["clip_frame"] = 0
         imgui.end_list_box()
     if live.get("clip_note"):

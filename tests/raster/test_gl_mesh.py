@@ -126,3 +126,21 @@ def test_bad_vertices_give_a_clear_error(gl):
     mesh = _mesh([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]])
     with pytest.raises(InputError, match="render-mesh vertices"):
         rasterize_uv(np.zeros((4, 3)), mesh, _camera())
+
+
+def test_other_contexts_on_the_same_thread_do_not_disturb(gl):
+    import moderngl
+
+    cam = _camera()
+    mesh = _mesh([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]])
+    tri = np.array([[-0.3, 0, -0.3], [0.4, 0, -0.2], [0, 0, 0.5]])
+    before = rasterize_uv(tri, mesh, cam)
+    other = moderngl.create_standalone_context(backend="egl")  # becomes current on this thread
+    other_fbo = other.simple_framebuffer((8, 8))
+    after = rasterize_uv(tri, mesh, cam)
+    other_fbo.use()  # the other context is current again after our call
+    other_fbo.clear(1.0, 0.0, 0.0, 1.0)
+    assert other_fbo.read()[:3] == b"\xff\x00\x00"
+    other.release()
+    again = rasterize_uv(tri, mesh, cam)
+    assert np.array_equal(before.uv, after.uv) and np.array_equal(before.uv, again.uv) and before.mask.any()

@@ -9,6 +9,7 @@ import pytest
 
 from morf.capture.project import CaptureProject, Keypoints2D
 from morf.capture.keypoint_layout import NUM_KEYPOINTS
+from morf.io import save_npz, write_image
 
 FRAMES, WIDTH, HEIGHT = 6, 96, 128
 
@@ -28,7 +29,7 @@ def _stick_figure(i: int) -> np.ndarray:
     return out
 
 
-def make_tiny_project(root, *, with_filter: bool = True) -> CaptureProject:
+def make_tiny_project(root, *, with_fit: bool = True) -> CaptureProject:
     """6 frames of 96x128: a coloured backdrop, a figure, its mask and keypoints; frame 4 has no person."""
     project = CaptureProject.create(root, num_frames=FRAMES, width=WIDTH, height=HEIGHT, fps=10.0,
                                     source={"kind": "test"})
@@ -52,12 +53,17 @@ def make_tiny_project(root, *, with_filter: bool = True) -> CaptureProject:
         project.save_frame(i, img)
         project.save_mask(i, mask)
     project.save_keypoints(Keypoints2D(points, detected, np.array(["test"] * FRAMES)))
-    if with_filter:
-        (root / "fits").mkdir(exist_ok=True)
-        (root / "fits" / "filter.json").write_text(json.dumps({
-            "rejected": {"1": "keypoint residual 41 px"},
-            "residuals": {str(i): 3.0 + i for i in range(FRAMES) if i != 4},
-        }))
+    if with_fit:  # what 'morf fit' leaves behind: the filter's verdicts, residuals, overlay images
+        fits = root / "fits"
+        (fits / "overlays").mkdir(parents=True)
+        (fits / "filter.json").write_text(json.dumps({"rejected": {"1": "keypoint residual 41 px (median 5)"},
+                                                      "frames": FRAMES}))
+        residuals = np.array([3.0 + i if i != 4 else np.nan for i in range(FRAMES)], np.float32)
+        save_npz(fits / "fits.npz", keypoint_residual_px=residuals)
+        for i in range(FRAMES):
+            overlay = project.load_frame(i)
+            overlay[20:118, 36:60] = (80, 140, 255)  # a "fitted body" the colour of the real overlays
+            write_image(fits / "overlays" / f"{i:06d}.jpg", overlay)
     return project
 
 

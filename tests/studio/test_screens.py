@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import time
 
 import numpy as np
@@ -278,12 +277,14 @@ def test_worker_errors_reach_the_status_line(make_app, tiny_project):
     check_golden("studio_error_status", shot(app))
 
 
-def test_filter_file_with_residuals_is_read(tiny_project):
+def test_fit_residuals_are_read_and_damage_is_an_error(tiny_project):
+    from morf.io import save_npz
     from studio.project_view import ProjectView
 
     view = ProjectView(tiny_project)
     assert view.residuals[3] == 6.0 and 4 not in view.residuals
-    (tiny_project.fits_dir / "filter.json").write_text(json.dumps({"rejected": {}, "residuals": {"x": 1}}))
+    assert view.has_fit_overlays() and view.fit_overlay_path(2).name == "000002.jpg"
+    save_npz(tiny_project.fits_dir / "fits.npz", other=np.zeros(3))
     with pytest.raises(MorfError):
         ProjectView(tiny_project)
 
