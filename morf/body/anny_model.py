@@ -6,7 +6,9 @@ with the pelvis at the origin (1.625 m tall at the default phenotype).
 
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
 import threading
 
 import torch
@@ -22,13 +24,30 @@ _LOAD_LOCK = threading.Lock()
 DEFAULT_PHENOTYPE = (0.52, 0.48, 0.52, 0.52, 0.52, 0.52)
 
 
-def _quiet_warp() -> None:
-    try:
-        import warp
+@contextlib.contextmanager
+def _quiet_stdio():
+    """Silence warp's start-up banner and CUDA warning, which it prints at the C level.
 
-        warp.config.quiet = True
-    except Exception:  # warp is optional for our own skinning path
-        pass
+    ``MORF_DEBUG=1`` keeps them.
+    """
+    if os.environ.get("MORF_DEBUG"):
+        yield
+        return
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        os.dup2(devnull, 2)
+        yield
+    finally:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, devnull):
+            os.close(fd)
 
 
 class AnnyBodyModel(BodyModel):
@@ -36,12 +55,13 @@ class AnnyBodyModel(BodyModel):
 
     def __init__(self, topology: str = "anny"):
         super().__init__()
-        _quiet_warp()
-        import anny
+        with _LOAD_LOCK, _quiet_stdio():
+            import anny
 
-        with _LOAD_LOCK:
             model = anny.Anny(topology=topology).to(torch.float32)
             regressor = anny.KeypointsRegressor.coco(model)
+            # warp compiles and prints on the first skinning call; do that call here, silenced.
+            model(torch.eye(4).expand(1, len(model.bone_labels), 4, 4).clone(), None)
         self.anny = model
         self.bone_names = list(model.bone_labels)
         self.bone_parents = [int(p) for p in model.bone_parents]

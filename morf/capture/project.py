@@ -15,7 +15,8 @@ Layout (format "morf-capture", version 1)::
       fits/               body fits and the automatic frame filter (morf fit)
       runs/               training runs (morf train)
       avatar/             the exported avatar (morf export)
-      ground_truth/       synthetic captures only: camera, poses, shape, vertices, hold-out set
+      ground_truth/       synthetic captures only: camera, poses, shape, hold-out set
+                          (full layout in morf/synth/capture.py)
 
 Every file is written atomically, so a killed command never leaves a damaged project, and
 re-running a stage replaces its outputs whole.

@@ -107,21 +107,35 @@ def to_clip(rots: dict[str, np.ndarray], transl: np.ndarray, bone_names, fps: fl
     return MotionClip(rotvecs.astype(np.float32), transl.astype(np.float32), fps, name, "procedural (morf.motion.procedural)")
 
 
+def walk_forward(in_place: MotionClip, model) -> MotionClip:
+    """The in-place walk moved on so that the lower foot (the stance foot) stays where it is planted."""
+    from morf.motion.ground import _sides, foot_points
+
+    pts = foot_points(in_place, model)
+    left, right = _sides(model, None)
+    feet = np.stack([pts[:, left], pts[:, right]], axis=1)  # (T, 2, 3 points, 3)
+    stance = feet[..., 2].min(axis=2).argmin(axis=1)  # which foot is lower
+    centre = feet[..., :2].mean(axis=2)  # (T, 2, 2)
+    T = in_place.num_frames
+    step = np.zeros((T, 2))
+    now, before = np.arange(1, T), np.arange(T - 1)
+    step[1:] = -(centre[now, stance[1:]] - centre[before, stance[1:]])
+    transl = in_place.transl.astype(np.float64).copy()
+    transl[:, :2] += np.cumsum(step, axis=0)
+    return MotionClip(in_place.rotvecs, transl.astype(np.float32), in_place.fps, "walk_forward", in_place.source)
+
+
 def build_samples(model, fps: float = 30.0) -> list[MotionClip]:
     """The bundled sample clips, feet on the floor (z = 0)."""
     from morf.motion.ground import GroundConfig, place_on_ground
 
     names = list(model.bone_names)
     rest = target_rest(model)
-    idle = to_clip(*idle_sway(rest, fps), names, fps, "idle_sway")
-    walk = to_clip(*walk_cycle(rest, fps), names, fps, "walk_in_place")
-    out = [place_on_ground(idle, model, config=GroundConfig(reduce_sliding=False)),
-           place_on_ground(walk, model, config=GroundConfig(reduce_sliding=False))]
-    # Walking forwards: the same legs with planted feet held in place, which moves the body on.
-    fwd = place_on_ground(to_clip(*walk_cycle(rest, fps, cycles=6), names, fps, "walk_forward"), model,
-                          config=GroundConfig(reduce_sliding=True))
-    out.append(fwd)
-    return out
+    flat = GroundConfig(reduce_sliding=False)
+    idle = place_on_ground(to_clip(*idle_sway(rest, fps), names, fps, "idle_sway"), model, config=flat)
+    walk = place_on_ground(to_clip(*walk_cycle(rest, fps), names, fps, "walk_in_place"), model, config=flat)
+    long_walk = place_on_ground(to_clip(*walk_cycle(rest, fps, cycles=6), names, fps, "walk"), model, config=flat)
+    return [idle, walk, walk_forward(long_walk, model)]
 
 
 def main(argv: list[str] | None = None) -> int:
