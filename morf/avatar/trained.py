@@ -7,6 +7,7 @@ read with ``weights_only=True``).
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -59,7 +60,8 @@ def save_trained_avatar(path: str | Path, texture: torch.Tensor, renderer: UNetR
         "renderer_config": dict(renderer.cfg.__dict__),
         "config": config_dict,
         "shape": None if shape is None else shape.detach().float().cpu().reshape(1, -1),
-        "camera": None if camera is None else camera.to_dict(),
+        # JSON text: camera fields may be numpy scalars, which weights_only loading refuses
+        "camera": None if camera is None else json.dumps(camera.to_dict(), default=float),
         "extra": extra or {},
     }
     with atomic_path(path) as tmp:
@@ -85,6 +87,6 @@ def load_trained_avatar(run_dir: str | Path) -> TrainedAvatar:
     renderer.eval().requires_grad_(False)
     cfg = TrainConfig.from_dict(d["config"])
     shape = d["shape"] if d["shape"] is not None else torch.zeros(1, 0)
-    camera = PinholeCamera.from_dict(d["camera"]) if d.get("camera") else None
+    camera = PinholeCamera.from_dict(json.loads(d["camera"])) if d.get("camera") else None
     return TrainedAvatar(texture=d["texture"], renderer=renderer, config=cfg, shape=shape, camera=camera,
                          method=cfg.method)

@@ -76,25 +76,39 @@ def idle_sway(rest: TargetRest, fps: float = 30.0, seconds: float = 4.0) -> tupl
     return rots, transl
 
 
+def _bump(c: np.ndarray, centre: float, width: float) -> np.ndarray:
+    """Periodic Gaussian bump over the gait cycle fraction ``c`` in [0, 1)."""
+    d = (c - centre + 0.5) % 1.0 - 0.5
+    return np.exp(-0.5 * (d / width) ** 2)
+
+
 def walk_cycle(rest: TargetRest, fps: float = 30.0, period: float = 1.1, cycles: int = 4) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """A walk in place: ``cycles`` gait cycles of ``period`` seconds (loops seamlessly)."""
+    """A walk in place: ``cycles`` gait cycles of ``period`` seconds (loops seamlessly).
+
+    Joint angle curves follow the textbook shape of normal gait over the cycle (0 = heel strike):
+    hip flexion peaks late in swing, the knee bends a little on loading and most in early
+    swing, the ankle pushes off before toe-off (about 60% of the cycle).
+    """
     t = np.arange(int(round(cycles * period * fps))) / fps
-    ph = 2 * np.pi * t / period
-    rots = {}
-    for s, off in (("L", 0.0), ("R", np.pi)):
-        p = ph + off
-        hip = 22.0 * np.sin(p) + 4.0  # thigh forwards (+) / backwards (-)
-        knee = 5.0 + 55.0 * np.clip(np.cos(p + 0.6), 0.0, None) ** 2 + 12.0 * np.clip(np.sin(p - 2.2), 0.0, None) ** 4
-        ankle = 10.0 * np.sin(p + 1.2)
+    phase = (t / period) % 1.0
+    rots, hips = {}, {}
+    for s, off in (("L", 0.0), ("R", 0.5)):
+        c = (phase + off) % 1.0
+        hip = 10.0 + 20.0 * np.cos(2 * np.pi * (c - 0.87))  # + forwards
+        knee = 4.0 + 14.0 * _bump(c, 0.15, 0.07) + 58.0 * _bump(c, 0.72, 0.1)
+        ankle = 6.0 * _bump(c, 0.07, 0.05) - 9.0 * _bump(c, 0.42, 0.12) + 16.0 * _bump(c, 0.62, 0.06)  # + toes down
         rots[f"upperleg01.{s}"] = _rot(x=-hip)
         rots[f"lowerleg01.{s}"] = _rot(x=knee)
         rots[f"foot.{s}"] = _rot(x=ankle)
-    arms = _relaxed_arms(rest, 18.0 * np.sin(ph + np.pi), 18.0 * np.sin(ph))
-    rots.update(arms)
-    rots["root"] = _rot(x=-3.0, y=2.0 * np.sin(ph), z=5.0 * np.sin(ph))
-    rots["spine02"] = _rot(x=1.0, z=-6.0 * np.sin(ph))
-    rots["neck01"] = _rot(x=2.0, z=1.0 * np.sin(ph))
-    transl = np.stack([0.02 * np.sin(ph), np.zeros_like(t), np.zeros_like(t)], axis=1)
+        hips[s] = hip - 10.0
+    # Each arm swings with the opposite leg.
+    rots.update(_relaxed_arms(rest, 0.8 * hips["R"], 0.8 * hips["L"]))
+    turn = hips["L"] - hips["R"]  # > 0 while the left leg is forwards
+    rots["root"] = _rot(x=-3.0, z=-0.15 * turn)
+    rots["spine02"] = _rot(x=1.0, z=0.25 * turn)
+    rots["neck01"] = _rot(x=2.0, z=-0.05 * turn)
+    sway = np.sin(2 * np.pi * phase)  # weight over the stance foot: left early in the cycle
+    transl = np.stack([0.02 * sway, np.zeros_like(t), np.zeros_like(t)], axis=1)
     return rots, transl
 
 

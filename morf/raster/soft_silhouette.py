@@ -54,7 +54,7 @@ def _boxes(tri: torch.Tensor, margin: float, height: int, width: int):
 
 
 def enumerate_pairs(tri: torch.Tensor, keep: torch.Tensor, margin: float, height: int, width: int,
-                    window: int | None = None) -> PixelTrianglePairs:
+                    window: int | None = None, pixel_mask: torch.Tensor | None = None) -> PixelTrianglePairs:
     """All (pixel, triangle) pairs with the pixel centre inside the triangle's box grown by ``margin``.
 
     Small triangles (box at most ``window`` pixels wide) are expanded over a fixed
@@ -64,6 +64,7 @@ def enumerate_pairs(tri: torch.Tensor, keep: torch.Tensor, margin: float, height
     Args:
         tri: (B, F, 3, 2) triangle corners in pixels (x right, y down; pixel centres at i + 0.5).
         keep: (B, F) bool, triangles to consider.
+        pixel_mask: optional (B, H, W) bool, the only pixels wanted.
     """
     with torch.no_grad():
         x0, y0, nx, ny = _boxes(tri, margin, height, width)
@@ -77,9 +78,12 @@ def enumerate_pairs(tri: torch.Tensor, keep: torch.Tensor, margin: float, height
         d = torch.arange(window, device=tri.device)
         dx, dy = d.repeat(window), d.repeat_interleave(window)
         inbox = (dx < nx[b, f, None]) & (dy < ny[b, f, None])
+        cand = (y0[b, f, None] + dy).clamp_max(height - 1) * width + (x0[b, f, None] + dx).clamp_max(width - 1)
+        if pixel_mask is not None:
+            inbox &= pixel_mask.reshape(pixel_mask.shape[0], -1)[b[:, None], cand]
         row, col = inbox.nonzero(as_tuple=True)
         bs, fs = b[row], f[row]
-        pix = (y0[bs, fs] + dy[col]) * width + x0[bs, fs] + dx[col]
+        pix = cand[row, col]
         large = keep & ~small
         if bool(large.any()):
             count = torch.where(large, nx * ny, torch.zeros_like(nx)).reshape(-1)
@@ -91,10 +95,38 @@ def enumerate_pairs(tri: torch.Tensor, keep: torch.Tensor, margin: float, height
             px = x0.reshape(-1)[flat] + offset % nxf
             py = y0.reshape(-1)[flat] + torch.div(offset, nxf, rounding_mode="floor")
             Fn = tri.shape[1]
-            bs = torch.cat([bs, flat // Fn])
-            fs = torch.cat([fs, flat % Fn])
-            pix = torch.cat([pix, py * width + px])
+            bl, fl, pl = flat // Fn, flat % Fn, py * width + px
+            if pixel_mask is not None:
+                ok = pixel_mask.reshape(pixel_mask.shape[0], -1)[bl, pl]
+                bl, fl, pl = bl[ok], fl[ok], pl[ok]
+            bs = torch.cat([bs, bl])
+            fs = torch.cat([fs, fl])
+            pix = torch.cat([pix, pl])
         return PixelTrianglePairs(batch=bs, face=fs, pixel=pix)
+
+
+def edge_lines(tri: torch.Tensor) -> torch.Tensor:
+    """Normalised edge-line equations of triangles, oriented so that inside is positive.
+
+    Args:
+        tri: (..., 3, 2) corners.
+    Returns:
+        (..., 3, 3) rows (a, b, c): ``a x + b y + c`` is the signed distance of (x, y) to each
+        edge line. Computing them once per triangle keeps the per-pixel work at 3 multiply-adds
+        per edge.
+    """
+    p0 = tri
+    p1 = torch.roll(tri, -1, dims=-2)
+    e = p1 - p0
+    a0, a1 = tri[..., 0, :], tri[..., 1, :]
+    a2 = tri[..., 2, :]
+    area2 = (a1[..., 0] - a0[..., 0]) * (a2[..., 1] - a0[..., 1]) - (a1[..., 1] - a0[..., 1]) * (a2[..., 0] - a0[..., 0])
+    orient = torch.where(area2 < 0, -1.0, 1.0).to(tri.dtype).detach()[..., None]
+    inv_len = orient * torch.rsqrt((e * e).sum(-1) + 1e-12)
+    a = -e[..., 1] * inv_len
+    b = e[..., 0] * inv_len
+    c = (e[..., 1] * p0[..., 0] - e[..., 0] * p0[..., 1]) * inv_len
+    return torch.stack([a, b, c], -1)
 
 
 def signed_distance(tri: torch.Tensor, points: torch.Tensor) -> torch.Tensor:
@@ -105,16 +137,13 @@ def signed_distance(tri: torch.Tensor, points: torch.Tensor) -> torch.Tensor:
     Returns:
         (P,) positive inside, negative outside; its magnitude never exceeds the true distance.
     """
-    a, b, c = tri.unbind(-2)
-    area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    orient = torch.sign(area2).detach()
-    dists = []
-    for p0, p1 in ((a, b), (b, c), (c, a)):
-        e = p1 - p0
-        q = points - p0
-        length = torch.sqrt((e * e).sum(-1) + 1e-12)
-        dists.append(orient * (e[:, 0] * q[:, 1] - e[:, 1] * q[:, 0]) / length)
-    return torch.stack(dists, -1).amin(-1)
+    return _line_distance(edge_lines(tri), points)
+
+
+def _line_distance(lines: torch.Tensor, points: torch.Tensor) -> torch.Tensor:
+    """(P, 3, 3) edge lines, (P, 2) points -> (P,) min signed distance."""
+    d = lines[..., 0] * points[:, None, 0] + lines[..., 1] * points[:, None, 1] + lines[..., 2]
+    return d.amin(-1)
 
 
 def _pixel_centres(pixel: torch.Tensor, width: int, dtype) -> torch.Tensor:
@@ -123,16 +152,35 @@ def _pixel_centres(pixel: torch.Tensor, width: int, dtype) -> torch.Tensor:
     return torch.stack([x, y], -1)
 
 
+def _pair_lines(lines: torch.Tensor, pairs: PixelTrianglePairs) -> torch.Tensor:
+    """(B, F, 3, 3) lines -> (P, 3, 3) lines of each pair's triangle."""
+    B, Fn = lines.shape[:2]
+    return lines.reshape(B * Fn, 3, 3).index_select(0, pairs.batch * Fn + pairs.face)
+
+
 def hard_coverage(tri: torch.Tensor, valid: torch.Tensor, height: int, width: int) -> torch.Tensor:
     """(B, H, W) bool: pixel centres inside at least one valid triangle (no gradient)."""
     B = tri.shape[0]
     with torch.no_grad():
         pairs = enumerate_pairs(tri, valid, 0.0, height, width)
-        t = tri[pairs.batch, pairs.face]
-        inside = signed_distance(t, _pixel_centres(pairs.pixel, width, tri.dtype)) >= 0
+        lines = _pair_lines(edge_lines(tri), pairs)
+        inside = _line_distance(lines, _pixel_centres(pairs.pixel, width, tri.dtype)) >= 0
         cov = torch.zeros(B * height * width, dtype=torch.bool, device=tri.device)
         cov[(pairs.batch * height * width + pairs.pixel)[inside]] = True
         return cov.reshape(B, height, width)
+
+
+def front_facing(cam_vertices: torch.Tensor, faces: torch.Tensor) -> torch.Tensor:
+    """(B, F) bool: triangles (counter-clockwise seen from outside) that face a camera at the origin.
+
+    Args:
+        cam_vertices: (B, V, 3) camera-space vertices; faces: (F, 3).
+    The silhouette of a closed mesh is the union of its front-facing triangles, so a
+    silhouette renderer may skip the rest (half of them).
+    """
+    v = cam_vertices[:, faces]
+    n = torch.linalg.cross(v[:, :, 1] - v[:, :, 0], v[:, :, 2] - v[:, :, 0])
+    return (n * v[:, :, 0]).sum(-1) < 0
 
 
 def _outline_faces(tri, valid, covered, margin, height, width) -> torch.Tensor:
@@ -159,29 +207,27 @@ def soft_silhouette(pixels: torch.Tensor, faces: torch.Tensor, height: int, widt
         height, width: raster size.
         sigma: softness in pixels (SoftRas's sigma, but in pixel units).
         margin_sigmas: how far outside a triangle, in sigmas, it still contributes.
-        face_mask: optional (B, F) bool, triangles to draw (e.g. those in front of the camera).
+        face_mask: optional (B, F) bool, triangles to draw (e.g. :func:`front_facing` ones).
     Returns:
         (B, H, W) coverage in [0, 1], differentiable with respect to ``pixels``.
     """
     B = pixels.shape[0]
     tri = pixels[:, faces]  # (B, F, 3, 2)
+    td = tri.detach()
     with torch.no_grad():
-        a, b, c = tri.unbind(-2)
+        a, b, c = td.unbind(-2)
         area2 = (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0])
         valid = area2.abs() > 1e-9
         if face_mask is not None:
             valid = valid & face_mask
-    covered = hard_coverage(tri.detach(), valid, height, width)
-    margin = sigma * margin_sigmas
-    outline = _outline_faces(tri.detach(), valid, covered, margin, height, width)
-    pairs = enumerate_pairs(tri.detach(), outline, margin, height, width)
-    with torch.no_grad():
+        covered = hard_coverage(td, valid, height, width)
+        margin = sigma * margin_sigmas
+        outline = _outline_faces(td, valid, covered, margin, height, width)
+        pairs = enumerate_pairs(td, outline, margin, height, width, pixel_mask=~covered)
         flat = pairs.batch * height * width + pairs.pixel
-        free = ~covered.reshape(-1)[flat]
-    pairs = PixelTrianglePairs(pairs.batch[free], pairs.face[free], pairs.pixel[free])
-    d = signed_distance(tri[pairs.batch, pairs.face], _pixel_centres(pairs.pixel, width, pixels.dtype))
-    acc = pixels.new_zeros(B * height * width)
-    acc = acc.index_add(0, pairs.batch * height * width + pairs.pixel, F.softplus(d / sigma))
+        centres = _pixel_centres(pairs.pixel, width, pixels.dtype)
+    d = _line_distance(_pair_lines(edge_lines(tri), pairs), centres)
+    acc = pixels.new_zeros(B * height * width).index_add(0, flat, F.softplus(d / sigma))
     soft = 1.0 - torch.exp(-acc.reshape(B, height, width))
     return torch.where(covered, torch.ones_like(soft), soft)
 
