@@ -11,7 +11,9 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import torch
+
+# torch is imported inside the projection functions only: the exported-avatar player uses this
+# camera without torch installed.
 
 
 @dataclass(frozen=True)
@@ -87,13 +89,15 @@ class PinholeCamera:
                              np.asarray(d.get("R", np.eye(3)), float), np.asarray(d.get("t", np.zeros(3)), float))
 
     # ---- projection (torch, differentiable) ----------------------------------------------
-    def world_to_camera(self, points: torch.Tensor) -> torch.Tensor:
+    def world_to_camera(self, points: "torch.Tensor") -> "torch.Tensor":
         """(..., 3) world points -> (..., 3) camera coordinates."""
+        import torch
+
         R = torch.as_tensor(self.R, dtype=points.dtype, device=points.device)
         t = torch.as_tensor(self.t, dtype=points.dtype, device=points.device)
         return points @ R.T + t
 
-    def project(self, points: torch.Tensor) -> torch.Tensor:
+    def project(self, points: "torch.Tensor") -> "torch.Tensor":
         """(..., 3) world points -> (..., 2) pixel coordinates (x right, y down)."""
         return project_points(self.world_to_camera(points), self.fx, self.fy, self.cx, self.cy)
 
@@ -121,8 +125,10 @@ class PinholeCamera:
         return V
 
 
-def project_points(xc: torch.Tensor, fx: float, fy: float, cx: float, cy: float, eps: float = 1e-6) -> torch.Tensor:
+def project_points(xc: "torch.Tensor", fx: float, fy: float, cx: float, cy: float, eps: float = 1e-6) -> "torch.Tensor":
     """Perspective projection of camera-space points (..., 3) to pixels (..., 2)."""
+    import torch
+
     z = xc[..., 2:3].clamp_min(eps)
     uv = xc[..., :2] / z
     return torch.cat([uv[..., :1] * fx + cx, uv[..., 1:2] * fy + cy], dim=-1)

@@ -8,6 +8,12 @@ import time
 def add_parser(sub):
     p = sub.add_parser("play", help="render a motion with an exported avatar to mp4 or PNG frames")
     p.add_argument("avatar", help="avatar folder written by `morf export`")
+    add_playback_options(p)
+    return p
+
+
+def add_playback_options(p) -> None:
+    """Options shared by ``morf play`` and ``morf animate``."""
     p.add_argument("--motion", required=True, help=".npz (rotvecs (T,104,3), transl (T,3), fps) or a BVH file")
     p.add_argument("--out", required=True, help="output .mp4 file or a folder for PNG frames")
     p.add_argument("--fps", type=float, default=30.0, help="output frame rate (the motion is resampled)")
@@ -16,7 +22,6 @@ def add_parser(sub):
     p.add_argument("--precision", choices=("int8", "fp32"), default="int8")
     p.add_argument("--background", default="255,255,255", help="R,G,B background colour")
     p.add_argument("--max-frames", type=int, default=0, help="stop after this many frames (0: all)")
-    return p
 
 
 def run(args) -> int:

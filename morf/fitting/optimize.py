@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import torch
 
-from morf.camera import PinholeCamera
+from morf.camera import PinholeCamera, project_points
 from morf.fitting.config import FitConfig, StageConfig
 from morf.fitting.fit_body import FitBody
 from morf.fitting.inputs import FitInputs
@@ -22,7 +22,7 @@ from morf.fitting.params import FitParameters
 from morf.fitting.pose_prior import JointLimitPrior
 from morf.pipeline.control import Progress, StageControl
 from morf.progress import progress
-from morf.raster.soft_silhouette import soft_silhouette
+from morf.raster.soft_silhouette import front_facing, soft_silhouette
 
 
 @dataclass
@@ -51,9 +51,13 @@ def _data_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, idx:
     total = cfg.keypoint_weight * kp
     logs = {"keypoints": float(kp.detach())}
     if use_sil:
-        pix = problem.sil_camera.project(out.proxy_vertices)
+        cam_v = problem.sil_camera.world_to_camera(out.proxy_vertices)
+        sc = problem.sil_camera
+        pix = project_points(cam_v, sc.fx, sc.fy, sc.cx, sc.cy)
+        faces = problem.body.proxy_faces
         h, w = problem.masks.shape[-2:]
-        sil = soft_silhouette(pix, problem.body.proxy_faces, h, w, sigma=cfg.silhouette_sigma)
+        sil = soft_silhouette(pix, faces, h, w, sigma=cfg.silhouette_sigma,
+                              face_mask=front_facing(cam_v.detach(), faces))
         dice = dice_loss(sil, problem.masks[sil_idx]).sum() * sil_factor
         total = total + cfg.silhouette_weight * dice
         logs["silhouette"] = float(dice.detach())

@@ -94,13 +94,13 @@ def walk_cycle(rest: TargetRest, fps: float = 30.0, period: float = 1.1, cycles:
     rots, hips = {}, {}
     for s, off in (("L", 0.0), ("R", 0.5)):
         c = (phase + off) % 1.0
-        hip = 10.0 + 20.0 * np.cos(2 * np.pi * (c - 0.87))  # + forwards
-        knee = 4.0 + 14.0 * _bump(c, 0.15, 0.07) + 58.0 * _bump(c, 0.72, 0.1)
-        ankle = 6.0 * _bump(c, 0.07, 0.05) - 9.0 * _bump(c, 0.42, 0.12) + 16.0 * _bump(c, 0.62, 0.06)  # + toes down
+        hip = 8.0 + 18.0 * np.cos(2 * np.pi * (c - 0.95))  # + forwards
+        knee = 4.0 + 14.0 * _bump(c, 0.15, 0.07) + 60.0 * _bump(c, 0.7, 0.13)
+        ankle = 6.0 * _bump(c, 0.07, 0.05) - 8.0 * _bump(c, 0.4, 0.1) + 18.0 * _bump(c, 0.58, 0.07)  # + toes down
         rots[f"upperleg01.{s}"] = _rot(x=-hip)
         rots[f"lowerleg01.{s}"] = _rot(x=knee)
         rots[f"foot.{s}"] = _rot(x=ankle)
-        hips[s] = hip - 10.0
+        hips[s] = hip - 8.0
     # Each arm swings with the opposite leg.
     rots.update(_relaxed_arms(rest, 0.8 * hips["R"], 0.8 * hips["L"]))
     turn = hips["L"] - hips["R"]  # > 0 while the left leg is forwards

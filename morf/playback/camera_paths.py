@@ -10,44 +10,14 @@ import math
 
 import numpy as np
 
+from morf.camera import PinholeCamera
+
 FOV_Y_DEG = 40.0
 DISTANCE = 3.4  # metres: a 1.7 m person fills about 70% of a 40 degree view
 TARGET_Z = -0.05  # look slightly below the pelvis, the middle of a standing body
 
 
-class _TorchFreeCamera:
-    """The part of :class:`morf.camera.PinholeCamera` the player uses, for processes without torch
-    (morf.camera imports torch at module level). Same maths as PinholeCamera.look_at/gl_projection."""
-
-    def __init__(self, f: float, size: int, R: np.ndarray, t: np.ndarray):
-        self.fx = self.fy = f
-        self.cx = self.cy = size / 2
-        self.width = self.height = size
-        self.R, self.t = R, t
-
-    def view_matrix(self) -> np.ndarray:
-        V = np.eye(4)
-        V[:3, :3], V[:3, 3] = self.R, self.t
-        return V
-
-    def gl_projection(self, near: float = 0.05, far: float = 100.0) -> np.ndarray:
-        P = np.zeros((4, 4))
-        P[0, 0], P[0, 2] = 2 * self.fx / self.width, 2 * self.cx / self.width - 1
-        P[1, 1], P[1, 2] = 2 * self.fy / self.height, 2 * self.cy / self.height - 1
-        P[2, 2], P[2, 3], P[3, 2] = (far + near) / (far - near), -2 * far * near / (far - near), 1.0
-        return P
-
-
-def _look_at(size: int, eye: np.ndarray, target: np.ndarray):
-    try:
-        from morf.camera import PinholeCamera
-    except ImportError:
-        z = target - eye
-        z /= np.linalg.norm(z)
-        x = np.cross(z, (0, 0, 1.0))
-        x /= np.linalg.norm(x)
-        R = np.stack([x, np.cross(z, x), z])
-        return _TorchFreeCamera(0.5 * size / math.tan(math.radians(FOV_Y_DEG) / 2), size, R, -R @ eye)
+def _look_at(size: int, eye: np.ndarray, target: np.ndarray) -> PinholeCamera:
     return PinholeCamera.look_at(size, size, FOV_Y_DEG, eye=eye, target=target)
 
 
@@ -64,7 +34,7 @@ def orbit_camera(size: int, t: float, period_s: float = 8.0, center=(0.0, 0.0, 0
     return front_camera(size, center, yaw_deg=360.0 * t / period_s)
 
 
-def follow_camera(size: int, transl) -> object:
+def follow_camera(size: int, transl) -> PinholeCamera:
     """A front camera that keeps the root translation ``transl`` (3,) centred (height kept fixed)."""
     tr = np.asarray(transl, float)
     return front_camera(size, center=(tr[0], tr[1], 0.0))

@@ -2,26 +2,26 @@
 
 OpenGL through a headless EGL context (``gl_*`` modules, one context per thread);
 ``soft_silhouette`` is the differentiable silhouette used by fitting.
+
+Names are loaded on first use so that torch-free code (the exported-avatar player) can import
+``morf.raster.gl_context`` without pulling in torch through the other modules.
 """
 
-from morf.raster.gl_atlas import bake_vertex_attributes, dilate_charts
-from morf.raster.gl_context import GLUnavailable, adopt_gl_context, gl_context, gl_state, release_gl_context
-from morf.raster.gl_mesh import Rasterization, rasterize_uv, rasterize_uv_batch
-from morf.raster.gl_textured import GLTexture, render_mesh_normals, render_textured, upload_texture
+import importlib
 
-__all__ = [
-    "GLTexture",
-    "GLUnavailable",
-    "Rasterization",
-    "adopt_gl_context",
-    "bake_vertex_attributes",
-    "dilate_charts",
-    "gl_context",
-    "gl_state",
-    "rasterize_uv",
-    "rasterize_uv_batch",
-    "release_gl_context",
-    "render_mesh_normals",
-    "render_textured",
-    "upload_texture",
-]
+_WHERE = {
+    "bake_vertex_attributes": "gl_atlas", "dilate_charts": "gl_atlas",
+    "GLUnavailable": "gl_context", "adopt_gl_context": "gl_context", "gl_context": "gl_context",
+    "gl_state": "gl_context", "release_gl_context": "gl_context",
+    "Rasterization": "gl_mesh", "rasterize_uv": "gl_mesh", "rasterize_uv_batch": "gl_mesh",
+    "GLTexture": "gl_textured", "render_mesh_normals": "gl_textured", "render_textured": "gl_textured",
+    "upload_texture": "gl_textured",
+}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name):
+    if name in _WHERE:
+        return getattr(importlib.import_module(f"morf.raster.{_WHERE[name]}"), name)
+    raise AttributeError(f"module 'morf.raster' has no attribute {name!r}")

@@ -1,0 +1,27 @@
+"""``morf animate PROJECT --motion FILE --out video.mp4``: play a motion (BVH, AMASS .npz) on the
+project's exported avatar (``PROJECT/avatar``, written by ``morf export``)."""
+
+from __future__ import annotations
+
+from morf.cli.play import add_playback_options
+from morf.cli.play import run as play
+
+
+def add_parser(sub):
+    p = sub.add_parser("animate", help="retarget a motion onto the project's avatar and render it to video")
+    p.add_argument("project", help="capture project folder with an exported avatar")
+    p.add_argument("--avatar", default=None, help="avatar folder (default: PROJECT/avatar)")
+    add_playback_options(p)
+    return p
+
+
+def run(args) -> int:
+    from morf.capture.project import CaptureProject
+    from morf.errors import ProjectError
+
+    project = CaptureProject.open(args.project)
+    avatar = args.avatar or project.avatar_dir
+    if not (project.avatar_dir / "manifest.json").is_file() and args.avatar is None:
+        raise ProjectError(f"{project.root} has no exported avatar yet; run 'morf export {project.root}' first")
+    args.avatar = str(avatar)
+    return play(args)
