@@ -30,8 +30,9 @@ from studio.commands import Command, OpenProject, StartStage  # noqa: E402
 from studio.context import UiContext  # noqa: E402
 from studio.keys import handle_keys  # noqa: E402
 from studio.layout import draw_ui  # noqa: E402
+from studio.live_render import LiveRenderer  # noqa: E402
 from studio.loader import ImageLoader  # noqa: E402
-from studio.player import open_player  # noqa: E402
+from studio.player import Player, open_player  # noqa: E402
 from studio.project_view import ProjectView  # noqa: E402
 from studio.stages import LIBRARY_STAGES, cpu_load_stage, find_library_stages  # noqa: E402
 from studio.state import AppState  # noqa: E402
@@ -55,6 +56,7 @@ class StudioApp:
         stages: stage name -> function for the worker; None: the library's stages.
         unavailable: stage name -> why it is missing (with ``stages``).
         player_opener: avatar folder -> (player, note); None: :func:`studio.player.open_player`.
+            It is called on the live render's own thread (see :mod:`studio.live_render`).
     """
 
     def __init__(self, project: str | os.PathLike | None = None, *, size: tuple[int, int] = (1280, 800),
@@ -69,6 +71,7 @@ class StudioApp:
         if stages is None:
             stages, unavailable = find_library_stages()
         self._stage_labels = {s.name: s.label for s in LIBRARY_STAGES}
+        self._stage_presets = {n: tuple(getattr(fn, "presets", ())) for n, fn in stages.items()}
         shown = [s.name for s in LIBRARY_STAGES] + [n for n in stages if n not in self._stage_labels]
         self._stage_status = {n: None if n in stages else (unavailable or {}).get(n, "not part of this build")
                               for n in shown}
@@ -78,13 +81,14 @@ class StudioApp:
         self.view: ProjectView | None = None
         self.loader: ImageLoader | None = None
         self.textures = TextureCache(self.ctx, None)
-        self.player: Any = None
-        self.player_note: str | None = None
-        self._player_opener = player_opener or (lambda d: open_player(d, ctx=self.ctx))
+        self.live: LiveRenderer | None = None  # the live render's thread, once an avatar is exported
+        self._player_opener = player_opener or open_player
         self._live: dict = {}
         self._review_rev = 0
         self._was_busy = False
         self.frame_times: list[float] = []  # seconds per frame (UI work, without waiting for vsync)
+        self.live_stats: list[tuple[float | None, float]] = []  # (render fps, render ms) per live frame shown
+        self._live_seq = 0
         self._actions = make_actions(self.state, lambda: self.view, self.send)
         self._closed = False
         if project is not None:
@@ -148,17 +152,36 @@ class StudioApp:
                                    "fit": view.fit_overlay_path})
         self.textures = TextureCache(self.ctx, self.loader)
         if view.avatar_ready():
-            self.player, self.player_note = self._player_opener(view.project.avatar_dir)
+            self._open_live(view.project.avatar_dir)
         self.send(OpenProject(str(view.root)))
         return True
 
     def _close_project(self) -> None:
         if self.loader is not None:
             self.loader.close()
-        if hasattr(self.player, "release"):
-            self.player.release()
+        self._close_live()
         self.textures.release()
-        self.view, self.loader, self.player, self.player_note = None, None, None, None
+        self.view, self.loader = None, None
+
+    # ---- live render --------------------------------------------------------------------
+    def _open_live(self, avatar_dir: Path) -> None:
+        opener = self._player_opener
+        self.show_player(lambda: opener(avatar_dir))
+
+    def show_player(self, player: Player | Callable[[], tuple[Player | None, str | None]]) -> None:
+        """Play ``player`` in the live render panel, on the live render's own thread.
+
+        ``player``: a player object, or a function () -> (player, note) that opens one; it is
+        called on that thread, so the player's GL objects belong to that thread's context.
+        """
+        self._close_live()
+        opener = player if callable(player) and not hasattr(player, "render") else (lambda: (player, None))
+        self.live = LiveRenderer(opener).start()
+
+    def _close_live(self) -> None:
+        if self.live is not None and not self.live.close(timeout=10.0):
+            print("morf-studio: the live render did not stop within 10 s; leaving it behind", file=sys.stderr)
+        self.live, self._live_seq = None, 0
         self._live.clear()
 
     # ---- the frame loop -----------------------------------------------------------------
@@ -214,12 +237,17 @@ class StudioApp:
                     self.view.refresh() if stage_ended else self.view.reload_decisions()
                 except MorfError as e:
                     self.state.note = str(e)
-                if stage_ended and self.player is None and self.view.avatar_ready():
-                    self.player, self.player_note = self._player_opener(self.view.project.avatar_dir)
+                # a finished export may have replaced the avatar: play the new one
+                if stage_ended and self.view.avatar_ready() and (self.live is None or snap.stage == "export"):
+                    self._open_live(self.view.project.avatar_dir)
         self.textures.pump()
+        frame = self.live.latest() if self.live is not None else None
+        if frame is not None and frame.seq != self._live_seq:
+            self._live_seq = frame.seq
+            self.live_stats.append((frame.fps, frame.render_ms))
         return UiContext(view=self.view, textures=self.textures, snapshot=snap, send=self.send,
                          stages=self._stage_status, stage_labels=self._stage_labels, actions=self._actions,
-                         open_project=self.open_project, player=self.player, player_note=self.player_note,
+                         open_project=self.open_project, live_render=self.live, stage_presets=self._stage_presets,
                          frame_ms=1000 * self.frame_times[-1] if self.frame_times else 0.0, live=self._live)
 
     def run(self, max_frames: int | None = None, pace_hz: float | None = None, capture_last: bool = False) -> np.ndarray | None:
@@ -240,7 +268,7 @@ class StudioApp:
         for _ in range(max_frames):
             self.frame()
             if self.textures.settled() and self.worker.pending() == 0 and \
-                    self.worker.latest().review_rev == self._review_rev:
+                    self.worker.latest().review_rev == self._review_rev and (self.live is None or self.live.idle()):
                 break
             if time.monotonic() > end:
                 break
@@ -313,6 +341,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--screenshot", metavar="PNG", help="with --headless-frames: save the last frame")
     p.add_argument("--frame-times", action="store_true", help="print p50 / p95 UI frame times at exit")
     p.add_argument("--stage", metavar="NAME", help="start a stage at launch (fit, train, export; cpu-load for a UI load test)")
+    p.add_argument("--preset", metavar="NAME", help="with --stage: the stage's config preset (e.g. train: tiny, cpu, gpu)")
+    p.add_argument("--motion", metavar="FILE", help="a .bvh / .npz motion for the live render (5) to play")
     p.add_argument("--panel", type=int, choices=range(1, 6), metavar="1-5", help="panel to show first")
     p.add_argument("--frame", type=int, default=0, metavar="I", help="frame to show first")
     p.add_argument("--help-overlay", action="store_true", help="open the key help at start")
@@ -327,6 +357,16 @@ def frame_time_report(times_s: list[float], skip: int = 10) -> str:
         return "UI frame time: no frames"
     return (f"UI frame time over {t.size} frames: p50 {np.percentile(t, 50):.1f} ms, "
             f"p95 {np.percentile(t, 95):.1f} ms, max {t.max():.1f} ms")
+
+
+def live_render_report(stats: list[tuple[float, float]]) -> str:
+    """'live render: N frames, median x fps, median y ms a frame' from (fps, render_ms) samples."""
+    fps = np.asarray([f for f, _ in stats if f], np.float64)
+    ms = np.asarray([m for _, m in stats], np.float64)
+    if not len(ms):
+        return "live render: no frames"
+    rate = f"median {np.median(fps):.1f} fps, " if len(fps) else ""
+    return f"live render: {len(ms)} frames, {rate}median {np.median(ms):.1f} ms a frame on its own thread"
 
 
 def _parse_size(text: str) -> tuple[int, int]:
@@ -353,8 +393,10 @@ def run_cli(args: argparse.Namespace) -> int:
             app.state.frame = max(0, min(args.frame, app.view.num_frames - 1))
         app.state.show_help = args.help_overlay
         app.state.playing = args.play
+        if args.motion:
+            app.state.motion_file = str(Path(args.motion).resolve())
         if args.stage:
-            app.send(StartStage(args.stage))
+            app.send(StartStage(args.stage, {"preset": args.preset} if args.preset else {}))
         if args.headless_frames:
             if args.screenshot and not args.stage:
                 app.settle()  # every image decoded and uploaded: a complete picture
@@ -370,6 +412,8 @@ def run_cli(args: argparse.Namespace) -> int:
             print(f"morf-studio: last error: {app.worker.latest().error}", file=sys.stderr)
         if args.frame_times:
             print(frame_time_report(app.frame_times))
+            if app.live_stats:
+                print(live_render_report(app.live_stats))
     return 0
 
 

@@ -23,7 +23,8 @@ class UiContext:
     stage_labels: dict[str, str]  # stage name -> button text
     actions: dict[str, Callable[[], None]]  # keyboard actions (buttons reuse them)
     open_project: Callable[[str], bool]  # the start screen's "Open"
-    player: Any = None  # the live-render player, when an avatar was exported
+    live_render: Any = None  # studio.live_render.LiveRenderer, when an avatar was exported
     player_note: str | None = None  # why there is no player
+    stage_presets: dict[str, tuple[str, ...]] = field(default_factory=dict)  # stage -> its config presets
     frame_ms: float = 0.0  # the UI's own recent frame time
     live: dict = field(default_factory=dict)  # live-render panel's per-session scratch (fps, motion list)

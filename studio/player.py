@@ -1,7 +1,7 @@
 """How the live-render panel meets the avatar player (``morf.playback``).
 
-The panel needs only an object with ``render(pose, camera)`` returning either an (H, W, 3) uint8
-RGB image or a moderngl texture, and a ``size`` (the side of the square images it renders);
+The panel needs only an object with ``render(pose, camera)`` returning an (H, W, 3) uint8 RGB
+image (float in [0, 1] is accepted too) and a ``size`` (the side of the square images it renders);
 ``pose`` is one frame of the chosen motion (None: the rest pose) and ``camera`` a
 :class:`morf.camera.PinholeCamera` from the orbit camera. The library's player is imported lazily;
 when it is missing or the avatar cannot be opened the panel says why.
@@ -22,40 +22,69 @@ MOTION_SUFFIXES = (".bvh", ".npz")
 
 class Player(Protocol):
     def render(self, pose: Any, camera: PinholeCamera) -> Any:
-        """One frame: (H, W, 3) uint8 RGB or a moderngl.Texture of camera.width x camera.height."""
+        """One frame: (H, W, 3) uint8 RGB of camera.width x camera.height, on the live-render thread."""
+
+
+# onnxruntime threads of the live renderer: one, so that on a small CPU the UI thread and a
+# running stage keep a core between them (the renderer runs on its own thread, see live_render.py).
+LIVE_RENDER_THREADS = 1
+LIVE_RENDER_SIZE = 640
 
 
 class PlaybackPlayer:
-    """Adapts ``morf.playback``'s player (``render_texture(rotvecs, transl, camera)``) to :class:`Player`.
+    """Adapts ``morf.playback``'s player (``render(rotvecs, transl, camera)``) to :class:`Player`.
 
     ``pose`` is None (the rest pose: Anny's A-pose) or (rotvecs (J, 3), transl (3,)). It renders
-    square images of ``size`` pixels into a texture of the studio's own GL context.
+    square (size, size, 3) uint8 images in the GL context of the thread that opened it (made
+    current around each call), so open, render and release it on one thread.
     """
 
-    def __init__(self, player: Any):
+    def __init__(self, player: Any, gl: Any = None):
         self._player = player
+        self._gl = gl  # morf.raster.gl_context.GLState of the opening thread, or None
         self.size = int(player.size)
         self.num_bones = int(player.avatar.skeleton.num_bones)
 
-    def render(self, pose: Any, camera: PinholeCamera) -> Any:
+    def render(self, pose: Any, camera: PinholeCamera) -> np.ndarray:
         if pose is None:
             rotvecs, transl = np.zeros((self.num_bones, 3), np.float32), np.zeros(3, np.float32)
         else:
             rotvecs, transl = pose
-        return self._player.render_texture(rotvecs, transl, camera)
+        if self._gl is None:
+            return self._player.render(rotvecs, transl, camera)
+        from morf.raster.gl_context import current
+
+        with current(self._gl):
+            return self._player.render(rotvecs, transl, camera)
 
     def release(self) -> None:
-        self._player.release()
+        if self._gl is None:
+            self._player.release()
+            return
+        from morf.raster.gl_context import current, release_gl_context
+
+        with current(self._gl):
+            self._player.release()
+        release_gl_context()
 
 
-def open_player(avatar_dir: Path, ctx: Any = None) -> tuple[Player | None, str | None]:
-    """(player, None) for an exported avatar, or (None, why not in words)."""
+def open_player(avatar_dir: Path, size: int = LIVE_RENDER_SIZE,
+                threads: int = LIVE_RENDER_THREADS) -> tuple[Player | None, str | None]:
+    """(player, None) for an exported avatar, or (None, why not in words).
+
+    Call it on the thread that will render: the player draws in that thread's own headless GL
+    context (``morf.raster.gl_context``), never in the window's.
+    """
     try:
         from morf.playback.player import open_player as open_playback
+        from morf.raster.gl_context import current, gl_state
     except ImportError as e:
         return None, f"the avatar player (morf.playback) cannot be loaded: {e}"
     try:
-        return PlaybackPlayer(open_playback(avatar_dir, ctx=ctx)), None
+        gl = gl_state()
+        with current(gl):
+            player = open_playback(avatar_dir, ctx=gl.ctx, size=size, threads=threads)
+        return PlaybackPlayer(player, gl), None
     except MorfError as e:
         return None, str(e)
     except Exception as e:  # a broken avatar must not take the studio down

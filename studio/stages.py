@@ -5,8 +5,9 @@ The fitting, training and export stages live in ``morf.fitting``, ``morf.train``
 function is missing is listed as unavailable with the reason (the UI shows it, greyed out).
 
 A library stage is a function ``f(project, config, control)`` (any of those parameter names may be
-positional or keyword). Its config, when it has one, is the module's config dataclass built with
-defaults and the UI's overrides applied with ``dataclasses.replace``.
+positional or keyword). Its config, when it has one, is the module's config dataclass: the named
+preset the UI chose (``options["preset"]``, through the module's ``preset(name)``), or the
+dataclass's defaults, with the UI's other overrides applied with ``dataclasses.replace``.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from morf.capture.project import CaptureProject
+from morf.errors import InputError
 from morf.pipeline.control import Progress, StageControl
 from studio.worker import StageFn
 
@@ -32,23 +34,41 @@ class StageSpec:
     modules: tuple[str, ...]  # where to look, in order ("morf.fitting", "morf.fitting.project_fit")
     functions: tuple[str, ...]  # candidate function names, first found wins
     configs: tuple[str, ...]  # candidate config dataclass names (looked up in the same modules)
+    presets: tuple[str, ...] = ()  # candidate preset tables name -> config (looked up in the same modules)
 
 
 LIBRARY_STAGES = (
     StageSpec("fit", "Fit body", ("morf.fitting", "morf.fitting.project_fit", "morf.fitting.config"),
-              ("fit_project",), ("FitConfig",)),
+              ("fit_project",), ("FitConfig",), ("PRESETS",)),
     StageSpec("train", "Train avatar", ("morf.train", "morf.train.project_run", "morf.train.config"),
-              ("train_project",), ("TrainConfig",)),
-    StageSpec("export", "Export", ("morf.export", "morf.export.export_project", "morf.export.config"),
-              ("export_project",), ("ExportConfig",)),
+              ("train_project",), ("TrainConfig",), ("PRESETS",)),
+    StageSpec("export", "Export", ("morf.export.project_export",),
+              ("export_project",), ("ProjectExportConfig",)),
 )
 
 
-def _adapt(fn: Callable, config_cls: type | None) -> StageFn:
+def stage_config(config_cls: type, presets: dict | None, options: dict):
+    """The config a stage runs with: ``options["preset"]`` (or the defaults) + the other options."""
+    options = dict(options)
+    name = options.pop("preset", None)
+    if name is not None:
+        if not presets or name not in presets:
+            raise InputError(f"unknown preset {name!r}; choose one of {', '.join(presets or ()) or '(none)'}")
+        base = presets[name]
+    else:
+        base = config_cls()
+    config = dataclasses.replace(base, **options)
+    validate = getattr(config, "validate", None)
+    if callable(validate):
+        validate()
+    return config
+
+
+def _adapt(fn: Callable, config_cls: type | None, presets: dict | None = None) -> StageFn:
     params = inspect.signature(fn).parameters
 
     def run(project: CaptureProject, control: StageControl, options: dict):
-        config = dataclasses.replace(config_cls(), **options) if config_cls is not None else None
+        config = stage_config(config_cls, presets, options) if config_cls is not None else None
         kwargs = {}
         for name in params:
             if name in ("project", "capture"):
@@ -59,6 +79,7 @@ def _adapt(fn: Callable, config_cls: type | None) -> StageFn:
                 kwargs[name] = control
         return fn(**kwargs)
 
+    run.presets = tuple(presets or ())  # names the UI offers
     return run
 
 
@@ -80,7 +101,9 @@ def find_library_stages() -> tuple[dict[str, StageFn], dict[str, str]]:
             continue
         config_cls = next((getattr(m, n) for m in modules for n in spec.configs
                            if dataclasses.is_dataclass(getattr(m, n, None))), None)
-        found[spec.name] = _adapt(fn, config_cls)
+        presets = next((getattr(m, n) for m in modules for n in spec.presets
+                        if isinstance(getattr(m, n, None), dict)), None)
+        found[spec.name] = _adapt(fn, config_cls, presets)
     return found, missing
 
 

@@ -29,6 +29,9 @@ class AppState:
     note: str = ""  # the UI's own last event in words ("frame 3 dropped")
     motion_dir: str = ""  # folder the motion picker lists
     motion_file: str | None = None  # chosen .bvh / .npz motion
+    motion_time: float = 0.0  # seconds into the chosen motion (advances while playing)
+    stage_presets: dict[str, str] = field(default_factory=dict)  # stage -> preset chosen in the Training panel
+    stage_options: dict[str, dict] = field(default_factory=dict)  # stage -> config overrides sent with it
     orbit: OrbitCamera = field(default_factory=OrbitCamera)
 
     def select_panel(self, index: int) -> None:

@@ -15,6 +15,7 @@ Layout (format "morf-capture", version 1)::
       fits/               body fits and the automatic frame filter (morf fit)
       runs/               training runs (morf train)
       avatar/             the exported avatar (morf export)
+      dataset/            imported standard datasets only: reference files (not read by the pipeline)
       ground_truth/       synthetic captures only: camera, poses, shape, hold-out set
                           (full layout in morf/synth/capture.py)
 

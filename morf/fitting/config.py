@@ -66,7 +66,7 @@ class FitConfig:
     silhouette_weight: float = 2.0  # Dice loss
     silhouette_resolution: int = 96  # raster size of the long image side for the silhouette loss
     silhouette_sigma: float = 0.5  # softness of the rasterizer, pixels of that raster
-    silhouette_frames_per_step: int = 64  # frames rendered per step (a rotating subset); 0 = all
+    silhouette_frame_fraction: float = 0.25  # share of frames rendered per step (rotating subsets)
     proxy_cell: float = 0.03  # vertex-clustering cell of the silhouette proxy mesh, metres
     yaw_hypotheses: int = 8  # initial body orientations tried per frame
     yaw_switch_weight: float = 0.5  # cost of turning between frames when choosing among them

@@ -10,7 +10,7 @@ import torch
 
 from morf.body.model import BodyPose
 from morf.camera import PinholeCamera
-from morf.fitting.losses import keypoint_residual_px
+from morf.fitting.losses import keypoint_residual_px, worst_keypoint_residual_px
 from morf.raster.soft_silhouette import hard_coverage
 
 
@@ -19,10 +19,12 @@ class FitEvaluation:
     """Fields:
         keypoint_residual_px: (N,) confidence-weighted mean distance, detected vs fitted keypoints.
         silhouette_iou: (N,) IoU of the body's silhouette and the person mask (NaN without masks).
+        keypoint_worst_px: (N,) mean of the 3 largest keypoint distances (what the filter judges).
         projected_keypoints: (N, 23, 2) fitted keypoints in pixels.
     """
 
     keypoint_residual_px: np.ndarray
+    keypoint_worst_px: np.ndarray
     silhouette_iou: np.ndarray
     projected_keypoints: np.ndarray
 
@@ -68,5 +70,7 @@ def evaluate_fit(model, rotvecs: torch.Tensor, transl: torch.Tensor, shape: torc
             h, w = masks_eval.shape[1:]
             sil = silhouettes(out.vertices, faces, camera, eval_scale, w, h).cpu().numpy()
             ious[sl] = iou(sil, masks_eval[sl])
-    res = keypoint_residual_px(torch.as_tensor(proj), torch.as_tensor(keypoints), min_confidence).numpy()
-    return FitEvaluation(res.astype(np.float32), ious, proj)
+    p, k = torch.as_tensor(proj), torch.as_tensor(keypoints)
+    res = keypoint_residual_px(p, k, min_confidence).numpy().astype(np.float32)
+    worst = worst_keypoint_residual_px(p, k, 3, min_confidence).numpy().astype(np.float32)
+    return FitEvaluation(res, worst, ious, proj)

@@ -116,7 +116,8 @@ def finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple
     ev = evaluate_fit(model, rv, tr, sh, inputs.keypoints, inputs.camera, inputs.masks_eval, inputs.eval_scale,
                       cfg.filter.min_confidence)
     fits = BodyFits(rotvecs=state.rotvecs.numpy(), transl=state.transl.numpy(), shape=state.shape.numpy(),
-                    keypoint_residual_px=ev.keypoint_residual_px, silhouette_iou=ev.silhouette_iou,
+                    keypoint_residual_px=ev.keypoint_residual_px, keypoint_worst_px=ev.keypoint_worst_px,
+                    silhouette_iou=ev.silhouette_iou,
                     projected_keypoints=ev.projected_keypoints, config=cfg.to_dict())
     rejected: dict[int, str] = {}
     if cfg.frame_filter:
@@ -124,7 +125,7 @@ def finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple
         root = axis_angle_to_matrix(state.rotvecs[:, 0]).numpy()
         change = pose_change_deg(root, state.rotvecs[:, bone_ids].numpy())
         confident = (inputs.keypoints[..., 2] > cfg.filter.min_confidence).sum(1)
-        rejected = filter_frames(residual_px=ev.keypoint_residual_px, confident=confident, detected=inputs.detected,
+        rejected = filter_frames(residual_px=ev.keypoint_worst_px, confident=confident, detected=inputs.detected,
                                  iou=ev.silhouette_iou if inputs.masks_eval is not None else None,
                                  change_deg=change, image_height=inputs.camera.height, cfg=cfg.filter)
     return fits, dict(sorted(rejected.items()))

@@ -74,7 +74,7 @@ class FitBody(torch.nn.Module):
         ``proxy_rows``: (P,) batch rows whose proxy vertices are needed (default: all rows).
         """
         model = self.model
-        rest = model.rest(shape)
+        rest = self._rest(shape)
         rest_poses = rest["rest_bone_poses"]
         B = pose.batch_size
         if rest_poses.shape[0] == 1 and B > 1:
@@ -95,6 +95,18 @@ class FitBody(torch.nn.Module):
             pv = rest_v[:, self.proxy_ids]
             proxy = _skin(T34[rows], self.proxy_weights, pv if pv.shape[0] == 1 else pv[rows])
         return FitBodyOutput(keypoints3d=kp, proxy_vertices=proxy)
+
+
+    def _rest(self, shape: torch.Tensor) -> dict[str, torch.Tensor]:
+        """The shaped rest model; cached while the shape is not being optimised (stages 1-2)."""
+        if shape.requires_grad:
+            return self.model.rest(shape)
+        key = getattr(self, "_rest_key", None)
+        if key is None or key.shape != shape.shape or not torch.equal(key, shape):
+            with torch.no_grad():
+                self._rest_cache = self.model.rest(shape)
+            self._rest_key = shape.detach().clone()
+        return self._rest_cache
 
 
 def _skin(T34: torch.Tensor, weights: torch.Tensor, rest_v: torch.Tensor) -> torch.Tensor:

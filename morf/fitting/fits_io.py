@@ -24,6 +24,7 @@ class BodyFits:
         transl: (N, 3) float32 root translation, metres.
         shape: (1, S) shared or (N, S) per-frame phenotype values in [0, 1].
         keypoint_residual_px: (N,) float32 mean distance of fitted to detected keypoints.
+        keypoint_worst_px: (N,) float32 mean of the 3 largest of those distances.
         silhouette_iou: (N,) float32 IoU of body silhouette and person mask (NaN without masks).
         projected_keypoints: (N, 23, 2) float32 fitted keypoints in pixels.
         config: the FitConfig as a dict.
@@ -33,6 +34,7 @@ class BodyFits:
     transl: np.ndarray
     shape: np.ndarray
     keypoint_residual_px: np.ndarray
+    keypoint_worst_px: np.ndarray
     silhouette_iou: np.ndarray
     projected_keypoints: np.ndarray
     config: dict
@@ -49,6 +51,7 @@ class BodyFits:
 def save_fits(path: str | Path, fits: BodyFits) -> None:
     save_npz(path, rotvecs=fits.rotvecs.astype(np.float32), transl=fits.transl.astype(np.float32),
              shape=fits.shape.astype(np.float32), keypoint_residual_px=fits.keypoint_residual_px.astype(np.float32),
+             keypoint_worst_px=fits.keypoint_worst_px.astype(np.float32),
              silhouette_iou=fits.silhouette_iou.astype(np.float32),
              projected_keypoints=fits.projected_keypoints.astype(np.float32),
              config=np.array(json.dumps(fits.config)))
@@ -58,7 +61,8 @@ def read_fits(path: str | Path) -> BodyFits:
     d = load_npz(path)
     try:
         fits = BodyFits(rotvecs=d["rotvecs"], transl=d["transl"], shape=d["shape"],
-                        keypoint_residual_px=d["keypoint_residual_px"], silhouette_iou=d["silhouette_iou"],
+                        keypoint_residual_px=d["keypoint_residual_px"], keypoint_worst_px=d["keypoint_worst_px"],
+                        silhouette_iou=d["silhouette_iou"],
                         projected_keypoints=d["projected_keypoints"], config=json.loads(str(d["config"])))
     except (KeyError, ValueError) as e:
         raise ProjectError(f"damaged fits file {path}: {e}") from None

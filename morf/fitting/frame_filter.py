@@ -40,7 +40,7 @@ def filter_frames(*, residual_px: np.ndarray, confident: np.ndarray, detected: n
     """Frames to reject with the reason.
 
     Args:
-        residual_px: (N,) keypoint residual per frame; confident: (N,) number of confident keypoints;
+        residual_px: (N,) keypoint residual per frame (the worst few keypoints); confident: (N,) number of confident keypoints;
         detected: (N,) bool; iou: (N,) silhouette IoU or None; change_deg: (N-1,) from
         :func:`pose_change_deg`.
     """

@@ -42,6 +42,19 @@ def keypoint_residual_px(projected: torch.Tensor, detected: torch.Tensor, min_co
     return (w * d).sum(-1) / w.sum(-1).clamp_min(1e-6)
 
 
+def worst_keypoint_residual_px(projected: torch.Tensor, detected: torch.Tensor, k: int = 3,
+                               min_confidence: float = 0.3) -> torch.Tensor:
+    """(N,) mean of the ``k`` largest pixel distances among confident keypoints (0 if none).
+
+    A wrong limb moves two to four keypoints; averaging all 23 would dilute it, the worst few
+    do not.
+    """
+    d = (projected - detected[..., :2]).norm(dim=-1)
+    d = torch.where(detected[..., 2] > min_confidence, d, torch.zeros_like(d))
+    k = min(k, d.shape[-1])
+    return d.topk(k, dim=-1).values.mean(-1)
+
+
 def dice_loss(pred: torch.Tensor, target: torch.Tensor, eps: float = 1.0) -> torch.Tensor:
     """(N,) Dice loss 1 - 2|P.T| / (|P| + |T|) of soft masks (N, H, W) in [0, 1].
 

@@ -8,7 +8,6 @@ are computed on the whole parameter tensors.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import torch
@@ -104,8 +103,7 @@ def run_stage(problem: FitProblem, params: FitParameters, cfg: FitConfig, stage:
         # frames with a detected person and a non-empty mask take part in the silhouette loss
         usable = torch.as_tensor(problem.inputs.detected, device=device) & (problem.masks.sum((1, 2)) > 1.0)
         sil_frames = sil_frames[usable]
-    per_step = cfg.silhouette_frames_per_step or len(sil_frames)
-    groups = max(1, math.ceil(len(sil_frames) / max(1, per_step)))
+    groups = max(1, round(1.0 / min(1.0, max(cfg.silhouette_frame_fraction, 1e-3))))
     chunks = torch.arange(N, device=device).split(max(1, cfg.chunk_frames))
     logs: dict[str, float] = {}
     bar = progress(total=stage.iterations, desc=f"fit {stage_number}/{len(cfg.stages)} {stage.name}", unit="step")

@@ -123,10 +123,12 @@ def read_bvh(path: str | os.PathLike, up_axis: str = "auto", unit: str = "auto")
     local = np.broadcast_to(np.eye(3), (frames, J, 3, 3)).copy()
     root_pos = np.broadcast_to(offsets[0], (frames, 3)).copy()
     col = 0
+    orders = []
     for j, chans in enumerate(parsed.channels):
         block = data[:, col:col + len(chans)]
         col += len(chans)
         rot = [(c, k) for k, c in enumerate(chans) if c in _AXES]
+        orders.append("".join(_AXES[c] for c, _ in rot))
         if rot:
             order = "".join(_AXES[c] for c, _ in rot)
             angles = block[:, [k for _, k in rot]]
@@ -145,7 +147,7 @@ def read_bvh(path: str | os.PathLike, up_axis: str = "auto", unit: str = "auto")
     if abs(fps - round(fps)) < 0.01:  # "Frame Time: .0083333" means 120 fps
         fps = float(round(fps))
     return SourceMotion(skeleton, local, root_pos * scale, fps, up_axis=up_axis, name=path.stem,
-                        source=f"bvh:{path.name} ({unit}, {up_axis}-up)", kind="bvh")
+                        source=f"bvh:{path.name} ({unit}, {up_axis}-up)", kind="bvh", channel_orders=tuple(orders))
 
 
 def _parse_motion(lines: list[str], path: Path) -> tuple[int, float, np.ndarray]:

@@ -22,6 +22,7 @@ class GroundConfig:
 
     ground: float = 0.0  # floor height (z) in Anny's world, metres
     smoothing_s: float = 0.08  # Gaussian sigma of the vertical correction, seconds
+    tolerance: float = 0.005  # how far the smoothed correction may leave the lowest foot above its target, metres
     reduce_sliding: bool = True  # shift the root horizontally so planted feet stay put
     contact_height: float = 0.03  # a foot whose lowest point is this close to the floor may be planted, metres
     contact_speed: float = 0.4  # ... and moving slower than this, m/s
@@ -45,25 +46,29 @@ def foot_points(clip: MotionClip, model, shape: torch.Tensor | None = None, batc
 def place_on_ground(clip: MotionClip, model, shape: torch.Tensor | None = None, clearance: np.ndarray | None = None,
                     config: GroundConfig = GroundConfig(), control=None) -> MotionClip:
     """Shift each frame vertically so the lowest foot point sits ``clearance`` (T,) above the floor
-    (default 0: always touching), the correction smoothed over time and never leaving a foot
-    below the floor; then, if asked, reduce foot sliding. Returns a new clip."""
+    (default 0: always touching); then, if asked, reduce foot sliding. Returns a new clip.
+
+    The vertical correction is smoothed over time (mocap jitter) but kept within
+    [exact, exact + ``tolerance``] of the exact per-frame one: no foot goes below its target and
+    none floats more than the tolerance above it."""
     pts = foot_points(clip, model, shape, config.batch_size, control)
     T = clip.num_frames
     clearance = np.zeros(T) if clearance is None else np.asarray(clearance, dtype=np.float64)
     lowest = pts[..., 2].min(axis=1)
-    corr = config.ground + clearance - lowest
+    exact = config.ground + clearance - lowest
+    corr = exact
     if T > 1 and config.smoothing_s > 0:
-        corr = gaussian_filter1d(corr, sigma=config.smoothing_s * clip.fps, mode="nearest")
-    corr = np.maximum(corr, config.ground - lowest)
+        corr = gaussian_filter1d(exact, sigma=config.smoothing_s * clip.fps, mode="nearest")
+    corr = np.clip(corr, exact, exact + config.tolerance)
     transl = clip.transl.astype(np.float64).copy()
     transl[:, 2] += corr
     pts[..., 2] += corr[:, None]
     if config.reduce_sliding and T > 2:
-        transl[:, :2] += sliding_correction(pts, _sides(model, shape), clip.fps, config)
+        transl[:, :2] += sliding_correction(pts, foot_sides(model, shape), clip.fps, config)
     return replace(clip, transl=transl.astype(np.float32))
 
 
-def _sides(model, shape) -> tuple[list[int], list[int]]:
+def foot_sides(model, shape) -> tuple[list[int], list[int]]:
     """Positions (within FOOT_KEYPOINTS) of the left and right foot points."""
     rest = target_rest(model, shape)
     pos = {k: i for i, k in enumerate(FOOT_KEYPOINTS)}
@@ -104,7 +109,7 @@ def foot_skate(clip: MotionClip, model, shape: torch.Tensor | None = None,
                config: GroundConfig = GroundConfig()) -> float:
     """Mean horizontal speed (m/s) of planted feet, weighted by how planted they are: 0 is no sliding."""
     pts = foot_points(clip, model, shape, config.batch_size)
-    sides = _sides(model, shape)
+    sides = foot_sides(model, shape)
     w = contact_weights(pts, sides, clip.fps, config)
     total, weight = 0.0, 0.0
     for f, idx in enumerate(sides):

@@ -123,10 +123,10 @@ def to_clip(rots: dict[str, np.ndarray], transl: np.ndarray, bone_names, fps: fl
 
 def walk_forward(in_place: MotionClip, model) -> MotionClip:
     """The in-place walk moved on so that the lower foot (the stance foot) stays where it is planted."""
-    from morf.motion.ground import _sides, foot_points
+    from morf.motion.ground import foot_points, foot_sides
 
     pts = foot_points(in_place, model)
-    left, right = _sides(model, None)
+    left, right = foot_sides(model, None)
     feet = np.stack([pts[:, left], pts[:, right]], axis=1)  # (T, 2, 3 points, 3)
     stance = feet[..., 2].min(axis=2).argmin(axis=1)  # which foot is lower
     centre = feet[..., :2].mean(axis=2)  # (T, 2, 2)

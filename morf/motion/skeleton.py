@@ -69,6 +69,8 @@ class SourceMotion:
         up_axis: "y" or "z", the up axis of the world the rotations map into.
         name: short clip name; source: where it came from (file path, format).
         kind: "bvh", "smplh" or "smplx" (selects the joint map).
+        channel_orders: per joint, the rotation order read from the file ("ZYX", "" for none;
+            empty tuple when the format has no such thing).
     """
 
     skeleton: Skeleton
@@ -79,6 +81,7 @@ class SourceMotion:
     name: str = ""
     source: str = ""
     kind: str = "bvh"
+    channel_orders: tuple[str, ...] = ()
 
     @property
     def num_frames(self) -> int:

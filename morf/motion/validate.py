@@ -15,7 +15,7 @@ SEGMENTS = (
     ("forearm L", "lowerarm01.L", "wrist.L"), ("forearm R", "lowerarm01.R", "wrist.R"),
     ("thigh L", "upperleg01.L", "lowerleg01.L"), ("thigh R", "upperleg01.R", "lowerleg01.R"),
     ("shin L", "lowerleg01.L", "foot.L"), ("shin R", "lowerleg01.R", "foot.R"),
-    ("spine", "root", "neck01"),
+    ("spine", "root", "neck"),  # "neck": the lowest anchored bone of neck01..03, head
 )
 
 
@@ -47,6 +47,8 @@ def direction_errors(r: Retargeted, source_names: tuple[str, ...], model, shape:
     src = r.source_positions[frames]
     out = {}
     for label, a, b in SEGMENTS:
+        if b == "neck":
+            b = next((n for n in ("neck01", "neck02", "neck03", "head") if r.joint_map.joint_for(n)), "head")
         ja, jb = r.joint_map.joint_for(a), r.joint_map.joint_for(b)
         if ja is None or jb is None:
             continue
@@ -56,3 +58,49 @@ def direction_errors(r: Retargeted, source_names: tuple[str, ...], model, shape:
         out[label] = float(np.degrees(np.arccos(cos)).mean())
     out["mean"] = float(np.mean(list(out.values())))
     return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m morf.motion.validate FILE [--step N]``: direction errors, foot contact and sliding."""
+    import argparse
+
+    from morf.body import load_body_model
+    from morf.motion.anny_rest import target_rest
+    from morf.motion.convert import RetargetConfig, retarget
+    from morf.motion.ground import GroundConfig, foot_points, foot_skate
+    from morf.motion.retarget import retarget_rotations
+
+    ap = argparse.ArgumentParser(description="Check how a retargeted motion follows its source.")
+    ap.add_argument("file", help=".bvh or AMASS .npz")
+    ap.add_argument("--step", type=int, default=4, help="compare every N-th source frame")
+    args = ap.parse_args(argv)
+    from morf.errors import MorfError
+
+    try:
+        if args.file.lower().endswith(".bvh"):
+            from morf.motion.bvh import read_bvh
+
+            source = read_bvh(args.file)
+        else:
+            from morf.motion.amass import read_amass
+
+            source = read_amass(args.file)
+    except MorfError as e:
+        print(f"error: {e}")
+        return 2
+    model = load_body_model("anny")
+    r = retarget_rotations(source, target_rest(model))
+    errors = direction_errors(r, source.skeleton.names, model, frames=np.arange(0, source.num_frames, args.step))
+    print(f"{source.source}: {source.num_frames} frames at {source.fps:g} fps, map {r.joint_map.name}, scale {r.scale:.3f}")
+    print("direction error (deg): " + ", ".join(f"{k} {v:.4f}" for k, v in errors.items()))
+    clip = retarget(source, model)
+    plain = retarget(source, model, config=RetargetConfig(ground=GroundConfig(reduce_sliding=False)))
+    low = foot_points(clip, model)[..., 2].min(axis=1)
+    print(f"lowest foot point (m): median {np.median(low):.4f}, min {low.min():.4f}, max {low.max():.4f}; "
+          f"within 5 mm in {np.mean(low < 0.005) * 100:.0f}% of frames")
+    print(f"foot sliding (m/s): {foot_skate(clip, model):.3f} with the correction, {foot_skate(plain, model):.3f} without")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,30 +1,41 @@
-"""Live render: the exported avatar played by the int8 player, an orbit camera and a motion picker."""
+"""Live render: the exported avatar played by the int8 player, an orbit camera and a motion picker.
+
+The player runs on its own thread (``studio.live_render``): this panel only posts the pose and
+camera it wants and shows the newest finished image, so a slow render lowers the render fps,
+never the UI's.
+"""
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
-import moderngl
 from imgui_bundle import ImVec2, imgui
 
 from studio.context import UiContext
-from studio.player import as_rgb, list_motions, load_motion
+from studio.live_render import LiveRequest
+from studio.player import list_motions, load_motion
 from studio.state import AppState
 from studio.widgets import GREY, RED, empty_state, tex_ref
 
 SIDEBAR_W = 320
-RENDER_MAX = 640  # side of the rendered image when the player does not say
 ANNY_BONES = 104
+RENDER_MAX = 640  # side of the rendered image when the player does not say
 
 
 def draw(state: AppState, ui: UiContext) -> None:
+    _sync_motion(state, ui)
     avail = imgui.get_content_region_avail()
     imgui.begin_child("live_view", ImVec2(max(avail.x - SIDEBAR_W - 8, 64), avail.y))
-    if ui.player is None:
+    lr = ui.live_render
+    if lr is None:
         empty_state("No exported avatar yet.",
-                    ui.player_note or "Train an avatar, then export it ('morf export PROJECT'): "
-                    "the int8 player renders it here in real time.")
+                    ui.player_note or "Train an avatar, then export it (Training panel, or 'morf export "
+                    "PROJECT'): the int8 player renders it here in real time.")
+    elif not lr.ready:
+        if lr.note:
+            empty_state("The exported avatar cannot be played.", lr.note)
+        else:
+            imgui.text_colored(GREY, "opening the exported avatar ...")
     else:
         _draw_render(state, ui)
     imgui.end_child()
@@ -34,47 +45,71 @@ def draw(state: AppState, ui: UiContext) -> None:
     imgui.end_child()
 
 
-def _draw_render(state: AppState, ui: UiContext) -> None:
+def _sync_motion(state: AppState, ui: UiContext) -> None:
+    """Load the chosen motion once (clips are small; BVH retargeting takes a moment, once)."""
     live = ui.live
-    avail = imgui.get_content_region_avail()
-    side = max(min(avail.x, avail.y - 24), 16)  # players render square images
-    n = int(getattr(ui.player, "size", 0) or min(side, RENDER_MAX))
-    w = h = n
-    camera = state.orbit.camera(n, n)
-    clip = live.get("clip")
-    pose = None
-    if clip is not None and len(clip):
-        pose = clip[live.get("clip_frame", 0) % len(clip)]
-        if state.playing:
-            live["clip_frame"] = live.get("clip_frame", 0) + 1
-    t0 = time.perf_counter()
-    try:
-        out = ui.player.render(pose, camera)
-    except Exception as e:  # keep the app alive; the message says what broke
-        imgui.text_colored(RED, f"the player failed: {type(e).__name__}: {e}")
+    if live.get("clip_path") == state.motion_file:
         return
-    dt = time.perf_counter() - t0
-    live["render_ms"] = dt * 1000 if "render_ms" not in live else 0.9 * live["render_ms"] + 100 * dt
-    now = time.perf_counter()
-    if "last_t" in live:
-        gap = now - live["last_t"]
-        live["fps"] = 1.0 / gap if "fps" not in live else 0.9 * live["fps"] + 0.1 / max(gap, 1e-6)
-    live["last_t"] = now
-    tex = out if isinstance(out, moderngl.Texture) else ui.textures.preview("live", as_rgb(out), live.setdefault("n", 0))
-    live["n"] = live.get("n", 0) + 1
+    live["clip_path"] = state.motion_file
+    state.motion_time = 0.0
+    if state.motion_file is None:
+        live["clip"], live["clip_note"] = None, None
+        return
+    bones = (ui.live_render.num_bones if ui.live_render is not None else 0) or ANNY_BONES
+    live["clip"], live["clip_note"] = load_motion(Path(state.motion_file), bones)
+
+
+def _request(state: AppState, ui: UiContext, side: int) -> int | None:
+    """Post this frame's pose and camera to the render thread; returns the motion frame shown."""
+    live, io = ui.live, imgui.get_io()
+    clip = live.get("clip")
+    pose, index = None, None
+    if clip is not None and len(clip):
+        if state.playing:
+            state.motion_time += io.delta_time
+        index = int(state.motion_time * clip.fps) % len(clip)
+        pose = clip[index]
+    o = state.orbit
+    camera = o.camera(side, side)
+    key = (state.motion_file if pose is not None else None, index, o.yaw_deg, o.pitch_deg, o.distance_m,
+           tuple(o.target), o.fov_y_deg, side)
+    ui.live_render.request(LiveRequest(pose, camera, key))
+    return index
+
+
+def _draw_render(state: AppState, ui: UiContext) -> None:
+    lr, live = ui.live_render, ui.live
+    avail = imgui.get_content_region_avail()
+    side = max(min(avail.x, avail.y - 48), 16)  # players render square images
+    n = lr.size or int(min(side, RENDER_MAX))  # players with no fixed size render at the view's size
+    index = _request(state, ui, n)
+    frame = lr.latest()
     imgui.set_cursor_pos_x(imgui.get_cursor_pos_x() + max((avail.x - side) / 2, 0))
     origin = imgui.get_cursor_screen_pos()
-    imgui.image(tex_ref(tex), ImVec2(side, side))
+    if frame is None:
+        imgui.dummy(ImVec2(side, side))
+    else:
+        tex = ui.textures.preview("live", frame.image, frame.seq)
+        imgui.image(tex_ref(tex), ImVec2(side, side))
     if imgui.is_item_hovered():
         io = imgui.get_io()
         if imgui.is_mouse_dragging(imgui.MouseButton_.left):
             state.orbit.drag(io.mouse_delta.x, io.mouse_delta.y)
         if io.mouse_wheel:
             state.orbit.zoom(io.mouse_wheel)
-    fps = live.get("fps")
-    imgui.get_window_draw_list().add_text(ImVec2(origin.x + 8, origin.y + 6), imgui.get_color_u32(imgui.Col_.text),
-                                          f"{fps:.1f} fps" if fps else "-- fps")
-    imgui.text_colored(GREY, f"render {live['render_ms']:.1f} ms at {w} x {h}; drag to orbit, wheel to zoom")
+    ui_fps = 1000.0 / ui.frame_ms if ui.frame_ms > 0 else 0.0
+    render_fps = f"{frame.fps:.1f}" if frame is not None and frame.fps else "--"
+    dl = imgui.get_window_draw_list()
+    dl.add_text(ImVec2(origin.x + 8, origin.y + 6), imgui.get_color_u32(imgui.Col_.text), f"render {render_fps} fps")
+    if frame is None:
+        imgui.text_colored(GREY, "rendering the first frame ...")
+    else:
+        imgui.text_colored(GREY, f"render {frame.render_ms:.1f} ms at {n} x {n} (own thread); "
+                                 f"UI {ui.frame_ms:.1f} ms a frame ({min(ui_fps, 999):.0f} fps possible)")
+    shown = f"motion frame {index}" if index is not None else "rest pose"
+    imgui.text_colored(GREY, f"{shown}; drag to orbit, wheel to zoom, Space plays")
+    if lr.note:
+        imgui.text_colored(RED, lr.note)
 
 
 def _draw_sidebar(state: AppState, ui: UiContext) -> None:
@@ -94,17 +129,15 @@ def _draw_sidebar(state: AppState, ui: UiContext) -> None:
     motions: list[Path] = live.get("motions", [])
     if not motions:
         imgui.text_colored(GREY, "no .bvh or .npz files in this folder")
-        return
-    base = Path(state.motion_dir).expanduser()
-    if imgui.begin_list_box("##motions", ImVec2(-1, -60)):
-        for p in motions:
-            name = str(p.relative_to(base)) if p.is_relative_to(base) else p.name
-            if imgui.selectable(name, state.motion_file == str(p))[0]:
-                state.motion_file = str(p)
-                live["clip"], live["clip_note"] = load_motion(p, int(getattr(ui.player, "num_bones", ANNY_BONES)))
-                live["clip_frame"] = 0
-        imgui.end_list_box()
+    else:
+        base = Path(state.motion_dir).expanduser()
+        if imgui.begin_list_box("##motions", ImVec2(-1, -60)):
+            for p in motions:
+                name = str(p.relative_to(base)) if p.is_relative_to(base) else p.name
+                if imgui.selectable(name, state.motion_file == str(p))[0]:
+                    state.motion_file = str(p)
+            imgui.end_list_box()
     if live.get("clip_note"):
         imgui.text_colored(GREY, live["clip_note"])
     elif live.get("clip") is not None:
-        imgui.text(f"{len(live['clip'])} frames (Space plays)")
+        imgui.text(f"{Path(state.motion_file).name}: {len(live['clip'])} frames at {live['clip'].fps:g} fps")

@@ -11,11 +11,13 @@ from studio.state import AppState
 from studio.widgets import GREY, RED, fit_size, hms, tex_ref
 
 PREVIEW_H = 150
+PRESET_W = 80  # width of a stage's preset picker
+DEFAULT_PRESETS = {"fit": "default", "train": "cpu"}  # the presets 'morf fit' / 'morf train' use on a CPU
 
 
 def draw(state: AppState, ui: UiContext) -> None:
     snap = ui.snapshot
-    _stage_buttons(ui)
+    _stage_buttons(state, ui)
     imgui.separator()
     if snap.stage is None:
         imgui.text_colored(GREY, "Nothing has run in this session. Fit the body first, then train the avatar.")
@@ -55,16 +57,38 @@ def draw(state: AppState, ui: UiContext) -> None:
             imgui.end_group()
 
 
-def _stage_buttons(ui: UiContext) -> None:
+def chosen_preset(state: AppState, ui: UiContext, stage: str) -> str | None:
+    """The preset the stage runs with: the user's choice, else the usual default, else the first."""
+    presets = ui.stage_presets.get(stage, ())
+    if not presets:
+        return None
+    choice = state.stage_presets.get(stage) or DEFAULT_PRESETS.get(stage)
+    return choice if choice in presets else presets[0]
+
+
+def _stage_buttons(state: AppState, ui: UiContext) -> None:
     snap = ui.snapshot
     for k, (name, why) in enumerate(ui.stages.items()):
         if k:
-            imgui.same_line()
+            imgui.same_line(spacing=16 if ui.stage_presets.get(name) else -1)
         imgui.begin_disabled(why is not None or snap.busy or ui.view is None)
+        preset = chosen_preset(state, ui, name)
         if imgui.button(ui.stage_labels.get(name, name)):
-            ui.send(StartStage(name))
+            options = {"preset": preset} if preset else {}
+            ui.send(StartStage(name, {**options, **state.stage_options.get(name, {})}))
+        hovered = imgui.is_item_hovered(imgui.HoveredFlags_.allow_when_disabled)
+        if preset is not None:
+            imgui.same_line(spacing=2)
+            imgui.set_next_item_width(PRESET_W)
+            if imgui.begin_combo(f"##preset_{name}", preset):
+                for option in ui.stage_presets[name]:
+                    if imgui.selectable(option, option == preset)[0]:
+                        state.stage_presets[name] = option
+                imgui.end_combo()
+            if imgui.is_item_hovered():
+                imgui.set_tooltip(f"{ui.stage_labels.get(name, name)}: configuration preset")
         imgui.end_disabled()
-        if why is not None and imgui.is_item_hovered(imgui.HoveredFlags_.allow_when_disabled):
+        if why is not None and hovered:
             imgui.set_tooltip(why)
     imgui.same_line(spacing=30)
     imgui.begin_disabled(not snap.busy)

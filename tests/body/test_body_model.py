@@ -71,3 +71,11 @@ def test_rotation_roundtrip_and_gradcheck():
     assert torch.autograd.gradcheck(axis_angle_to_matrix, (x,))
     z = torch.zeros(1, 3, dtype=torch.float64, requires_grad=True)
     assert torch.autograd.gradcheck(axis_angle_to_matrix, (z,))
+
+
+def test_keypoint_layout_is_annys_regressor_order(body_model):
+    import anny
+
+    from morf.capture.keypoint_layout import KEYPOINT_NAMES
+
+    assert list(KEYPOINT_NAMES) == list(anny.KeypointsRegressor.coco(body_model.anny).labels)

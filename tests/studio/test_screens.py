@@ -218,8 +218,9 @@ def test_live_panel_without_and_with_a_player(make_app, tiny_project, tmp_path):
     app.press(K._5)
     check_golden("studio_live_empty", shot(app))
     player = GradientPlayer()
-    app.player = player
+    app.show_player(player)
     app.settle()
+    assert app.live.alive and app.live.latest() is not None
     # the render's fps / ms text depends on timing: blank it out
     check_golden("studio_live", shot(app), ignore=((0, 60, 960, 90), (0, 740, 960, 770)))
     assert player.calls and player.calls[-1].width <= 640

@@ -1,0 +1,94 @@
+"""``morf demo DIR``: the whole pipeline on a built-in synthetic capture.
+
+synth (a person turning in place, with ground truth) -> fit -> train -> export (int8) -> animate a
+motion -> DIR/animation.mp4. Every step is the same sub-command a user would run; finished steps are
+skipped and a killed training run resumes, so running it again continues where it stopped.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from morf.errors import MorfError
+
+REPO = Path(__file__).resolve().parents[2]
+CMU_BVH = REPO.parent / "shared" / "data" / "motion" / "cmu" / "01_01.bvh"
+SAMPLE_MOTIONS = REPO / "resources" / "motions"
+
+
+@dataclass(frozen=True)
+class DemoPreset:
+    synth: str  # morf synth preset
+    fit: str  # morf fit preset
+    train: str  # morf train preset
+    train_steps: int | None  # override of the preset's steps (None: the preset's own)
+    size: int  # output video size in pixels
+    max_frames: int  # frames of the motion to render (0: all)
+
+
+PRESETS = {
+    # Seconds: what CI runs.
+    "tiny": DemoPreset("tiny", "fast", "tiny", None, 128, 8),
+    # About a quarter of an hour on 2 CPU cores: a default-size capture, a short cpu-preset training.
+    "quick": DemoPreset("default", "default", "cpu", 600, 640, 240),
+    # The cpu preset trained to its plateau (tens of minutes).
+    "full": DemoPreset("default", "default", "cpu", None, 640, 0),
+}
+
+
+def add_parser(sub):
+    p = sub.add_parser("demo", help="run the whole pipeline on a built-in synthetic capture")
+    p.add_argument("dir", nargs="?", default="demo", help="demo folder (created; default ./demo)")
+    p.add_argument("--preset", choices=sorted(PRESETS), default="quick", help="how big a run (default quick)")
+    p.add_argument("--motion", default=None, help="motion to animate (default: CMU 01_01.bvh if present, else a "
+                                                   "motion shipped in resources/motions)")
+    return p
+
+
+def default_motion() -> Path:
+    if CMU_BVH.is_file():
+        return CMU_BVH
+    shipped = sorted(SAMPLE_MOTIONS.glob("*.npz")) + sorted(SAMPLE_MOTIONS.glob("*.bvh"))
+    if not shipped:
+        raise MorfError("no motion to animate: pass --motion FILE (.bvh or AMASS .npz)")
+    return shipped[0]
+
+
+def run(args) -> int:
+    from morf.capture.project import CaptureProject
+    from morf.cli.main import main
+
+    preset = PRESETS[args.preset]
+    root = Path(args.dir)
+    project = root / "capture"
+    motion = Path(args.motion) if args.motion else default_motion()
+    train = ["train", str(project), "--preset", preset.train, "--name", f"demo-{args.preset}"]
+    if preset.train_steps:
+        train += ["--steps", str(preset.train_steps)]
+    steps = [
+        ("synthetic capture", not CaptureProject.is_project(project),
+         ["synth", str(project), "--preset", preset.synth]),
+        ("body fits", not (project / "fits" / "fits.npz").is_file(),
+         ["fit", str(project), "--preset", preset.fit]),
+        ("avatar training", True, train),
+        ("int8 export", True, ["export", str(project), "--run", f"demo-{args.preset}"]),
+        ("animation", True, ["animate", str(project), "--motion", str(motion), "--out", str(root / "animation.mp4"),
+                             "--size", str(preset.size), "--max-frames", str(preset.max_frames), "--camera", "orbit"]),
+    ]
+    t_all = time.perf_counter()
+    for i, (what, needed, argv) in enumerate(steps, 1):
+        if not needed:
+            print(f"[{i}/{len(steps)}] {what}: already done")
+            continue
+        print(f"[{i}/{len(steps)}] {what}: morf {' '.join(argv)}", flush=True)
+        t0 = time.perf_counter()
+        rc = main(argv)
+        if rc != 0:
+            print(f"morf demo: step '{what}' failed (exit {rc}); fix it and run 'morf demo {root}' again to continue")
+            return rc
+        print(f"      done in {time.perf_counter() - t0:.0f} s", flush=True)
+    print(f"demo finished in {(time.perf_counter() - t_all) / 60:.1f} min: video {root / 'animation.mp4'}, "
+          f"avatar {project / 'avatar'}; open the capture in the studio with: morf-studio {project}")
+    return 0

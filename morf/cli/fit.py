@@ -1,0 +1,68 @@
+"""``morf fit PROJECT``: fit the body model to every frame and filter unreliable frames."""
+
+from __future__ import annotations
+
+import signal
+
+
+def add_parser(sub):
+    p = sub.add_parser("fit", help="fit the body model to every frame (keypoints, silhouettes, temporal smoothing)")
+    p.add_argument("project", help="capture project folder")
+    p.add_argument("--preset", default="default", help="fit preset: default | fast | baseline")
+    p.add_argument("--focal", type=float, default=None, help="focal length in pixels (overrides the project's camera)")
+    p.add_argument("--restart", action="store_true", help="start over instead of resuming from the last completed stage")
+    p.add_argument("--device", default=None, help="torch device (default: cuda when available, else cpu)")
+    for name, text in (("shared-shape", "one shape for all frames"), ("silhouette", "silhouette (Dice) loss"),
+                       ("temporal", "temporal smoothing"), ("frame-filter", "automatic frame filter")):
+        p.add_argument(f"--no-{name}", dest=name.replace("-", "_"), action="store_false", default=None,
+                       help=f"switch off the {text}")
+    p.add_argument("--no-overlays", dest="overlays", action="store_false", default=None, help="skip overlay images")
+    return p
+
+
+def run(args) -> int:
+    import torch
+
+    from morf.capture.project import CaptureProject
+    from morf.errors import InputError
+    from morf.fitting.config import preset
+    from morf.fitting.project_fit import fit_project
+    from morf.pipeline.control import StageControl, StopRequested
+
+    project = CaptureProject.open(args.project)
+    try:
+        cfg = preset(args.preset)
+    except KeyError as e:
+        raise InputError(str(e.args[0])) from None
+    changes = {k: getattr(args, k) for k in ("shared_shape", "silhouette", "temporal", "frame_filter", "overlays")
+               if getattr(args, k) is not None}
+    cfg = cfg.replace(**changes)
+    try:
+        device = torch.device(args.device) if args.device else None
+    except RuntimeError as e:
+        raise InputError(f"bad --device: {e}") from None
+    control = StageControl()
+    previous = signal.signal(signal.SIGINT, lambda *_: control.stop())
+    try:
+        report = fit_project(project, cfg, focal=args.focal, restart=args.restart, control=control, device=device)
+    except StopRequested:
+        print("morf fit: stopped; the last completed stage is saved, run again to resume")
+        return 130
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    fits = report.fits
+    if report.up_to_date:
+        print(f"fits in {project.fits_dir} are complete for this configuration (use --restart to fit again)")
+    elif report.resumed_from:
+        print(f"resumed after stage {report.resumed_from}")
+    n = fits.num_frames
+    print(f"fitted {n} frames in {report.seconds:.1f} s ({n / max(report.seconds, 1e-9):.1f} frames/s)")
+    print(f"keypoint residual: median {float(torch.as_tensor(fits.keypoint_residual_px).nanmedian()):.1f} px")
+    if not torch.as_tensor(fits.silhouette_iou).isnan().all():
+        print(f"silhouette IoU: median {float(torch.as_tensor(fits.silhouette_iou).nanmedian()):.3f}")
+    print(f"frame filter: {len(report.rejected)} of {n} frames rejected")
+    for i, reason in list(report.rejected.items())[:10]:
+        print(f"  {i:6d}  {reason}")
+    if len(report.rejected) > 10:
+        print(f"  ... and {len(report.rejected) - 10} more (see {project.fits_dir / 'filter.json'})")
+    return 0

@@ -1,0 +1,127 @@
+"""Export a capture project's trained avatar: the function behind ``morf export`` and the studio.
+
+Picks the training run (the newest finished one, or a named one), builds the int8 calibration
+and held-out views from the project's body fits, loads the trained avatar and calls
+:func:`morf.export.export_avatar.export_avatar`, which builds the folder beside its target and
+moves it into place (``PROJECT/avatar`` by default), so a failed or stopped export leaves the
+previous avatar intact.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from morf.errors import ProjectError
+from morf.pipeline.control import Progress, StageControl
+
+LAYOUTS = ("nchw", "planes")
+
+
+@dataclass(frozen=True)
+class ProjectExportConfig:
+    """What ``export_project`` exports and how."""
+
+    run: str | None = None  # run name under PROJECT/runs (None: the newest finished run)
+    out: str | None = None  # output folder (None: PROJECT/avatar)
+    input_layout: str = "nchw"  # renderer input layout: "nchw" (measured faster) or "planes"
+    calibration_views: int = 32  # training views used to calibrate int8 (spread over the capture)
+    heldout_every: int = 8  # every this-many-th training view is held out of calibration for the report
+    fits: str = "auto"  # body fits to pose the views: auto | fits | ground-truth (as 'morf train --fits')
+
+    def validate(self) -> None:
+        if self.input_layout not in LAYOUTS:
+            raise ProjectError(f"unknown renderer input layout {self.input_layout!r}; choose one of {', '.join(LAYOUTS)}")
+        if self.calibration_views < 1:
+            raise ProjectError(f"calibration views must be >= 1, got {self.calibration_views}")
+        if self.heldout_every < 2:
+            raise ProjectError(f"heldout_every must be >= 2 (1 would hold out every view), got {self.heldout_every}")
+
+
+def finished_runs(project) -> list[Path]:
+    """Run folders holding a trained avatar (``avatar.pt``), oldest first."""
+    runs = Path(project.runs_dir)
+    if not runs.is_dir():
+        return []
+    done = [d for d in runs.iterdir() if (d / "avatar.pt").is_file()]
+    return sorted(done, key=lambda d: (d / "avatar.pt").stat().st_mtime)
+
+
+def pick_run(project, name: str | None) -> Path:
+    """``PROJECT/runs/<name>``, or the newest finished run; one-line errors otherwise."""
+    runs = Path(project.runs_dir)
+    if name:
+        d = runs / name
+        if not d.is_dir():
+            raise ProjectError(f"no run named {name!r} in {runs}")
+        if not (d / "avatar.pt").is_file():
+            raise ProjectError(f"run {name!r} has not finished (no avatar.pt); resume it with 'morf train'")
+        return d
+    done = finished_runs(project)
+    if not done:
+        raise ProjectError(f"no finished training run in {runs}; run 'morf train {project.root}' first")
+    return done[-1]
+
+
+def project_views(project, camera, num_bones: int, fits_source: str = "auto", heldout_every: int = 8):
+    """(calibration, held-out) :class:`~morf.export.export_avatar.View` lists from the body fits.
+
+    Views are the project's training frames (the user's and the filter's decisions applied) that
+    the fit covers; every ``heldout_every``-th of them is held out of int8 calibration.
+    """
+    from morf.export.export_avatar import View
+    from morf.train.data import load_body_fits
+
+    fits = load_body_fits(project, fits_source)
+    rot, tr = fits.rotvecs, fits.transl
+    if rot.ndim != 3 or rot.shape[1:] != (num_bones, 3):
+        raise ProjectError(f"body fits have rotvecs of shape {rot.shape}, expected (N, {num_bones}, 3); re-run 'morf fit'")
+    usable = [i for i in range(len(rot)) if fits.valid[i]]
+    covered = set(usable)
+    frames = [i for i in project.training_frames() if i in covered] or usable
+    if not frames:
+        raise ProjectError(f"the body fits of {project.root} cover no frame; re-run 'morf fit'")
+    views = [View(np.asarray(rot[i], np.float32), np.asarray(tr[i], np.float32), camera) for i in frames]
+    k = heldout_every
+    held = views[k - 1::k]
+    calib = [v for j, v in enumerate(views) if j % k != k - 1] or views
+    return calib, held
+
+
+def export_project(project, cfg: ProjectExportConfig = ProjectExportConfig(), control: StageControl | None = None,
+                   body_model=None) -> dict:
+    """Export the project's trained avatar to ``cfg.out`` (default PROJECT/avatar); returns its manifest.
+
+    Args:
+        project: a CaptureProject with body fits (or synthetic ground truth) and a finished run.
+        cfg: which run, where to, and the int8 calibration choices.
+        control: progress reports and pause / stop points (``morf.pipeline.control``).
+        body_model: a loaded body model (optional; loaded on demand).
+    """
+    from morf.avatar.trained import load_trained_avatar
+    from morf.export.export_avatar import ExportConfig, export_avatar
+
+    cfg.validate()
+    control = control or StageControl()
+    run_dir = pick_run(project, cfg.run)
+    control.report(Progress("export", 0, 5, f"loading run {run_dir.name}"))
+    trained = load_trained_avatar(run_dir)
+    if body_model is None:
+        from morf.body import load_body_model
+
+        body_model = load_body_model("anny")
+    control.check()
+    # The training camera (the crop the renderer learned on) when the run saved one.
+    camera = trained.camera or project.camera()
+    calib, held = project_views(project, camera, len(body_model.bone_names), cfg.fits, cfg.heldout_every)
+    stride = max(1, len(calib) // cfg.calibration_views)  # spread calibration over the whole turn
+    out = Path(cfg.out) if cfg.out else Path(project.avatar_dir)
+    ecfg = ExportConfig(input_layout=cfg.input_layout, max_calibration_views=cfg.calibration_views,
+                        extra={"source": {"project": str(Path(project.root).resolve()), "run": run_dir.name,
+                                          "method": trained.method}})
+    manifest = export_avatar(out, texture=trained.texture, renderer=trained.renderer, body_model=body_model,
+                             shape=trained.shape, calibration=calib[::stride], heldout=held, cfg=ecfg,
+                             control=control)
+    return manifest
