@@ -86,7 +86,7 @@ class StudioApp:
         self._live: dict = {}
         self._review_rev = 0
         self._was_busy = False
-        self.frame_times: list[float] = []  # seconds per frame (UI work, without waiting for vsync)
+        self.frame_times: list[float] = []  # seconds per frame (UI work and its GL rasterization, no vsync wait)
         self.live_stats: list[tuple[float | None, float]] = []  # (render fps, render ms) per live frame shown
         self._live_seq = 0
         self._actions = make_actions(self.state, lambda: self.view, self.send)
@@ -114,7 +114,13 @@ class StudioApp:
         glfw.make_context_current(self.window)
         if not headless:
             glfw.swap_interval(1)
-        self.ctx = moderngl.create_context()
+        # Wrap the window's current context. Not moderngl.create_context(): once any standalone
+        # context exists in the process (the live render's, a library stage's), it switches to
+        # X11 detection, which fails on EGL windows.
+        moderngl.init_context()
+        self.ctx = moderngl.get_context()
+        if self.ctx.version_code < 330:
+            raise MorfError(f"OpenGL 3.3 is needed, the window got {self.ctx.version_code}")
         self._window_addr = ctypes.cast(self.window, ctypes.c_void_p).value
 
     def _init_imgui(self) -> None:
@@ -218,6 +224,10 @@ class StudioApp:
         self.ctx.viewport = (0, 0, fw, fh)
         self.ctx.clear(*CLEAR_RGB)
         imgui.backends.opengl3_render_draw_data(imgui.get_draw_data())
+        # Wait for the GL work of this frame. Without a GPU it is CPU work (llvmpipe): counting
+        # it is honest, and not waiting lets frames queue up until some texture upload has to
+        # wait for all of them at once (measured: 100-300 ms stalls during live playback).
+        self.ctx.finish()
         self.frame_times.append(time.perf_counter() - t0)
         shot = None
         if capture:  # read before swapping: the back buffer is undefined afterwards
@@ -301,6 +311,15 @@ class StudioApp:
         self.frame()
         io.add_mouse_button_event(button, False)
         self.frame()
+
+    def click_item(self, name: str, button: int = 0) -> None:
+        """Click the centre of a named control as drawn last frame (see ``AppState.item_rects``)."""
+        for _ in range(2):  # a just-opened popup measures and places itself over two frames
+            self.frame()
+        if name not in self.state.item_rects:
+            raise KeyError(f"no control named {name!r} was drawn; known: {sorted(self.state.item_rects)}")
+        x0, y0, x1, y1 = self.state.item_rects[name]
+        self.click((x0 + x1) / 2, (y0 + y1) / 2, button)
 
     def type_text(self, text: str) -> None:
         imgui.get_io().add_input_characters_utf8(text)

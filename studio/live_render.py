@@ -11,6 +11,7 @@ falling behind, and neither lock is held for more than swapping a reference.
 from __future__ import annotations
 
 import collections
+import os
 import sys
 import threading
 import time
@@ -24,6 +25,7 @@ from morf.camera import PinholeCamera
 from studio.player import Player, as_rgb
 
 FPS_WINDOW_S = 1.0  # the render fps counts frames finished in this trailing window
+RENDER_NICENESS = 10  # the render thread's nice value: the UI thread wins when the CPU is short
 
 PlayerOpener = Callable[[], tuple[Player | None, str | None]]
 
@@ -59,6 +61,14 @@ class LiveFrame:
     seq: int
     render_ms: float
     fps: float | None
+
+
+def lower_thread_priority(niceness: int = RENDER_NICENESS) -> None:
+    """Make the calling thread yield the CPU to the UI thread (Linux: threads have their own nice value)."""
+    try:
+        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), niceness)
+    except (AttributeError, OSError):  # other systems, or not permitted: run at normal priority
+        pass
 
 
 class LiveRenderer:
@@ -127,6 +137,7 @@ class LiveRenderer:
 
     # ---- render thread ------------------------------------------------------------------
     def _main(self) -> None:
+        lower_thread_priority()
         try:
             player, note = self._open_player()
         except Exception as e:  # a broken avatar must not take the studio down

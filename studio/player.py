@@ -9,6 +9,7 @@ when it is missing or the avatar cannot be opened the panel says why.
 
 from __future__ import annotations
 
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -117,6 +118,17 @@ def load_motion(path: Path, num_bones: int) -> tuple[MotionFrames | None, str | 
         return None, str(e)
     except Exception as e:
         return None, f"{type(e).__name__}: {e}"
+
+
+_MOTION_POOL: ThreadPoolExecutor | None = None
+
+
+def load_motion_async(path: Path, num_bones: int) -> "Future[tuple[MotionFrames | None, str | None]]":
+    """:func:`load_motion` on a background thread (reading and retargeting a BVH takes seconds)."""
+    global _MOTION_POOL
+    if _MOTION_POOL is None:
+        _MOTION_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="morf-motion")
+    return _MOTION_POOL.submit(load_motion, path, num_bones)
 
 
 def list_motions(folder: str | Path) -> list[Path]:

@@ -33,6 +33,7 @@ class AppState:
     stage_presets: dict[str, str] = field(default_factory=dict)  # stage -> preset chosen in the Training panel
     stage_options: dict[str, dict] = field(default_factory=dict)  # stage -> config overrides sent with it
     orbit: OrbitCamera = field(default_factory=OrbitCamera)
+    item_rects: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)  # named controls as last drawn
 
     def select_panel(self, index: int) -> None:
         self.panel_request = index % len(PANELS)

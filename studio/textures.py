@@ -45,6 +45,7 @@ class TextureCache:
         self._large: "OrderedDict[Key, moderngl.Texture | None]" = OrderedDict()
         self._requested: set[Key] = set()
         self._previews: dict[str, tuple[int, moderngl.Texture]] = {}
+        self._ring_pos: dict[str, int] = {}  # preview name -> next ring slot
 
     # ---- project images -------------------------------------------------------------------
     def get(self, key: Key) -> moderngl.Texture | None:
@@ -93,20 +94,34 @@ class TextureCache:
         return not self._requested and (self._loader is None or self._loader.idle())
 
     # ---- preview images from worker snapshots -------------------------------------------
-    def preview(self, name: str, image: np.ndarray, version: int) -> moderngl.Texture:
-        """Texture of a preview image; re-uploaded only when ``version`` changed."""
+    def preview(self, name: str, image: np.ndarray, version: int, ring: int = 1) -> moderngl.Texture:
+        """Texture of a preview image; re-uploaded only when ``version`` changed.
+
+        ``ring`` > 1 cycles through that many textures. For images that change every frame (the
+        live render): writing a texture the last frame still draws makes the driver wait for that
+        frame's rasterization (measured: 100+ ms on llvmpipe with the CPU busy), while writing
+        one last used ``ring - 1`` frames ago does not.
+        """
         old = self._previews.get(name)
         if old is not None and old[0] == version:
             return old[1]
-        tex = upload(self._ctx, image, old[1] if old else None)
-        self._previews[name] = (version, tex)
+        slot = name
+        if ring > 1:
+            k = self._ring_pos.get(name, 0)
+            self._ring_pos[name] = (k + 1) % ring
+            slot = f"{name}#{k}"
+        prev = self._previews.get(slot)
+        tex = upload(self._ctx, image, prev[1] if prev else None)
+        self._previews[slot] = self._previews[name] = (version, tex)
         return tex
 
     def release(self) -> None:
-        for tex in list(self._thumbs.values()) + list(self._large.values()) + [t for _, t in self._previews.values()]:
+        previews = {id(t): t for _, t in self._previews.values()}.values()  # ring slots appear twice
+        for tex in list(self._thumbs.values()) + list(self._large.values()) + list(previews):
             if tex is not None:
                 tex.release()
         self._thumbs.clear()
         self._large.clear()
         self._previews.clear()
+        self._ring_pos.clear()
         self._requested.clear()

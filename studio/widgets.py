@@ -80,3 +80,13 @@ def hms(seconds: float | None) -> str:
     s = int(round(seconds))
     h, m, s = s // 3600, s // 60 % 60, s % 60
     return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
+
+
+def remember_item(rects: dict, name: str) -> None:
+    """Store where the last drawn item is, (x0, y0, x1, y1) screen pixels, under ``name``.
+
+    Scripted input (tests, screenshot scripts) clicks controls by name through these rectangles,
+    so it does not break when a layout shifts by a few pixels.
+    """
+    lo, hi = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+    rects[name] = (lo.x, lo.y, hi.x, hi.y)

@@ -43,9 +43,15 @@ class _WorkerControl(StageControl):
 
     def check(self) -> None:
         if threading.current_thread() is self._worker._thread:
+            stopped_before = self.stop_requested
             self._worker._drain(self)
             while self.paused and not self.stop_requested:
                 self._worker._drain(self, timeout=0.1)
+            if self.stop_requested and not stopped_before:
+                # A stop learned just now is honoured at the next safe point: stages look at
+                # ``stop_requested`` before ``check`` to write their checkpoint first
+                # (morf.train does), and raising here would skip that.
+                return
         super().check()
 
     def report(self, progress: Progress) -> None:

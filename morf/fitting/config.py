@@ -24,7 +24,7 @@ class StageConfig:
 
 def default_stages() -> tuple[StageConfig, ...]:
     return (
-        StageConfig("global", 60, 0.03, body_pose=False, shape=False, silhouette=False),
+        StageConfig("global", 60, 0.06, body_pose=False, shape=False, silhouette=False),
         StageConfig("body", 140, 0.03, body_pose=True, shape=False, silhouette=False),
         StageConfig("all", 80, 0.015, body_pose=True, shape=True, silhouette=True),
     )
@@ -38,7 +38,7 @@ class FilterConfig:
     residual_min_px: float = 0.02  # ... and above this fraction of the image height
     iou_drop: float = 0.12  # silhouette IoU this far below the sequence median (when masks exist)
     jump_factor: float = 4.0  # pose change to BOTH neighbours above this many times the median change ...
-    jump_min_deg: float = 12.0  # ... and above this many degrees (mean over body bones)
+    jump_min_deg: float = 12.0  # ... and above this many degrees (mean of the 3 bones that moved most)
     min_keypoints: int = 6  # fewer confident keypoints than this counts as a detection failure
     min_confidence: float = 0.3  # a keypoint counts as confident above this
 
@@ -75,6 +75,9 @@ class FitConfig:
     iou_resolution: int = 256  # raster size of the long image side for silhouette IoU
     overlays: bool = True  # write fits/overlays/000000.jpg per frame
     chunk_frames: int = 256  # frames per forward pass (bounds memory; gradients are accumulated)
+    # torch CPU threads while fitting: the steps are many small ops, and on a busy 2-core machine
+    # two threads were measured 3-20x slower than one (synchronisation, not arithmetic); 0 = keep
+    cpu_threads: int = 1
     seed: int = 0
     filter: FilterConfig = field(default_factory=FilterConfig)
 

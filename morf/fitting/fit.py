@@ -6,6 +6,7 @@ project, resumes from the last completed stage, and writes PROJECT/fits/ atomica
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 from typing import Callable
 
@@ -46,6 +47,18 @@ def default_device() -> torch.device:
     return torch.device("cuda" if torch.cuda.is_available() else "cpu")
 
 
+@contextlib.contextmanager
+def cpu_threads(n: int):
+    """Temporarily set torch's intra-op CPU threads (0 leaves them alone)."""
+    previous = torch.get_num_threads()
+    if n > 0:
+        torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)
+
+
 def _problem(model, inputs: FitInputs, cfg: FitConfig, device: torch.device) -> FitProblem:
     proxy = body_proxy(model, cfg.proxy_cell) if (cfg.silhouette and inputs.masks is not None) else None
     body = FitBody(model, proxy).to(device)
@@ -67,8 +80,11 @@ def fit_sequence(model, inputs: FitInputs, cfg: FitConfig, *, control: StageCont
 
     ``on_stage`` is called with the state after every completed stage (to save a checkpoint).
     """
-    control = control or StageControl()
-    device = device or default_device()
+    with cpu_threads(cfg.cpu_threads):
+        return _fit_sequence(model, inputs, cfg, control or StageControl(), start, device or default_device(), on_stage)
+
+
+def _fit_sequence(model, inputs, cfg, control, start, device, on_stage) -> FitState:
     torch.manual_seed(cfg.seed)
     model = model.to(device)
     problem = _problem(model, inputs, cfg, device)
@@ -87,7 +103,7 @@ def fit_sequence(model, inputs: FitInputs, cfg: FitConfig, *, control: StageCont
         with torch.no_grad():
             rest_kp = model(model.zero_pose(1), shape0).keypoints3d[0]
         g = fit_global(inputs.keypoints, inputs.camera, rest_kp.cpu(), hypotheses=cfg.yaw_hypotheses,
-                       iterations=first.iterations, lr=first.lr * 2, scale=0.01 * inputs.camera.height,
+                       iterations=first.iterations, lr=first.lr, scale=0.01 * inputs.camera.height,
                        sigma=cfg.keypoint_robust_sigma, switch_weight=cfg.yaw_switch_weight, control=control)
         params = FitParameters(N, len(model.bone_names), bone_ids, g.root.to(device), g.transl.to(device),
                                shape0, cfg.shared_shape).to(device)
@@ -111,6 +127,11 @@ def _state(params: FitParameters, stage: int) -> FitState:
 
 def finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple[BodyFits, dict[int, str]]:
     """Evaluate the fit on the full mesh and run the frame filter."""
+    with cpu_threads(cfg.cpu_threads):
+        return _finalize(model, inputs, cfg, state)
+
+
+def _finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple[BodyFits, dict[int, str]]:
     device = next(iter(model.buffers())).device
     rv, tr, sh = (x.to(device) for x in (state.rotvecs, state.transl, state.shape))
     ev = evaluate_fit(model, rv, tr, sh, inputs.keypoints, inputs.camera, inputs.masks_eval, inputs.eval_scale,

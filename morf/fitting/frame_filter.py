@@ -19,8 +19,9 @@ import numpy as np
 from morf.fitting.config import FilterConfig
 
 
-def pose_change_deg(root: np.ndarray, body: np.ndarray) -> np.ndarray:
-    """(N-1,) mean rotation change between adjacent frames, degrees.
+def pose_change_deg(root: np.ndarray, body: np.ndarray, worst: int = 3) -> np.ndarray:
+    """(N-1,) rotation change between adjacent frames: mean of the ``worst`` largest per-bone
+    changes, degrees (one wrong limb moves two or three bones; a mean over all would dilute it).
 
     Args:
         root: (N, 3, 3) root rotations; body: (N, B, 3) body-bone axis-angles.
@@ -31,7 +32,8 @@ def pose_change_deg(root: np.ndarray, body: np.ndarray) -> np.ndarray:
     root_angle = np.arccos(np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1, 1))
     body_angle = np.linalg.norm(body[1:] - body[:-1], axis=-1)  # (N-1, B)
     per_bone = np.concatenate([root_angle[:, None], body_angle], axis=1)
-    return np.degrees(per_bone.mean(1))
+    k = min(worst, per_bone.shape[1])
+    return np.degrees(np.sort(per_bone, axis=1)[:, -k:].mean(1))
 
 
 def filter_frames(*, residual_px: np.ndarray, confident: np.ndarray, detected: np.ndarray,

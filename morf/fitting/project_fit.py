@@ -10,6 +10,7 @@ Outputs:
 
 from __future__ import annotations
 
+import json
 import time
 from dataclasses import dataclass
 
@@ -20,7 +21,7 @@ from morf.camera import PinholeCamera
 from morf.errors import InputError
 from morf.fitting.config import FitConfig
 from morf.fitting.evaluate import posed_chunks, silhouettes
-from morf.fitting.fit import FitState, default_device, finalize, fit_sequence
+from morf.fitting.fit import FitState, cpu_threads, default_device, finalize, fit_sequence
 from morf.fitting.fits_io import CHECKPOINT_FILE, FITS_FILE, BodyFits, read_checkpoint, save_checkpoint, save_fits
 from morf.fitting.inputs import load_fit_inputs
 from morf.fitting.overlays import draw_overlay
@@ -52,7 +53,7 @@ def _resume_key(cfg: FitConfig, camera: PinholeCamera) -> dict:
     for k in ("overlays", "iou_resolution", "filter", "chunk_frames"):
         d.pop(k, None)
     d["camera"] = camera.to_dict()
-    return d
+    return json.loads(json.dumps(d, sort_keys=True))  # the form it takes after a round trip to disk
 
 
 def project_camera(project, focal: float | None) -> PinholeCamera:
@@ -110,7 +111,8 @@ def fit_project(project, cfg: FitConfig, *, model=None, focal: float | None = No
         "median_silhouette_iou": None if inputs.masks_eval is None else float(np.nanmedian(fits.silhouette_iou)),
     })
     if cfg.overlays:
-        write_overlays(project, model, fits, inputs.keypoints, camera, rejected, control)
+        with cpu_threads(cfg.cpu_threads):
+            write_overlays(project, model, fits, inputs.keypoints, camera, rejected, control)
     return FitReport(fits, rejected, time.perf_counter() - t0, resumed)
 
 

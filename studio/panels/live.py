@@ -7,15 +7,16 @@ never the UI's.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from imgui_bundle import ImVec2, imgui
 
 from studio.context import UiContext
 from studio.live_render import LiveRequest
-from studio.player import list_motions, load_motion
+from studio.player import list_motions, load_motion_async
 from studio.state import AppState
-from studio.widgets import GREY, RED, empty_state, tex_ref
+from studio.widgets import GREY, RED, empty_state, remember_item, tex_ref
 
 SIDEBAR_W = 320
 ANNY_BONES = 104
@@ -46,17 +47,21 @@ def draw(state: AppState, ui: UiContext) -> None:
 
 
 def _sync_motion(state: AppState, ui: UiContext) -> None:
-    """Load the chosen motion once (clips are small; BVH retargeting takes a moment, once)."""
+    """Load the chosen motion in the background (retargeting a BVH takes seconds) and pick it up."""
     live = ui.live
-    if live.get("clip_path") == state.motion_file:
-        return
-    live["clip_path"] = state.motion_file
-    state.motion_time = 0.0
-    if state.motion_file is None:
-        live["clip"], live["clip_note"] = None, None
-        return
-    bones = (ui.live_render.num_bones if ui.live_render is not None else 0) or ANNY_BONES
-    live["clip"], live["clip_note"] = load_motion(Path(state.motion_file), bones)
+    if live.get("clip_path") != state.motion_file:
+        live["clip_path"] = state.motion_file
+        state.motion_time = 0.0
+        live["clip"], live["clip_note"], live["clip_loading"] = None, None, None
+        if state.motion_file is not None:
+            bones = (ui.live_render.num_bones if ui.live_render is not None else 0) or ANNY_BONES
+            live["clip_loading"] = load_motion_async(Path(state.motion_file), bones)
+    loading = live.get("clip_loading")
+    if loading is not None and loading.done():
+        live["clip"], live["clip_note"] = loading.result()
+        if live["clip"] is not None and len(live["clip"]):
+            live["clip_centre"] = live["clip"].transl.mean(axis=0)
+        live["clip_loading"] = None
 
 
 def _request(state: AppState, ui: UiContext, side: int) -> int | None:
@@ -70,6 +75,8 @@ def _request(state: AppState, ui: UiContext, side: int) -> int | None:
         index = int(state.motion_time * clip.fps) % len(clip)
         pose = clip[index]
     o = state.orbit
+    if clip is not None and len(clip):  # orbit around where the motion happens, not the origin
+        o = dataclasses.replace(o, target=tuple(float(a + b) for a, b in zip(o.target, live["clip_centre"])))
     camera = o.camera(side, side)
     key = (state.motion_file if pose is not None else None, index, o.yaw_deg, o.pitch_deg, o.distance_m,
            tuple(o.target), o.fov_y_deg, side)
@@ -89,7 +96,7 @@ def _draw_render(state: AppState, ui: UiContext) -> None:
     if frame is None:
         imgui.dummy(ImVec2(side, side))
     else:
-        tex = ui.textures.preview("live", frame.image, frame.seq)
+        tex = ui.textures.preview("live", frame.image, frame.seq, ring=3)
         imgui.image(tex_ref(tex), ImVec2(side, side))
     if imgui.is_item_hovered():
         io = imgui.get_io()
@@ -136,8 +143,11 @@ def _draw_sidebar(state: AppState, ui: UiContext) -> None:
                 name = str(p.relative_to(base)) if p.is_relative_to(base) else p.name
                 if imgui.selectable(name, state.motion_file == str(p))[0]:
                     state.motion_file = str(p)
+                remember_item(state.item_rects, f"motion:{name}")
             imgui.end_list_box()
-    if live.get("clip_note"):
+    if live.get("clip_loading") is not None:
+        imgui.text_colored(GREY, f"loading {Path(state.motion_file).name} ...")
+    elif live.get("clip_note"):
         imgui.text_colored(GREY, live["clip_note"])
     elif live.get("clip") is not None:
         imgui.text(f"{Path(state.motion_file).name}: {len(live['clip'])} frames at {live['clip'].fps:g} fps")

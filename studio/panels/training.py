@@ -8,7 +8,7 @@ from studio.commands import Pause, Resume, StartStage, Stop
 from studio.context import UiContext
 from studio.snapshot import STATE_WORDS
 from studio.state import AppState
-from studio.widgets import GREY, RED, fit_size, hms, tex_ref
+from studio.widgets import GREY, RED, fit_size, hms, remember_item, tex_ref
 
 PREVIEW_H = 150
 PRESET_W = 80  # width of a stage's preset picker
@@ -76,17 +76,22 @@ def _stage_buttons(state: AppState, ui: UiContext) -> None:
         if imgui.button(ui.stage_labels.get(name, name)):
             options = {"preset": preset} if preset else {}
             ui.send(StartStage(name, {**options, **state.stage_options.get(name, {})}))
+        remember_item(state.item_rects, f"stage:{name}")
         hovered = imgui.is_item_hovered(imgui.HoveredFlags_.allow_when_disabled)
         if preset is not None:
             imgui.same_line(spacing=2)
             imgui.set_next_item_width(PRESET_W)
-            if imgui.begin_combo(f"##preset_{name}", preset):
+            opened = imgui.begin_combo(f"##preset_{name}", preset)
+            if not opened:  # once open, the last item is inside the popup
+                remember_item(state.item_rects, f"preset:{name}")
+                if imgui.is_item_hovered():
+                    imgui.set_tooltip(f"{ui.stage_labels.get(name, name)}: configuration preset")
+            else:
                 for option in ui.stage_presets[name]:
                     if imgui.selectable(option, option == preset)[0]:
                         state.stage_presets[name] = option
+                    remember_item(state.item_rects, f"preset:{name}:{option}")
                 imgui.end_combo()
-            if imgui.is_item_hovered():
-                imgui.set_tooltip(f"{ui.stage_labels.get(name, name)}: configuration preset")
         imgui.end_disabled()
         if why is not None and hovered:
             imgui.set_tooltip(why)
@@ -100,6 +105,7 @@ def _stage_buttons(state: AppState, ui: UiContext) -> None:
     imgui.same_line()
     if imgui.button("Stop"):
         ui.send(Stop())
+    remember_item(state.item_rects, "stop")
     imgui.end_disabled()
     missing = [f"{ui.stage_labels.get(n, n)}: not available ({why})" for n, why in ui.stages.items() if why]
     for line in missing:

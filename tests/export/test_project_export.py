@@ -1,0 +1,61 @@
+"""export_project: a tiny synthetic capture, a few training steps, an exported avatar folder."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from morf.errors import ProjectError
+from morf.export.project_export import ProjectExportConfig, export_project, pick_run, project_views
+from morf.pipeline.control import StageControl
+
+
+@pytest.fixture(scope="module")
+def trained_capture(tmp_path_factory, body_model):
+    """``morf synth --preset tiny`` + 3 training steps of the tiny preset on the ground-truth fits."""
+    from morf.synth import make_synthetic_capture, synth_config
+    from morf.train.config import preset
+    from morf.train.project_run import train_project
+
+    project = make_synthetic_capture(tmp_path_factory.mktemp("export") / "tiny", synth_config("tiny"), model=body_model)
+    train_project(project, preset("tiny", steps=3, inpaint_steps=0), model=body_model)
+    return project
+
+
+def test_export_project_writes_the_avatar_folder_and_reports_progress(trained_capture, body_model, tmp_path):
+    seen = []
+    out = tmp_path / "avatar"
+    manifest = export_project(trained_capture, ProjectExportConfig(out=str(out), calibration_views=4),
+                              StageControl(seen.append), body_model=body_model)
+    assert (out / "renderer_int8.onnx").is_file() and (out / "renderer.onnx").is_file()
+    on_disk = json.loads((out / "manifest.json").read_text())
+    assert on_disk["source"]["run"] == "morf-tiny" == manifest["source"]["run"]
+    assert manifest["renderer"]["int8"]["calibration_views"] <= 4
+    assert manifest["int8_quality"]["on"] == "heldout"  # 12 frames: every 8th is held out
+    assert [p.stage for p in seen] == ["export"] * len(seen) and seen[-1].message == "done"
+    assert not any(p.name.startswith(".") for p in tmp_path.iterdir())  # no temporary folder left
+
+
+def test_views_hold_out_every_kth_training_frame(trained_capture, body_model):
+    cam = trained_capture.camera()
+    calib, held = project_views(trained_capture, cam, len(body_model.bone_names), "auto", heldout_every=4)
+    n = len(trained_capture.training_frames())
+    assert len(held) == n // 4 and len(calib) + len(held) == n
+    assert calib[0].rotvecs.shape == (len(body_model.bone_names), 3)
+
+
+def test_bad_runs_and_configs_are_one_line_errors(trained_capture, tmp_path):
+    assert pick_run(trained_capture, None).name == "morf-tiny"
+    with pytest.raises(ProjectError, match="no run named 'nope'"):
+        pick_run(trained_capture, "nope")
+    (trained_capture.runs_dir / "unfinished").mkdir(exist_ok=True)
+    with pytest.raises(ProjectError, match="has not finished"):
+        pick_run(trained_capture, "unfinished")
+    with pytest.raises(ProjectError, match="layout"):
+        export_project(trained_capture, ProjectExportConfig(input_layout="nhwc"))
+    from morf.capture.project import CaptureProject
+
+    empty = CaptureProject.create(tmp_path / "empty", num_frames=1, width=8, height=8, fps=1.0, source={"kind": "test"})
+    with pytest.raises(ProjectError, match="no finished training run"):
+        export_project(empty, ProjectExportConfig())
