@@ -7,7 +7,6 @@ the perceptual loss and the inpainting views, then calls :func:`morf.train.loop.
 from __future__ import annotations
 
 import shutil
-from pathlib import Path
 
 import torch
 
