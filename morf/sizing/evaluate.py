@@ -1,0 +1,129 @@
+"""Measure one training configuration: train (resumable), hold-out quality, playback speed.
+
+Quality is the hold-out evaluation of ``morf bench quality`` (the synthetic novel-pose sequence
+rendered with the trained torch renderer: PSNR / SSIM over the image and over the person, and
+temporal flicker). Speed is the playback benchmark's measurement (``morf.bench.render``) of the
+trained avatar exported at the measured size, in a separate torch-free process.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from morf.errors import InputError, TrainingDiverged
+
+
+def holdout_quality(project, run_dir, model) -> dict:
+    """PSNR / SSIM (image and person) and temporal flicker of a finished run on the project's
+    synthetic hold-out sequence (the same evaluation as ``morf bench quality``)."""
+    from morf.avatar.trained import load_trained_avatar
+    from morf.train.data import build_holdout_frames
+    from morf.train.project_run import evaluate_frames
+
+    avatar = load_trained_avatar(run_dir)
+    holdout = build_holdout_frames(project, model, avatar.camera, avatar.shape.numpy())
+    if holdout is None:
+        raise InputError(f"{project.root} has no hold-out sequence (a synthetic capture is needed)")
+    return evaluate_frames(avatar, holdout)
+
+
+def train_and_evaluate(project, cfg, run_name: str, model, fits_source: str = "ground-truth") -> dict:
+    """Train (or resume, or reuse) ``PROJECT/runs/<run_name>`` and evaluate it.
+
+    Returns the hold-out metrics plus ``train_minutes``, ``steps``, ``params`` and ``diverged``
+    (True when training raised TrainingDiverged or a metric came out NaN; metrics are then None).
+    """
+    from morf.avatar.renderer import UNetRenderer, count_parameters
+    from morf.train.project_run import train_project
+
+    params = count_parameters(UNetRenderer(cfg.renderer))
+    try:
+        res = train_project(project, cfg, run_name, fits_source=fits_source, model=model)
+    except TrainingDiverged as e:
+        return {"diverged": True, "error": str(e), "params": params, "psnr": None, "ssim": None,
+                "psnr_person": None, "ssim_person": None, "temporal": None, "train_minutes": None, "steps": None}
+    m = holdout_quality(project, res.run_dir, model)
+    bad = any(v is None or (isinstance(v, float) and not math.isfinite(v))
+              for k, v in m.items() if k in ("psnr", "psnr_person", "ssim"))
+    m.update(diverged=bool(bad), params=params, train_minutes=res.train_minutes, steps=res.step,
+             run=str(res.run_dir))
+    return m
+
+
+def export_for_speed(run_dir, out_dir: Path, size: int, body_model) -> dict:
+    """Export the trained avatar of ``run_dir`` (texture + renderer) with views at ``size``^2."""
+    from morf.avatar.trained import load_trained_avatar
+    from morf.export.synthetic import build_synthetic_avatar
+
+    av = load_trained_avatar(run_dir)
+    return build_synthetic_avatar(out_dir, body_model=body_model, renderer_cfg=av.renderer.cfg,
+                                  texture_size=av.texture.shape[-1], image_size=size, calibration_views=4,
+                                  heldout_views=2, renderer=av.renderer, texture=av.texture)
+
+
+def measure_speed(avatar_dir: Path, size: int, frames: int, precision: str) -> dict:
+    """Playback speed of an exported avatar in a torch-free child process.
+
+    int8 uses the playback benchmark's own measurement; fp32 the same loop with the fp32 renderer.
+    Returns fps (end to end, sequential), frame_ms and renderer_ms.
+    """
+    if precision == "int8":
+        from morf.bench.render import _measure_in_child
+
+        m = _measure_in_child(Path(avatar_dir), size, frames)
+        return {"fps": m["fps_end_to_end"], "frame_ms": m["frame_ms"], "renderer_ms": m["renderer_only_ms"],
+                "int8_psnr_vs_fp32_image_db": m.get("int8_psnr_vs_fp32_image_db")}
+    code = "import sys; sys.modules['torch'] = None\nfrom morf.sizing.evaluate import _fp32_child; _fp32_child()"
+    arg = json.dumps({"avatar": str(avatar_dir), "size": size, "frames": frames})
+    r = subprocess.run([sys.executable, "-c", code, arg], capture_output=True, text=True, timeout=1200)
+    if r.returncode != 0:
+        raise RuntimeError(f"fp32 measurement of {avatar_dir} failed:\n{r.stderr[-3000:]}")
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def _fp32_child() -> None:
+    """Child process: time the fp32 player like morf.bench.render.measure times the int8 one."""
+    from morf.bench.render import _motion
+    from morf.playback.camera_paths import front_camera
+    from morf.playback.player import Player
+
+    a = json.loads(sys.argv[1])
+    size, frames = a["size"], a["frames"]
+    rot, tr = _motion(frames + 5, 104)
+    cams = [front_camera(size, yaw_deg=10.0 * i) for i in range(len(rot))]
+    with Player(a["avatar"], size=size, background=(255, 255, 255), precision="fp32") as p:
+        for i in range(5):
+            p.render(rot[i], tr[i], cams[i])
+        t0 = time.perf_counter()
+        for i in range(5, len(rot)):
+            p.render(rot[i], tr[i], cams[i])
+        seq = (time.perf_counter() - t0) / frames
+        x = p.rasterize(rot[0], tr[0], cams[0])
+        rt = []
+        for _ in range(max(10, frames // 3)):
+            t1 = time.perf_counter()
+            p.renderer(x)
+            rt.append((time.perf_counter() - t1) * 1e3)
+    print(json.dumps({"fps": 1.0 / seq, "frame_ms": seq * 1e3, "renderer_ms": float(np.median(rt))}))
+
+
+def speed_of_run(run_dir, work: Path, size: int, frames: int, precisions, body_model) -> dict[str, dict]:
+    """{precision: speed} of one run; the export is made once in ``work`` and removed after."""
+    out = {}
+    avatar = work / f"avatar-{Path(run_dir).name}"
+    try:
+        man = export_for_speed(run_dir, avatar, size, body_model)
+        for prec in precisions:
+            out[prec] = measure_speed(avatar, size, frames, prec)
+            out[prec]["int8_psnr_vs_fp32_db"] = man["int8_quality"]["psnr_db"]
+    finally:
+        shutil.rmtree(avatar, ignore_errors=True)
+    return out

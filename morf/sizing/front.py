@@ -1,0 +1,48 @@
+"""Pareto fronts: the points no other point beats on every objective at once."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def pareto_front(values, maximize=(True, True)) -> np.ndarray:
+    """Mask of non-dominated points.
+
+    Args:
+        values: (N, K) objective values per point (NaN or None marks a point with no result).
+        maximize: K flags, True where larger is better.
+    Returns:
+        (N,) bool, True for points on the front. A point is dominated when another is at least
+        as good on every objective and strictly better on one; exact ties all stay on the front.
+        Points with a missing value are never on it.
+    """
+    v = np.asarray(values, dtype=np.float64).reshape(len(values), -1)
+    sign = np.where(np.asarray(maximize, bool), 1.0, -1.0)
+    v = v * sign[None, :]  # now larger is better everywhere
+    ok = np.isfinite(v).all(1)
+    front = np.zeros(len(v), bool)
+    for i in np.flatnonzero(ok):
+        others = v[ok]
+        dominated = np.any(np.all(others >= v[i], 1) & np.any(others > v[i], 1))
+        front[i] = not dominated
+    return front
+
+
+def near_front(values, index: int, margin: tuple[float, ...], maximize=(True, True)) -> bool:
+    """Whether point ``index`` is within ``margin`` of the front: no other point beats it by more
+    than ``margin`` on one objective while being at least as good on all the others.
+
+    ``margin`` is per objective, in that objective's units (e.g. 0.5 dB of PSNR, 0 fps).
+    """
+    v = np.asarray(values, dtype=np.float64).reshape(len(values), -1)
+    sign = np.where(np.asarray(maximize, bool), 1.0, -1.0)
+    v = v * sign[None, :]
+    m = np.asarray(margin, np.float64)
+    if not np.isfinite(v[index]).all():
+        return False
+    for j in range(len(v)):
+        if j == index or not np.isfinite(v[j]).all():
+            continue
+        if np.all(v[j] >= v[index]) and np.any(v[j] > v[index] + m):
+            return False
+    return True

@@ -1,0 +1,147 @@
+"""The speed-against-accuracy sweep: which knobs are turned, by how much, per sweep preset.
+
+Each :class:`SweepPoint` changes one knob of the preset's base training config (one-at-a-time
+around the base, so every point's change is readable on its own); ``resolve`` turns a point into
+the TrainConfig that is trained. Points that train the same config (int8 and fp32 of one model)
+share one training run, named by :func:`train_key`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from dataclasses import dataclass, field
+
+from morf.avatar.renderer import RendererConfig
+from morf.errors import InputError
+from morf.train.config import TrainConfig, preset
+
+# Renderer architectures (RendererConfig fields except in_channels, which follows the texture).
+RENDERERS: dict[str, dict] = {
+    "plain_b16": dict(stem=1, width=16, depth=4, max_width=64, skip_hidden=16),
+    "stem2_b8": dict(stem=2, width=8, depth=4, max_width=32, skip_hidden=8),
+    "stem2_b16": dict(stem=2, width=16, depth=4, max_width=64, skip_hidden=16),  # the "cpu" preset
+    "stem2_b24": dict(stem=2, width=24, depth=4, max_width=96, skip_hidden=16),
+    "stem4_b32": dict(stem=4, width=32, depth=4, max_width=128, skip_hidden=16),
+    "stem4_b48": dict(stem=4, width=48, depth=4, max_width=192, skip_hidden=16),
+    # CI sizes (the "tiny" training preset's renderer and its neighbours)
+    "tiny_b4": dict(stem=2, width=4, depth=2, max_width=256, skip_hidden=8),
+    "tiny_b8": dict(stem=2, width=8, depth=2, max_width=256, skip_hidden=8),
+    "tiny_b16": dict(stem=2, width=16, depth=2, max_width=256, skip_hidden=8),
+}
+
+AXES = ("base", "renderer", "texture_size", "texture_channels", "resolution", "steps", "method", "precision", "auto")
+
+
+@dataclass(frozen=True)
+class SweepPoint:
+    """One configuration of the sweep.
+
+    Fields:
+        name: unique file-safe name; axis: the knob it changes (one of :data:`AXES`);
+        change: TrainConfig overrides; ``renderer`` may name an entry of :data:`RENDERERS`
+            (or be a dict of RendererConfig fields); method: morf | stylepeople | anr;
+        precision: int8 | fp32, the renderer the fps is measured with.
+    """
+
+    name: str
+    axis: str
+    change: dict = field(default_factory=dict)
+    method: str = "morf"
+    precision: str = "int8"
+
+
+@dataclass(frozen=True)
+class SweepPreset:
+    """A sweep: the capture to make, the base training config and the points.
+
+    Fields:
+        synth: (synth preset name, overrides) of the capture made when none is given;
+        train: (training preset name, overrides) of the base config;
+        fps_size / fps_frames: playback speed is measured at fps_size^2 over that many frames;
+        points: the configurations, base first.
+    """
+
+    name: str
+    synth: tuple[str, dict]
+    train: tuple[str, dict]
+    fps_size: int
+    fps_frames: int
+    points: tuple[SweepPoint, ...]
+
+
+def _axis_points(renderers, tex_sizes, channels, resolutions, steps) -> tuple[SweepPoint, ...]:
+    pts = [SweepPoint("base", "base")]
+    pts += [SweepPoint(f"renderer-{r}", "renderer", {"renderer": r}) for r in renderers]
+    pts += [SweepPoint(f"texture-{s}", "texture_size", {"texture_size": s}) for s in tex_sizes]
+    pts += [SweepPoint(f"channels-{c}", "texture_channels", {"texture_channels": c}) for c in channels]
+    pts += [SweepPoint(f"resolution-{r}", "resolution", {"resolution": r}) for r in resolutions]
+    pts += [SweepPoint(f"steps-{s}", "steps", {"steps": s}) for s in steps]
+    pts += [SweepPoint("stylepeople", "method", method="stylepeople"), SweepPoint("fp32", "precision", precision="fp32")]
+    return tuple(pts)
+
+
+PRESETS: dict[str, SweepPreset] = {
+    # CI: seconds. Four tiny trainings; fps measured at 128 px.
+    "tiny": SweepPreset(
+        "tiny", ("tiny", {"frames": 8, "holdout_frames": 3}),
+        ("tiny", {"steps": 6, "inpaint_steps": 2, "inpaint_views": 2}), 128, 8,
+        (SweepPoint("base", "base"), SweepPoint("renderer-tiny_b16", "renderer", {"renderer": "tiny_b16"}),
+         SweepPoint("texture-32", "texture_size", {"texture_size": 32}),
+         SweepPoint("stylepeople", "method", method="stylepeople"), SweepPoint("fp32", "precision", precision="fp32"))),
+    # By hand, about an hour on 2 cores: a 48-frame capture at 256 px, short trainings at 128 px.
+    "quick": SweepPreset(
+        "quick", ("default", {"frames": 48, "size": 256, "holdout_frames": 12, "detector": "none"}),
+        ("cpu", {"resolution": 128, "steps": 300, "inpaint_steps": 20, "inpaint_views": 4}), 640, 30,
+        _axis_points(("stem2_b8", "stem2_b24", "stem4_b32", "plain_b16"), (128, 512), (4, 8), (96, 256), (150, 600))),
+    # By hand, many hours on 2 cores: the full synthetic capture and the "cpu" training preset.
+    "default": SweepPreset(
+        "default", ("default", {"detector": "none"}), ("cpu", {}), 640, 60,
+        _axis_points(("stem2_b8", "stem2_b24", "stem4_b32", "stem4_b48", "plain_b16"), (128, 512, 1024), (4, 8),
+                     (128, 384), (1000, 6000))),
+}
+
+# Synthetic scenes: SynthConfig overrides. The generator has no plain-clothing switch; a 64-texel
+# clothing atlas blurs the stripes, checks and print away, which is the nearest thing to it.
+SCENES: dict[str, dict] = {
+    "print": {},
+    "plain": {"texture_size": 64},
+    "loose": {"loose": 0.1},
+}
+
+
+def renderer_fields(spec) -> dict:
+    """RendererConfig fields (without in_channels) of a renderer name or field dict."""
+    if isinstance(spec, str):
+        if spec not in RENDERERS:
+            raise InputError(f"unknown renderer {spec!r}; choose one of {', '.join(RENDERERS)}")
+        return dict(RENDERERS[spec])
+    return {k: v for k, v in dict(spec).items() if k != "in_channels"}
+
+
+def resolve(sweep: SweepPreset, point: SweepPoint, **extra) -> TrainConfig:
+    """The TrainConfig a point trains: the sweep's base with the point's change (and ``extra``)."""
+    name, overrides = sweep.train
+    base = preset(name, point.method, **overrides)
+    change = {**point.change, **extra}
+    channels = int(change.pop("texture_channels", base.texture_channels))
+    rfields = renderer_fields(change.pop("renderer")) if "renderer" in change else {
+        k: v for k, v in dataclasses.asdict(base.renderer).items() if k != "in_channels"}
+    renderer = RendererConfig(in_channels=channels, **rfields)
+    return base.replace(texture_channels=channels, renderer=renderer, **change)
+
+
+def train_key(cfg: TrainConfig) -> str:
+    """A short stable name for a training config (the run folder is ``pareto-<key>``)."""
+    return hashlib.sha1(json.dumps(cfg.to_dict(), sort_keys=True).encode()).hexdigest()[:10]
+
+
+def select(sweep: SweepPreset, axes: list[str] | None) -> list[SweepPoint]:
+    """The sweep's points on the given axes (all when None); the base point is always kept."""
+    if not axes:
+        return list(sweep.points)
+    bad = [a for a in axes if a not in AXES]
+    if bad:
+        raise InputError(f"unknown sweep axes {bad}; choose from {', '.join(AXES)}")
+    return [p for p in sweep.points if p.axis in axes or p.axis == "base"]

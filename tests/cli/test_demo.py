@@ -1,0 +1,54 @@
+"""The whole pipeline through the command line, as the README's first command runs it (tiny size)."""
+
+import json
+
+import cv2
+import pytest
+
+from morf.cli.main import main
+
+
+@pytest.mark.slow
+def test_demo_tiny_runs_every_stage_and_resumes(tmp_path, capsys):
+    root = tmp_path / "demo"
+    assert main(["demo", str(root), "--preset", "tiny"]) == 0
+    capture = root / "capture"
+    assert (capture / "fits" / "fits.npz").is_file()
+    assert (capture / "runs" / "demo-tiny" / "avatar.pt").is_file()
+    manifest = json.loads((capture / "avatar" / "manifest.json").read_text())
+    assert manifest["format"] == "morf-avatar"
+    video = cv2.VideoCapture(str(root / "animation.mp4"))
+    assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 8
+    ok, frame = video.read()
+    assert ok and frame.std() > 1.0  # something was drawn
+    # a second run skips the finished capture and fits
+    capsys.readouterr()
+    assert main(["demo", str(root), "--preset", "tiny"]) == 0
+    out = capsys.readouterr().out
+    assert "synthetic capture: already done" in out and "body fits: already done" in out
+
+
+def test_info_reports_excluded_frames(tmp_path, capsys):
+    from morf.synth import make_synthetic_capture, synth_config
+
+    p = make_synthetic_capture(tmp_path / "cap", synth_config("tiny"))
+    p.set_user_decision(2, "drop")
+    assert main(["info", str(p.root), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["frames"] == 12 and info["synthetic"] is True
+    assert {"frame": 2, "reason": "dropped by user"} in info["excluded"]
+
+
+def test_animate_without_avatar_is_one_line_error(tmp_path, capsys):
+    from morf.synth import make_synthetic_capture, synth_config
+
+    p = make_synthetic_capture(tmp_path / "cap", synth_config("tiny"))
+    rc = main(["animate", str(p.root), "--motion", "x.bvh", "--out", str(tmp_path / "v.mp4")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "no exported avatar" in err[0]
+
+
+def test_not_a_project_is_one_line_error(tmp_path, capsys):
+    rc = main(["info", str(tmp_path)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "not a MoRF capture project" in err[0]
