@@ -8,6 +8,14 @@ Temporal flicker (lower is better): over consecutive frames of a sequence,
 union of the two frames' person masks. It is zero when the prediction changes exactly as the
 ground truth does, whatever its per-frame error, so it isolates flicker and popping from static
 appearance errors (a weight-free stand-in for tLPIPS).
+
+Evaluation composites both the render and the frame over the same flat background colour
+(:func:`composite_over`, :func:`background_colour`), exactly as the player composites
+(``rgb + (1 - mask) * background``). Comparing on black instead exaggerates SSIM errors: SSIM's
+luminance term on a black region is ``C1 / (mu_x^2 + C1)`` with ``C1 = 1e-4``, so a render that
+leaks 0.01 into the background halves SSIM there, while the same leak over a mid-grey background
+costs almost nothing. SSIM itself matches scikit-image's ``structural_similarity(gaussian_weights=True,
+sigma=1.5, use_sample_covariance=False, data_range=1)`` to 5 digits (checked on real photos).
 """
 
 from __future__ import annotations
@@ -76,6 +84,22 @@ def ssim(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor | None = N
     r = (m.shape[-1] - smap.shape[-1]) // 2
     m = m[..., r:m.shape[-2] - r, r:m.shape[-1] - r].expand_as(smap)
     return float((smap * m).sum() / m.sum().clamp_min(1.0))
+
+
+def background_colour(images: torch.Tensor, masks: torch.Tensor) -> torch.Tensor:
+    """(3,) median colour of the pixels outside the person masks. images (B, 3, H, W), masks (B, 1, H, W)."""
+    images = _batch(images)
+    outside = (_mask(masks, images) < 0.5)[:, 0]
+    px = images.permute(0, 2, 3, 1)[outside]  # (P, 3)
+    if px.shape[0] == 0:
+        return torch.zeros(3, dtype=images.dtype, device=images.device)
+    return px.median(dim=0).values
+
+
+def composite_over(rgb: torch.Tensor, alpha: torch.Tensor, colour: torch.Tensor) -> torch.Tensor:
+    """``clamp(rgb + (1 - alpha) * colour, 0, 1)``: premultiplied RGB (B, 3, H, W) with alpha
+    (B, 1, H, W) over a flat (3,) colour, as the player composites."""
+    return (rgb + (1 - _mask(alpha, rgb)) * colour.to(rgb).view(1, 3, 1, 1)).clamp(0, 1)
 
 
 def temporal_flicker(preds: torch.Tensor, targets: torch.Tensor, masks: torch.Tensor | None = None) -> float:

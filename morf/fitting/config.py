@@ -61,8 +61,8 @@ class FitConfig:
     pose_prior_weight: float = 0.02  # joint-limit prior
     pose_l2_weight: float = 0.002  # weak pull towards the rest A-pose
     shape_weight: float = 0.5  # shape regularisation towards the default phenotype
-    temporal_weight: float = 2.0  # adjacent-frame pose differences (radians^2)
-    temporal_transl_weight: float = 20.0  # adjacent-frame translation differences (metres^2)
+    temporal_weight: float = 300.0  # adjacent-frame pose differences (radians^2); tuned on the default capture
+    temporal_transl_weight: float = 3e4  # adjacent-frame translation differences (metres^2)
     silhouette_weight: float = 2.0  # Dice loss
     silhouette_resolution: int = 96  # raster size of the long image side for the silhouette loss
     silhouette_sigma: float = 0.5  # softness of the rasterizer, pixels of that raster

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 import subprocess
 import sys
 import time
@@ -115,15 +114,13 @@ def _fp32_child() -> None:
     print(json.dumps({"fps": 1.0 / seq, "frame_ms": seq * 1e3, "renderer_ms": float(np.median(rt))}))
 
 
-def speed_of_run(run_dir, work: Path, size: int, frames: int, precisions, body_model) -> dict[str, dict]:
-    """{precision: speed} of one run; the export is made once in ``work`` and removed after."""
-    out = {}
-    avatar = work / f"avatar-{Path(run_dir).name}"
-    try:
-        man = export_for_speed(run_dir, avatar, size, body_model)
-        for prec in precisions:
-            out[prec] = measure_speed(avatar, size, frames, prec)
-            out[prec]["int8_psnr_vs_fp32_db"] = man["int8_quality"]["psnr_db"]
-    finally:
-        shutil.rmtree(avatar, ignore_errors=True)
+def speed_of_run(run_dir, work: Path, size: int, frames: int, precision: str, body_model) -> dict:
+    """Playback speed of one run at ``precision``. The export is made once per run in ``work``
+    (reused by the run's other precision; the caller removes ``work`` when done)."""
+    avatar = Path(work) / f"avatar-{Path(run_dir).name}-{size}"
+    if not (avatar / "manifest.json").is_file():
+        export_for_speed(run_dir, avatar, size, body_model)
+    man = json.loads((avatar / "manifest.json").read_text())
+    out = measure_speed(avatar, size, frames, precision)
+    out["int8_psnr_vs_fp32_db"] = man["int8_quality"]["psnr_db"]
     return out

@@ -90,11 +90,11 @@ PRESETS: dict[str, SweepPreset] = {
         (SweepPoint("base", "base"), SweepPoint("renderer-tiny_b16", "renderer", {"renderer": "tiny_b16"}),
          SweepPoint("texture-32", "texture_size", {"texture_size": 32}),
          SweepPoint("stylepeople", "method", method="stylepeople"), SweepPoint("fp32", "precision", precision="fp32"))),
-    # By hand, about an hour on 2 cores: a 48-frame capture at 256 px, short trainings at 128 px.
+    # By hand, about an hour on 2 busy cores: a 32-frame capture at 192 px, short trainings at 96 px.
     "quick": SweepPreset(
-        "quick", ("default", {"frames": 48, "size": 256, "holdout_frames": 12, "detector": "none"}),
-        ("cpu", {"resolution": 128, "steps": 300, "inpaint_steps": 20, "inpaint_views": 4}), 640, 30,
-        _axis_points(("stem2_b8", "stem2_b24", "stem4_b32", "plain_b16"), (128, 512), (4, 8), (96, 256), (150, 600))),
+        "quick", ("default", {"frames": 32, "size": 192, "holdout_frames": 8, "detector": "none"}),
+        ("cpu", {"resolution": 96, "batch_size": 2, "steps": 100, "inpaint_steps": 10, "inpaint_views": 4}), 640, 20,
+        _axis_points(("stem2_b8", "stem2_b24", "stem4_b32"), (128, 512), (4, 8), (64, 160), (50, 200))),
     # By hand, many hours on 2 cores: the full synthetic capture and the "cpu" training preset.
     "default": SweepPreset(
         "default", ("default", {"detector": "none"}), ("cpu", {}), 640, 60,

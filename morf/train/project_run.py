@@ -67,21 +67,35 @@ def train_project(project, cfg: TrainConfig, name: str | None = None, control: S
                         shape=torch.from_numpy(pf.fits.shape), camera=pf.camera, notes=notes)
 
 
-def evaluate_frames(avatar, frames) -> dict:
-    """Render every frame of a FrameSet with a TrainedAvatar; PSNR / SSIM over the whole image and
-    the person, and temporal flicker (frames in order)."""
-    from morf.avatar.metrics import psnr, ssim, summarize, temporal_flicker
+def evaluate_frames(avatar, frames, background: str = "capture") -> dict:
+    """Render every frame of a FrameSet with a TrainedAvatar and score it against the frames.
 
+    Both the render and the frame are composited over one flat colour, as the player composites
+    (``rgb + (1 - mask) * colour``): ``background="capture"`` uses the median colour outside the
+    person masks of the frames (the capture's own backdrop), ``"black"`` compares on black.
+    Returns PSNR / SSIM over the whole image and over the person only (``*_person``, the ground
+    truth mask), ``temporal`` flicker (frames in order), the background colour and the frame count.
+    """
+    from morf.avatar.metrics import background_colour, composite_over, psnr, ssim, summarize, temporal_flicker
+
+    if background not in ("capture", "black"):
+        raise ValueError("background must be 'capture' or 'black'")
+    if background == "capture":
+        sample = frames.batch(list(range(0, frames.num_frames, max(1, frames.num_frames // 16))))
+        colour = background_colour(sample.image, sample.mask)
+    else:
+        colour = torch.zeros(3)
     preds, gts, masks = [], [], []
     p_all, p_person, s_all, s_person = [], [], [], []
     for i in range(frames.num_frames):
         b = frames.batch([i])
-        rgb, _ = avatar.render(b.uv, b.uv_mask)
-        gt = b.image * b.mask
-        p_all.append(psnr(rgb, gt)); s_all.append(ssim(rgb, gt))
-        p_person.append(psnr(rgb, gt, b.mask)); s_person.append(ssim(rgb, gt, b.mask))
-        preds.append(rgb[0]); gts.append(gt[0]); masks.append(b.mask[0])
+        rgb, alpha = avatar.render(b.uv, b.uv_mask)
+        pred = composite_over(rgb, alpha, colour)
+        gt = composite_over(b.image * b.mask, b.mask, colour)
+        p_all.append(psnr(pred, gt)); s_all.append(ssim(pred, gt))
+        p_person.append(psnr(pred, gt, b.mask)); s_person.append(ssim(pred, gt, b.mask))
+        preds.append(pred[0]); gts.append(gt[0]); masks.append(b.mask[0])
     return {"psnr": summarize(p_all), "ssim": summarize(s_all), "psnr_person": summarize(p_person),
             "ssim_person": summarize(s_person),
             "temporal": temporal_flicker(torch.stack(preds), torch.stack(gts), torch.stack(masks)),
-            "frames": frames.num_frames}
+            "background": [round(float(c), 4) for c in colour], "frames": frames.num_frames}

@@ -1,0 +1,189 @@
+"""``morf bench pareto --out DIR [--preset tiny|quick|default]``: speed against accuracy.
+
+On one synthetic capture (made in ``DIR/capture-<scene>`` unless ``--project`` names one), each
+point of the sweep (:mod:`morf.sizing.sweep`: renderer architecture, neural texture resolution
+and channels, training resolution and steps, warp on/off, int8 vs fp32) is trained and measured:
+
+* hold-out quality: PSNR / SSIM over the image and over the person, temporal flicker (the
+  evaluation of ``morf bench quality``); the fronts use ``psnr_person``;
+* live playback fps at ``fps_size``^2 (640 except in the tiny preset), end to end, int8 unless
+  the point is fp32, measured in a torch-free child process (``morf.bench.render``);
+* training minutes (wall time of the training loop, all sessions).
+
+Writes ``DIR/pareto.json`` ``{"points": [...], "front_fps": [...], "front_train": [...], ...}``,
+``DIR/pareto.md`` and charts ``DIR/pareto_fps.png``, ``DIR/pareto_train.png``. Resumable: each
+point's result is saved in ``DIR/points/<name>.json`` as it finishes and reused on a re-run (its
+training run also resumes). ``--auto-check`` runs the automatic size choice on three scenes
+instead (see :mod:`morf.sizing.check`).
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+
+QUALITY = "psnr_person"  # the fronts' quality axis: what the renderer gets right on the person
+PAPER_NOTE = ("Paper (MoRF, WACV 2024): 640x640 at 30 fps on a Snapdragon 888 phone GPU, ~14.4M-parameter U-Net; "
+              "SSIM 0.899 / LPIPS 0.0623 / tLPIPS 0.00466 on their real captures. Only the fps target is comparable: "
+              "quality here is measured on a synthetic capture, and fps on this machine's CPU.")
+
+
+def add_arguments(p) -> None:
+    p.add_argument("--out", required=True, help="folder for pareto.json, pareto.md, charts and per-point results")
+    p.add_argument("--preset", choices=("tiny", "quick", "default"), default="default",
+                   help="sweep size: tiny (CI, seconds), quick (about an hour), default (many hours)")
+    p.add_argument("--project", default=None, help="an existing synthetic capture (default: make one in OUT)")
+    p.add_argument("--scene", choices=("print", "plain", "loose"), default="print",
+                   help="synthetic scene when a capture is made")
+    p.add_argument("--axes", default=None, help="comma-separated subset of the sweep's knobs (default: all)")
+    p.add_argument("--auto-check", action="store_true",
+                   help="check --preset auto on the plain, print and loose scenes instead of one sweep")
+
+
+def make_capture(out: Path, sweep, scene: str, model, project_path: str | None = None):
+    """The sweep's capture: ``project_path`` when given (must be synthetic), else ``OUT/capture-<scene>``."""
+    from morf.capture.project import CaptureProject
+    from morf.errors import InputError
+    from morf.sizing.sweep import SCENES
+
+    if project_path:
+        project = CaptureProject.open(project_path)
+        if not (project.ground_truth_dir / "holdout.npz").is_file():
+            raise InputError(f"{project.root} has no hold-out sequence (a synthetic capture is needed)")
+        return project
+    root = out / f"capture-{scene}"
+    if CaptureProject.is_project(root) and (root / "ground_truth" / "holdout.npz").is_file():
+        return CaptureProject.open(root)
+    from morf.synth import make_synthetic_capture, synth_config
+
+    name, overrides = sweep.synth
+    cfg = synth_config(name, **{**overrides, **SCENES[scene]})
+    print(f"making a synthetic capture ({scene}: {cfg.frames} frames, {cfg.size}x{cfg.size}) in {root}")
+    return make_synthetic_capture(root, cfg, model=model, overwrite=True)
+
+
+def _summary(cfg) -> dict:
+    import dataclasses
+
+    return {"renderer": dataclasses.asdict(cfg.renderer), "texture_size": cfg.texture_size,
+            "texture_channels": cfg.texture_channels, "resolution": cfg.resolution, "steps": cfg.steps,
+            "method": cfg.method}
+
+
+def run_point(project, sweep, point, model, out: Path, cfg=None) -> tuple[dict, bool]:
+    """Train, evaluate and time one point; (result, reused) where reused means loaded from
+    ``OUT/points/<name>.json`` (same config, same fps size) without any work."""
+    from morf.io import atomic_write_json
+    from morf.sizing.evaluate import speed_of_run, train_and_evaluate
+    from morf.sizing.sweep import resolve, train_key
+
+    cfg = cfg or resolve(sweep, point)
+    key = f"{train_key(cfg)}-{point.precision}-{sweep.fps_size}"
+    path = out / "points" / f"{point.name}.json"
+    if path.is_file():
+        old = json.loads(path.read_text())
+        if old.get("key") == key:
+            return old, True
+    t0 = time.time()
+    row = {"name": point.name, "axis": point.axis, "method": cfg.method, "precision": point.precision, "key": key,
+           "config": _summary(cfg)}
+    row.update(train_and_evaluate(project, cfg, f"pareto-{train_key(cfg)}", model))
+    row.update(fps=None, frame_ms=None, renderer_ms=None, int8_psnr_vs_fp32_db=None)
+    if not row["diverged"]:
+        row.update(speed_of_run(row["run"], out / "work", sweep.fps_size, sweep.fps_frames, point.precision, model))
+    row["seconds"] = time.time() - t0
+    atomic_write_json(path, row)
+    return row, False
+
+
+def fronts(rows: list[dict]) -> dict[str, np.ndarray]:
+    """Pareto fronts of quality against fps (both up) and against training minutes (down)."""
+    from morf.sizing.front import pareto_front
+
+    q = [r.get(QUALITY) for r in rows]
+    fps = [[a, r.get("fps")] for a, r in zip(q, rows)]
+    train = [[a, r.get("train_minutes")] for a, r in zip(q, rows)]
+    none = lambda v: [[np.nan if x is None else x for x in p] for p in v]  # noqa: E731
+    return {"fps": pareto_front(none(fps), (True, True)), "train": pareto_front(none(train), (True, False))}
+
+
+def charts(rows: list[dict], front: dict, out: Path, fps_size: int, title: str) -> list[str]:
+    from morf.sizing.charts import front_chart
+
+    paper = fps_size == 640
+    a = front_chart(rows, "fps", QUALITY, front["fps"], out / "pareto_fps.png",
+                    title=f"{title}: quality vs live fps", xlabel=f"fps at {fps_size}x{fps_size}, end to end, this CPU",
+                    ylabel="hold-out PSNR on the person (dB)", target_x=30.0 if paper else None,
+                    target_label="paper: 30 fps @640, Snapdragon 888", note=PAPER_NOTE if paper else
+                    f"Measured at {fps_size}x{fps_size} (not the paper's 640x640): no paper reference applies.")
+    b = front_chart(rows, "train_minutes", QUALITY, front["train"], out / "pareto_train.png",
+                    title=f"{title}: quality vs training time", xlabel="training minutes (this CPU)",
+                    ylabel="hold-out PSNR on the person (dB)", log_x=True,
+                    note="The paper gives no comparable training time.")
+    return [str(a), str(b)]
+
+
+def run_sweep(out, preset: str = "default", scene: str = "print", project_path: str | None = None,
+              axes: list[str] | None = None, model=None, extra: list | None = None) -> dict:
+    """Run (or resume) one sweep and write its JSON, Markdown and charts; returns the result.
+
+    ``extra``: (SweepPoint, TrainConfig) pairs measured beside the sweep's own points (the
+    automatic choice in ``--auto-check``).
+    """
+    from morf.bench.common import machine_info, markdown_table, write_results
+    from morf.sizing.sweep import PRESETS, select
+
+    out = Path(out)
+    sweep = PRESETS[preset]
+    if model is None:
+        from morf.body import load_body_model
+
+        model = load_body_model("anny")
+    project = make_capture(out, sweep, scene, model, project_path)
+    todo = [(p, None) for p in select(sweep, axes)] + list(extra or [])
+    rows, reused = [], []
+    for i, (point, cfg) in enumerate(todo):
+        print(f"[{i + 1}/{len(todo)}] {point.name}")
+        row, was = run_point(project, sweep, point, model, out, cfg)
+        rows.append(row)
+        if was:
+            reused.append(point.name)
+        print(f"  {QUALITY} {row.get(QUALITY)}, fps {row.get('fps')}, train {row.get('train_minutes')} min"
+              + (" (saved result)" if was else ""))
+    shutil.rmtree(out / "work", ignore_errors=True)  # exports made only to time playback
+    front = fronts(rows)
+    for r, f1, f2 in zip(rows, front["fps"], front["train"]):
+        r["on_front_fps"], r["on_front_train"] = bool(f1), bool(f2)
+    result = {"benchmark": "pareto", "preset": preset, "scene": scene, "project": str(project.root),
+              "quality_metric": QUALITY, "fps_size": sweep.fps_size, "fps_precision_default": "int8",
+              "points": rows, "front_fps": [r["name"] for r in rows if r["on_front_fps"]],
+              "front_train": [r["name"] for r in rows if r["on_front_train"]], "reused": reused,
+              "paper_reference": {"fps": 30, "size": 640, "device": "Snapdragon 888", "params_m": 14.4, "ssim": 0.899,
+                                  "lpips": 0.0623, "tlpips": 0.00466, "comparable": ["fps"], "note": PAPER_NOTE},
+              "machine": machine_info()}
+    result["charts"] = charts(rows, front, out, sweep.fps_size, f"{preset} sweep, {scene} scene")
+    table = [{**r, "params_M": r["params"] / 1e6, "front": ("fps " if r["on_front_fps"] else "")
+              + ("train" if r["on_front_train"] else "")} for r in rows]
+    md = (f"# Speed against accuracy ({preset} sweep, {scene} scene)\n\n"
+          + markdown_table(table, ["name", "params_M", "psnr_person", "ssim_person", "psnr", "temporal", "fps",
+                                   "renderer_ms", "train_minutes", "front"])
+          + f"\nfps at {sweep.fps_size}x{sweep.fps_size} end to end (int8 unless the point is fp32); "
+            f"PSNR in dB on the hold-out sequence; temporal = flicker (lower is better).\n\n{PAPER_NOTE}\n")
+    path = write_results(out, "pareto", result, md)
+    print(f"wrote {path}")
+    return result
+
+
+def run(args) -> int:
+    if args.auto_check:
+        from morf.sizing.check import auto_check
+
+        auto_check(Path(args.out), args.preset)
+        return 0
+    axes = [a.strip() for a in args.axes.split(",") if a.strip()] if args.axes else None
+    run_sweep(Path(args.out), args.preset, args.scene, args.project, axes)
+    return 0

@@ -1,0 +1,238 @@
+"""``morf bench stability --out DIR [--preset tiny|default]``: quality as one nuisance grows.
+
+Stress series, each a family of synthetic captures with one nuisance turned up step by step from
+a clean capture (no sliding, tight clothes, exact keypoints):
+
+* misalignment: Gaussian noise (degrees, per axis-angle component of every bone) added to the
+  true poses the avatar is trained on;
+* slide: cloth sliding over the body (texture-space drift, atlas units);
+* loose: garments standing off the body (metres at the hem and cuffs);
+* fast: the same turn in fewer frames (speed-up factor);
+* keypoints: keypoint noise (pixels at 512 px) and corrupted frames together; these captures are
+  fitted (``morf fit``'s code, "fast" preset) and trained on the fits;
+* coverage: degrees of the turn never shown (frames facing further than 180 - x/2 degrees from
+  the camera are dropped; 180 = the back is never seen).
+
+For morf, stylepeople and anr: hold-out PSNR / SSIM (image and person) and temporal flicker per
+level, and whether training diverged (TrainingDiverged or NaN metrics). A method *breaks down* at
+the first level where its person-PSNR falls more than ``BREAKDOWN_DB`` below its level-0 value,
+or where it diverges. Writes ``DIR/stability.json``, ``DIR/stability.md``,
+``DIR/stability_psnr.png`` and ``DIR/stability_temporal.png``; every (series, level, method)
+result is kept in ``DIR/points/`` and reused on a re-run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+METHODS = ("morf", "stylepeople", "anr")
+SERIES = ("misalignment", "slide", "loose", "fast", "keypoints", "coverage")
+LABELS = {"misalignment": "pose noise (deg)", "slide": "sliding (atlas units)", "loose": "looseness (m)",
+          "fast": "speed-up (x fewer frames)", "keypoints": "kp noise (px @512) + corrupt share / 100",
+          "coverage": "degrees of the turn never shown"}
+BREAKDOWN_DB = 1.0  # about the run-to-run noise of one training (docs/avatar.md); a larger drop is real
+CLEAN = {"slide": 0.0, "loose": 0.0, "kp_noise": 0.0, "corrupt": 0.0}
+
+
+@dataclass(frozen=True)
+class StabilityPreset:
+    """Fields: synth: (synth preset, overrides) of the clean capture; train: (training preset,
+    overrides); fit_scale: iterations factor on the "fast" fit preset; levels: per series."""
+
+    synth: tuple[str, dict]
+    train: tuple[str, dict]
+    fit_scale: float
+    levels: dict
+
+
+PRESETS = {
+    "tiny": StabilityPreset(("tiny", {"frames": 8, "holdout_frames": 3}),
+                            ("tiny", {"steps": 4, "inpaint_steps": 0}), 0.05,
+                            {"misalignment": [0, 10], "slide": [0, 0.03], "loose": [0, 0.1], "fast": [1, 2],
+                             "keypoints": [0, 15], "coverage": [0, 180]}),
+    "default": StabilityPreset(("default", {"frames": 64, "size": 256, "holdout_frames": 16, "detector": "none"}),
+                               ("cpu", {"resolution": 128, "steps": 400, "inpaint_steps": 40, "inpaint_views": 8}),
+                               1.0,
+                               {"misalignment": [0, 2, 5, 10], "slide": [0, 0.006, 0.015, 0.03],
+                                "loose": [0, 0.025, 0.06, 0.12], "fast": [1, 2, 4, 8],
+                                "keypoints": [0, 3, 8, 15], "coverage": [0, 90, 180, 240]}),
+}
+
+
+def add_arguments(p) -> None:
+    p.add_argument("--out", required=True, help="folder for stability.json, stability.md, charts, captures")
+    p.add_argument("--preset", choices=tuple(PRESETS), default="default", help="tiny: CI (seconds per point)")
+    p.add_argument("--series", default=",".join(SERIES), help="comma-separated subset of: " + ", ".join(SERIES))
+    p.add_argument("--methods", default=",".join(METHODS), help="comma-separated subset of: " + ", ".join(METHODS))
+
+
+# ---- captures and training inputs per (series, level) ---------------------------------------
+def _capture(out: Path, name: str, sp: StabilityPreset, model, **changes):
+    from morf.capture.project import CaptureProject
+    from morf.synth import make_synthetic_capture, synth_config
+
+    root = out / "captures" / name
+    if CaptureProject.is_project(root) and (root / "ground_truth" / "holdout.npz").is_file():
+        return CaptureProject.open(root)
+    preset, overrides = sp.synth
+    cfg = synth_config(preset, **{**overrides, **CLEAN, **changes})
+    print(f"making capture {name}")
+    return make_synthetic_capture(root, cfg, model=model, overwrite=True)
+
+
+def _write_noisy_fits(project, sigma_deg: float, seed: int) -> None:
+    """fits/fits.npz = the true poses plus Gaussian noise on every bone's axis-angle."""
+    from morf.fitting.fits_io import BodyFits, save_fits
+    from morf.io import load_npz
+
+    gt = load_npz(project.ground_truth_dir / "gt.npz")
+    rng = np.random.default_rng(seed)
+    rot = gt["rotvecs"] + rng.normal(0, np.deg2rad(sigma_deg), gt["rotvecs"].shape).astype(np.float32)
+    n = len(rot)
+    nan = np.full(n, np.nan, np.float32)
+    save_fits(project.fits_dir / "fits.npz", BodyFits(rot, gt["transl"], gt["shape"], nan, nan, nan,
+                                                      np.zeros((n, 23, 2), np.float32),
+                                                      {"synthetic_noise_deg": sigma_deg}))
+
+
+def _set_hidden_turn(root: Path, hidden_deg: float) -> None:
+    """Drop (review.json) the frames facing more than 180 - hidden/2 degrees away from the camera;
+    0 clears the drops. The shared clean capture is set this way before each of its trainings."""
+    from morf.io import atomic_write_json, load_npz
+
+    yaw = load_npz(Path(root) / "ground_truth" / "gt.npz")["yaw"]
+    away = np.abs((np.degrees(yaw) + 180) % 360 - 180)
+    drop = [int(i) for i in np.flatnonzero(away > 180 - hidden_deg / 2)] if hidden_deg > 0 else []
+    atomic_write_json(Path(root) / "review.json", {"drop": drop, "keep": []})
+
+
+def _fit(project, sp: StabilityPreset, model) -> None:
+    from morf.fitting import preset as fit_preset
+    from morf.fitting.project_fit import fit_project
+
+    if (project.fits_dir / "fits.npz").is_file() and (project.fits_dir / "filter.json").is_file():
+        return
+    cfg = fit_preset("fast").replace(overlays=False)
+    stages = tuple(dataclasses.replace(s, iterations=max(5, int(round(s.iterations * sp.fit_scale)))) for s in cfg.stages)
+    fit_project(project, cfg.replace(stages=stages), model=model)
+
+
+def prepare(series: str, i: int, level, out: Path, sp: StabilityPreset, model):
+    """(project, fits source, run name stem) for one level; level 0 of the synthetic-nuisance
+    series is the shared clean capture trained on its true poses."""
+    base = _capture(out, "clean", sp, model)
+    if series == "keypoints":
+        p = _capture(out, f"keypoints-{i}", sp, model, kp_noise=level * sp_size(sp) / 512, corrupt=level / 100)
+        _fit(p, sp, model)
+        return p, "fits", f"stab-keypoints-{i}"
+    if i == 0 and series != "misalignment" or series == "misalignment" and level == 0:
+        _set_hidden_turn(base, 0)
+        return base, "ground-truth", "stab-clean"
+    if series == "misalignment":
+        _set_hidden_turn(base, 0)
+        _write_noisy_fits(base, level, seed=i)
+        return base, "fits", f"stab-misalignment-{i}"
+    if series == "coverage":
+        return base, "ground-truth", f"stab-coverage-{i}"
+    if series == "fast":
+        frames = max(4, int(round(sp_frames(sp) / level)))
+        return _capture(out, f"fast-{i}", sp, model, frames=frames), "ground-truth", f"stab-fast-{i}"
+    key = {"slide": "slide", "loose": "loose"}[series]
+    return _capture(out, f"{series}-{i}", sp, model, **{key: level}), "ground-truth", f"stab-{series}-{i}"
+
+
+def sp_size(sp: StabilityPreset) -> int:
+    from morf.synth.config import synth_config
+
+    return synth_config(sp.synth[0], **sp.synth[1]).size
+
+
+def sp_frames(sp: StabilityPreset) -> int:
+    from morf.synth.config import synth_config
+
+    return synth_config(sp.synth[0], **sp.synth[1]).frames
+
+
+# ---- the benchmark ----------------------------------------------------------------------------
+def breaks_down_at(levels: list, rows: list[dict]) -> object:
+    """First level whose person-PSNR is more than BREAKDOWN_DB below level 0's, or that diverged."""
+    ref = rows[0].get("psnr_person") if rows else None
+    for lv, r in zip(levels, rows):
+        if r.get("diverged") or r.get("psnr_person") is None:
+            return lv
+        if ref is not None and r["psnr_person"] < ref - BREAKDOWN_DB:
+            return lv
+    return None
+
+
+def run_stability(out, preset: str = "default", series: list[str] | None = None, methods: list[str] | None = None,
+                  model=None) -> dict:
+    """Run (or resume) the stress series; writes JSON, Markdown and charts; returns the result."""
+    from morf.bench.common import machine_info, markdown_table, write_results
+    from morf.errors import InputError
+    from morf.io import atomic_write_json
+    from morf.sizing.charts import series_chart
+    from morf.sizing.evaluate import train_and_evaluate
+    from morf.train.config import preset as train_preset
+
+    out = Path(out)
+    sp = PRESETS[preset]
+    series = series or list(SERIES)
+    methods = methods or list(METHODS)
+    bad = [s for s in series if s not in SERIES] + [m for m in methods if m not in METHODS]
+    if bad:
+        raise InputError(f"unknown series or methods: {', '.join(bad)}")
+    if model is None:
+        from morf.body import load_body_model
+
+        model = load_body_model("anny")
+    result_series, md_rows = {}, []
+    for s in series:
+        levels = sp.levels[s]
+        per_method = {m: [] for m in methods}
+        for i, level in enumerate(levels):
+            for m in methods:
+                path = out / "points" / f"{s}-{i}-{m}.json"
+                if path.is_file():
+                    row = json.loads(path.read_text())
+                else:
+                    project, fits_source, stem = prepare(s, i, level, out, sp, model)
+                    cfg = train_preset(sp.train[0], m, **sp.train[1])
+                    print(f"{s} level {level} ({i + 1}/{len(levels)}): {m}")
+                    row = {"series": s, "level": level, "method": m,
+                           **train_and_evaluate(project, cfg, f"{stem}-{m}", model, fits_source)}
+                    atomic_write_json(path, row)
+                per_method[m].append(row)
+                md_rows.append({"series": s, "level": level, "method": m, **row})
+        result_series[s] = {"label": LABELS[s], "levels": levels, "methods": per_method,
+                            "breaks_down_at": {m: breaks_down_at(levels, per_method[m]) for m in methods}}
+    if (out / "captures" / "clean" / "review.json").is_file():
+        _set_hidden_turn(out / "captures" / "clean", 0)  # leave the clean capture with every frame used
+    result = {"benchmark": "stability", "preset": preset, "methods": methods, "series": result_series,
+              "breakdown_rule": f"person-PSNR more than {BREAKDOWN_DB} dB below the method's level-0 value, "
+                                "or training diverged (TrainingDiverged / NaN)",
+              "train": {"preset": sp.train[0], **sp.train[1]}, "machine": machine_info()}
+    result["charts"] = [
+        str(series_chart(result_series, "psnr_person", out / "stability_psnr.png",
+                         title=f"Hold-out PSNR on the person as nuisances grow ({preset})", ylabel="PSNR person (dB)")),
+        str(series_chart(result_series, "temporal", out / "stability_temporal.png",
+                         title=f"Temporal flicker as nuisances grow ({preset}; lower is better)", ylabel="flicker"))]
+    brk = [{"series": s, **{m: v["breaks_down_at"][m] for m in methods}} for s, v in result_series.items()]
+    md = (f"# Stability under nuisances ({preset})\n\nBreaks down = {result['breakdown_rule']}; "
+          "n/a = never within the levels tried.\n\n" + markdown_table(brk, ["series", *methods])
+          + "\n" + markdown_table(md_rows, ["series", "level", "method", "psnr_person", "ssim_person", "psnr",
+                                            "temporal", "diverged", "train_minutes"]))
+    path = write_results(out, "stability", result, md)
+    print(f"wrote {path}")
+    return result
+
+
+def run(args) -> int:
+    split = lambda s: [x.strip() for x in s.split(",") if x.strip()]  # noqa: E731
+    run_stability(Path(args.out), args.preset, split(args.series), split(args.methods))
+    return 0

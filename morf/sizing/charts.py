@@ -1,0 +1,98 @@
+"""PNG charts of the sweep and the stress series (matplotlib, Agg backend: no display needed)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def front_chart(points: list[dict], x: str, y: str, front: np.ndarray, path: Path, *, title: str, xlabel: str,
+                ylabel: str, log_x: bool = False, target_x: float | None = None, target_label: str = "",
+                note: str = "") -> Path:
+    """Scatter of ``points[i][x]`` against ``points[i][y]`` with the Pareto front drawn as a step line.
+
+    Args:
+        front: (N,) bool, points on the front (from :func:`morf.sizing.front.pareto_front`).
+        target_x: draws a vertical line there (e.g. the paper's 30 fps), labelled ``target_label``.
+        note: a footnote under the axes (what is comparable with the paper and what is not).
+    """
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 5.5), dpi=110)
+    xs = np.array([p.get(x) if p.get(x) is not None else np.nan for p in points], float)
+    ys = np.array([p.get(y) if p.get(y) is not None else np.nan for p in points], float)
+    ok = np.isfinite(xs) & np.isfinite(ys)
+    ax.scatter(xs[ok & ~front], ys[ok & ~front], c="tab:gray", s=30, label="sweep point")
+    ax.scatter(xs[front], ys[front], c="tab:red", s=45, label="Pareto front", zorder=3)
+    order = np.argsort(xs[front])
+    ax.plot(xs[front][order], ys[front][order], c="tab:red", lw=1, alpha=0.7, drawstyle="steps-mid")
+    for p, xv, yv, k in zip(points, xs, ys, ok):
+        if k:
+            ax.annotate(p["name"], (xv, yv), fontsize=7, xytext=(3, 3), textcoords="offset points")
+    if target_x is not None:
+        ax.axvline(target_x, c="tab:blue", ls="--", lw=1)
+        ax.text(target_x, ax.get_ylim()[0], " " + target_label, color="tab:blue", fontsize=8, rotation=90,
+                va="bottom", ha="right")
+    if log_x:
+        ax.set_xscale("log")
+    ax.set(title=title, xlabel=xlabel, ylabel=ylabel)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    if note:
+        fig.text(0.01, 0.01, note, fontsize=7, wrap=True, va="bottom")
+        fig.subplots_adjust(bottom=0.2)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def series_chart(series: dict[str, dict], metric: str, path: Path, *, title: str, ylabel: str) -> Path:
+    """One panel per stress series: ``metric`` against the nuisance level, one line per method.
+
+    Args:
+        series: {series name: {"levels": [..], "label": str, "methods": {method: [row per level]}}},
+            each row a dict holding ``metric`` and ``diverged``; diverged levels are drawn as crosses
+            at the bottom of the panel.
+    """
+    plt = _pyplot()
+    names = list(series)
+    cols = min(3, max(1, len(names)))
+    rows = (len(names) + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.3 * rows), dpi=100, squeeze=False)
+    colours = {"morf": "tab:red", "stylepeople": "tab:blue", "anr": "tab:green"}
+    for ax, name in zip(axes.ravel(), names):
+        s = series[name]
+        lv = np.asarray(s["levels"], float)
+        for method, rows_ in s["methods"].items():
+            v = np.array([r.get(metric) if r.get(metric) is not None else np.nan for r in rows_], float)
+            ax.plot(lv[:len(v)], v, "o-", c=colours.get(method), label=method, ms=4)
+            div = np.array([bool(r.get("diverged")) for r in rows_])
+            if div.any():
+                ax.plot(lv[:len(v)][div], np.full(div.sum(), np.nanmin(v) if np.isfinite(v).any() else 0), "x",
+                        c=colours.get(method), ms=9, mew=2)
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel(s.get("label", "level"), fontsize=8)
+        ax.set_ylabel(ylabel, fontsize=8)
+        ax.grid(alpha=0.3)
+        ax.tick_params(labelsize=7)
+    for ax in axes.ravel()[len(names):]:
+        ax.axis("off")
+    axes.ravel()[0].legend(fontsize=7)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path

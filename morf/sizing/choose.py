@@ -1,0 +1,123 @@
+"""``--preset auto``: pick the smallest neural texture, channel count and renderer a capture needs.
+
+The rule (thresholds in :class:`SizingRule`, calibration in docs/benchmarks.md):
+
+1. Texture resolution from texel density. Anny's atlas spans about 0.82 atlas sides per body
+   height, so a person ``h`` pixels tall in the training images sees ``0.82 * S / h`` texels per
+   pixel at atlas size ``S``. ``h`` is the person's height at the training resolution (the crop
+   is about 1.16 person heights), capped by the height in the capture (upsampling adds nothing).
+   Detailed clothing needs about one texel per pixel; plain clothing is band-limited and keeps
+   its look at half that. S = the smallest power of two >= density * h / 0.82, in [64, 1024].
+2. Channels: 16 for detailed clothing, 8 for medium, 4 for plain (never above the base preset).
+3. Renderer: one step down the preset's ladder for plain, tight clothing; one step up when much
+   of the person lies outside the fitted body (loose garments, hair), which the renderer must
+   draw without the mesh; else the preset's renderer.
+
+Frame count and motion range do not change the sizes (they decide what can be learned at all);
+they are reported so a user sees why a capture may disappoint.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from morf.avatar.renderer import RendererConfig
+from morf.sizing.features import ATLAS_UNITS_PER_METRE, BODY_HEIGHT_M, CaptureFeatures
+from morf.train.config import TrainConfig, preset
+
+# Renderer ladders (smallest first) per base preset; the middle one is the preset's own.
+LADDERS: dict[str, tuple[str, ...]] = {
+    "tiny": ("tiny_b4", "tiny_b8", "tiny_b16"),
+    "cpu": ("stem2_b8", "stem2_b16", "stem2_b24"),
+}
+CROP_MARGIN = 1.16  # training crop side / person height (morf.train.data.person_square, 8 % margins)
+
+
+@dataclass(frozen=True)
+class SizingRule:
+    """Thresholds of the automatic size choice."""
+
+    detail_high: float = 0.04  # fine-band RMS at or above this: detailed clothing
+    detail_low: float = 0.02  # below this: plain clothing
+    density_high: float = 1.0  # texels per training pixel for detailed clothing
+    density_mid: float = 0.7  # ... for medium detail
+    density_low: float = 0.5  # ... for plain clothing
+    excess_high: float = 0.2  # share of the mask outside the fitted body that calls for a larger renderer
+    min_texture: int = 64
+    max_texture: int = 1024
+    quality_margin_db: float = 0.5  # "near the best": within this much person-PSNR of the best on the sweep
+
+
+def _pow2_at_least(x: float, lo: int, hi: int) -> int:
+    s = lo
+    while s < x and s < hi:
+        s *= 2
+    return s
+
+
+def choose_from_features(f: CaptureFeatures, base: TrainConfig, base_preset: str,
+                         rule: SizingRule = SizingRule()) -> tuple[TrainConfig, list[str]]:
+    """The rule on measured features (pure; see the module docstring)."""
+    from morf.sizing.sweep import renderer_fields
+
+    reasons = []
+    h_train = base.resolution / CROP_MARGIN
+    h = min(f.person_height_px, h_train)
+    level = "high" if f.detail >= rule.detail_high else "low" if f.detail < rule.detail_low else "mid"
+    density = {"high": rule.density_high, "mid": rule.density_mid, "low": rule.density_low}[level]
+    texels_per_side = ATLAS_UNITS_PER_METRE * BODY_HEIGHT_M  # atlas sides per body height
+    size = _pow2_at_least(density * h / texels_per_side, rule.min_texture, rule.max_texture)
+    reasons.append(f"person {f.person_height_px:.0f} px tall in the capture, about {h_train:.0f} px at the "
+                   f"{base.resolution} px training resolution -> {h:.0f} px to cover")
+    reasons.append(f"clothing detail {f.detail:.3f} (fine-band RMS; {rule.detail_low} / {rule.detail_high} "
+                   f"split plain / medium / detailed): {level} -> {density} texels per pixel -> "
+                   f"texture {size}x{size}")
+    channels = {"high": 16, "mid": 8, "low": 4}[level]
+    channels = min(channels, base.texture_channels)
+    reasons.append(f"{level} detail -> {channels} texture channels (base preset: {base.texture_channels})")
+    ladder = LADDERS.get(base_preset)
+    rfields = {k: v for k, v in dataclasses.asdict(base.renderer).items() if k != "in_channels"}
+    if ladder:
+        step = 1
+        excess = f.silhouette_excess
+        if excess is not None and excess >= rule.excess_high:
+            step = 2
+            why = f"{excess:.0%} of the person lies outside the fitted body (>= {rule.excess_high:.0%}: loose garments)"
+        elif level == "low" and (excess is None or excess < rule.excess_high):
+            step = 0
+            why = "plain clothing that follows the body"
+        else:
+            why = "neither plain nor loose" + (f" ({excess:.0%} of the person outside the fitted body)"
+                                               if excess is not None else "")
+        rfields = renderer_fields(ladder[step])
+        reasons.append(f"renderer {ladder[step]}: {why}")
+    else:
+        reasons.append(f"renderer of the {base_preset!r} preset kept (no smaller/larger ladder for it)")
+    if f.frames < 60:
+        reasons.append(f"only {f.frames} training frames: expect less detail on novel poses (sizes unchanged)")
+    if f.yaw_coverage_deg is not None and f.yaw_coverage_deg < 270:
+        reasons.append(f"the fits cover {f.yaw_coverage_deg:.0f} degrees of the turn: unseen sides come from "
+                       "inpainting (sizes unchanged)")
+    cfg = base.replace(preset="auto", texture_size=size, texture_channels=channels,
+                       renderer=RendererConfig(in_channels=channels, **rfields))
+    return cfg, reasons
+
+
+def choose_train_config(project, base_preset: str = "cpu", method: str = "morf", model=None,
+                        rule: SizingRule = SizingRule(), **overrides) -> tuple[TrainConfig, list[str]]:
+    """Measure ``project`` (a CaptureProject) and size its avatar.
+
+    Args:
+        base_preset: the training preset whose resolution, steps and losses are kept.
+        method: morf | stylepeople | anr. model: a loaded body model (for the silhouette excess;
+            without it that feature is skipped). overrides: TrainConfig fields applied to the base first.
+    Returns:
+        (the chosen TrainConfig with ``preset="auto"``, human-readable reasons for the run log).
+    """
+    from morf.sizing.features import capture_features
+
+    base = preset(base_preset, method, **overrides)
+    f = capture_features(project, model)
+    cfg, reasons = choose_from_features(f, base, base_preset, rule)
+    return cfg, [f"automatic size from the capture (base preset {base_preset!r})"] + reasons
