@@ -65,13 +65,19 @@ class AvatarModel(nn.Module):
                 frame_index: torch.Tensor | None = None) -> AvatarOutput:
         """Render training frames.
 
+        The warp is applied at the pixels' UVs (``sample_texture(..., offsets=)``) rather than by
+        resampling the whole texture per frame: the same warped lookup, but it never builds
+        (B, C, Ht, Wt) warped textures (at 256^2 that and its gradient were a large share of a step).
+
         Args:
             uv: (B, H, W, 2) rasterized UVs; uv_mask: (B, H, W) mesh coverage;
             pose: (B, pose_dim) pose features (see :func:`morf.avatar.warp.pose_features`);
             frame_index: (B,) long indices into the warp's latent table.
         """
-        tex, offsets = self.frame_texture(pose, frame_index)
-        feats = sample_texture(tex, uv, uv_mask)
+        offsets = None
+        if self.warp is not None and pose is not None:
+            offsets = self.warp(pose, frame_index, self.texture_size)
+        feats = sample_texture(self.texture.texture, uv, uv_mask, offsets)
         out = self.renderer(feats)
         return AvatarOutput(out[:, :3], out[:, 3:], feats, offsets)
 

@@ -19,21 +19,30 @@ def uv_to_grid(uv: torch.Tensor) -> torch.Tensor:
     return torch.stack([uv[..., 0] * 2 - 1, 1 - uv[..., 1] * 2], dim=-1)
 
 
-def sample_texture(texture: torch.Tensor, uv: torch.Tensor, mask: torch.Tensor | None = None) -> torch.Tensor:
+def sample_texture(texture: torch.Tensor, uv: torch.Tensor, mask: torch.Tensor | None = None,
+                   offsets: torch.Tensor | None = None) -> torch.Tensor:
     """Look a texture up at per-pixel UVs (bilinear), zero outside the mask.
 
     Args:
         texture: (C, Ht, Wt) shared or (B, C, Ht, Wt) per image.
         uv: (B, H, W, 2) mesh UVs, v up.
         mask: (B, H, W) bool/float, pixels covered by the mesh (None: all).
+        offsets: (B, 2, h, w) texture-space warp offsets in grid units (x right, y down; any
+            resolution, interpolated bilinearly), or None. Looking up ``texture`` at
+            ``uv + offsets(uv)`` equals sampling the warped texture
+            :func:`morf.avatar.warp.warp_texture` at ``uv`` (up to interpolation order) without
+            building a (B, C, Ht, Wt) warped texture and its dense gradient.
     Returns:
         (B, C, H, W) sampled features.
     """
     B = uv.shape[0]
     if texture.dim() == 3:
         texture = texture.unsqueeze(0).expand(B, -1, -1, -1)
-    out = F.grid_sample(texture, uv_to_grid(uv).to(texture.dtype), mode="bilinear",
-                        padding_mode="border", align_corners=False)
+    grid = uv_to_grid(uv).to(texture.dtype)
+    if offsets is not None:
+        d = F.grid_sample(offsets.to(texture.dtype), grid, mode="bilinear", padding_mode="border", align_corners=False)
+        grid = grid + d.permute(0, 2, 3, 1)
+    out = F.grid_sample(texture, grid, mode="bilinear", padding_mode="border", align_corners=False)
     if mask is not None:
         out = out * mask.to(out.dtype).unsqueeze(1)
     return out

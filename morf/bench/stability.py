@@ -130,11 +130,10 @@ def prepare(series: str, i: int, level, out: Path, sp: StabilityPreset, model):
         p = _capture(out, f"keypoints-{i}", sp, model, kp_noise=level * sp_size(sp) / 512, corrupt=level / 100)
         _fit(p, sp, model)
         return p, "fits", f"stab-keypoints-{i}"
-    if i == 0 and series != "misalignment" or series == "misalignment" and level == 0:
-        _set_hidden_turn(base, 0)
+    _set_hidden_turn(base.root, level if series == "coverage" else 0)
+    if i == 0:  # every series but "keypoints" starts from the clean capture and its true poses
         return base, "ground-truth", "stab-clean"
     if series == "misalignment":
-        _set_hidden_turn(base, 0)
         _write_noisy_fits(base, level, seed=i)
         return base, "fits", f"stab-misalignment-{i}"
     if series == "coverage":
@@ -142,8 +141,7 @@ def prepare(series: str, i: int, level, out: Path, sp: StabilityPreset, model):
     if series == "fast":
         frames = max(4, int(round(sp_frames(sp) / level)))
         return _capture(out, f"fast-{i}", sp, model, frames=frames), "ground-truth", f"stab-fast-{i}"
-    key = {"slide": "slide", "loose": "loose"}[series]
-    return _capture(out, f"{series}-{i}", sp, model, **{key: level}), "ground-truth", f"stab-{series}-{i}"
+    return _capture(out, f"{series}-{i}", sp, model, **{series: level}), "ground-truth", f"stab-{series}-{i}"
 
 
 def sp_size(sp: StabilityPreset) -> int:

@@ -10,7 +10,6 @@ import contextlib
 from dataclasses import dataclass
 from typing import Callable
 
-import numpy as np
 import torch
 
 from morf.body.rotations import axis_angle_to_matrix
@@ -151,9 +150,3 @@ def _finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tupl
                                  change_deg=change, image_height=inputs.camera.height, cfg=cfg.filter)
     return fits, dict(sorted(rejected.items()))
 
-
-def rejected_mask(n: int, rejected: dict[int, str]) -> np.ndarray:
-    """(n,) bool, True for rejected frames."""
-    m = np.zeros(n, bool)
-    m[list(rejected)] = True
-    return m

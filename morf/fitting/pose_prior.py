@@ -14,8 +14,6 @@ outside each box, zero inside, so it never biases a plausible pose.
 
 from __future__ import annotations
 
-import math
-
 import torch
 
 from morf.fitting.params import FIT_BONES
@@ -37,7 +35,7 @@ _LIMITS_LEFT_DEG = {
     "foot.L": ((-45, 35), (-20, 20), (-25, 25)),
 }
 
-# Hinge joints: (bone, parent-bone child, flexion range degrees from rest, off-axis weight).
+# Elbows: bone -> (upper-arm bone, wrist bone, flexion range in degrees from the rest bend).
 _HINGES = {
     "lowerarm01.L": ("upperarm01.L", "wrist.L", (-40.0, 105.0)),
     "lowerarm01.R": ("upperarm01.R", "wrist.R", (-40.0, 105.0)),
@@ -97,6 +95,3 @@ class JointLimitPrior(torch.nn.Module):
         hinge = torch.relu(rng[:, 0] - flex) ** 2 + torch.relu(flex - rng[:, 1]) ** 2
         return box + (hinge + 4.0 * (off ** 2).sum(-1)).sum(-1)
 
-
-def degrees(x: torch.Tensor) -> torch.Tensor:
-    return x * (180.0 / math.pi)

@@ -13,8 +13,8 @@ from morf.fitting.evaluate import silhouettes
 from morf.fitting.inputs import FitInputs, downsample_mask, raster_size
 
 
-def turning_poses(model, n: int, seed: int = 0, turn: float = 2 * math.pi) -> BodyPose:
-    """n frames of a person turning in place with slowly moving arms and legs."""
+def turning_poses(model, n: int, seed: int = 0, turn: float = 2 * math.pi, cycles: float = 1.0) -> BodyPose:
+    """n frames of a person turning by ``turn`` in place, limbs swinging ``cycles`` times."""
     rng = np.random.default_rng(seed)
     rot = torch.zeros(n, len(model.bone_names), 3)
     t = torch.linspace(0, 1, n)
@@ -23,7 +23,7 @@ def turning_poses(model, n: int, seed: int = 0, turn: float = 2 * math.pi) -> Bo
     for name, axis, amp in (("upperarm01.L", 1, -0.5), ("upperarm01.R", 1, 0.5), ("lowerarm01.L", 0, -0.4),
                             ("lowerarm01.R", 0, -0.3), ("upperleg01.L", 0, -0.25), ("lowerleg01.L", 0, 0.4),
                             ("spine02", 0, 0.15), ("neck01", 2, 0.3)):
-        rot[:, model.bone_index(name), axis] = amp * (0.5 + 0.5 * torch.sin(2 * math.pi * t + phase))
+        rot[:, model.bone_index(name), axis] = amp * (0.5 + 0.5 * torch.sin(2 * math.pi * cycles * t + phase))
     transl = torch.zeros(n, 3)
     transl[:, 0] = 0.05 * torch.sin(2 * math.pi * t)
     return BodyPose(rot, transl)

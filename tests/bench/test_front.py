@@ -1,0 +1,28 @@
+"""Pareto-front computation on known point sets."""
+
+import numpy as np
+
+from morf.sizing.front import near_front, pareto_front
+
+
+def test_front_of_known_points():
+    # (quality up, fps up)
+    pts = [[30, 10], [28, 20], [25, 40], [27, 15], [24, 35], [30, 5]]
+    assert pareto_front(pts).tolist() == [True, True, True, False, False, False]
+
+
+def test_front_minimise_second_objective_and_missing_values():
+    # (quality up, minutes down); a NaN point is never on the front
+    pts = [[30, 10], [28, 5], [29, 20], [np.nan, 1], [31, 30]]
+    assert pareto_front(pts, (True, False)).tolist() == [True, True, False, False, True]
+
+
+def test_ties_stay_on_the_front():
+    assert pareto_front([[1, 1], [1, 1], [0, 0]]).tolist() == [True, True, False]
+
+
+def test_near_front_margin():
+    pts = [[30.0, 20.0], [29.8, 20.0], [28.0, 20.0], [35.0, 5.0]]
+    assert near_front(pts, 1, (0.5, 0.0))  # 0.2 dB below an equally fast point: near
+    assert not near_front(pts, 2, (0.5, 0.0))  # 2 dB below an equally fast point: not near
+    assert near_front(pts, 3, (0.5, 0.0))  # best quality, slowest: on the front

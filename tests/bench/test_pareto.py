@@ -1,0 +1,38 @@
+"""``morf bench pareto`` on the tiny preset: documented JSON keys, charts, and resumability."""
+
+import json
+
+import pytest
+
+from morf.bench.pareto import run_sweep
+
+POINT_KEYS = {"name", "axis", "method", "precision", "config", "params", "psnr", "ssim", "psnr_person",
+              "ssim_person", "temporal", "train_minutes", "fps", "frame_ms", "renderer_ms", "int8_psnr_vs_fp32_db",
+              "diverged", "on_front_fps", "on_front_train"}
+
+
+@pytest.mark.gl
+def test_tiny_sweep_writes_results_and_resumes(tmp_path, body_model, gl):
+    out = tmp_path / "pareto"
+    res = run_sweep(out, "tiny", axes=["texture_size", "precision"], model=body_model)
+    data = json.loads((out / "pareto.json").read_text())
+    assert {"points", "front_fps", "front_train", "quality_metric", "fps_size", "paper_reference", "charts",
+            "machine"} <= set(data)
+    names = [p["name"] for p in data["points"]]
+    assert names == ["base", "texture-32", "fp32"]
+    for p in data["points"]:
+        assert POINT_KEYS <= set(p), POINT_KEYS - set(p)
+        assert not p["diverged"] and p["fps"] > 0 and p["train_minutes"] > 0
+    assert data["front_fps"] and data["front_train"]
+    # int8 and fp32 of one model share the training run: same quality, separate speeds
+    base, fp32 = data["points"][0], data["points"][2]
+    assert base["run"] == fp32["run"] and base["psnr_person"] == fp32["psnr_person"]
+    assert data["paper_reference"]["comparable"] == ["fps"]
+    for png in ("pareto_fps.png", "pareto_train.png"):
+        assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert res["reused"] == []
+
+    stamps = {p.name: p.stat().st_mtime_ns for p in (out / "points").iterdir()}
+    again = run_sweep(out, "tiny", axes=["texture_size", "precision"], model=body_model)
+    assert again["reused"] == names
+    assert {p.name: p.stat().st_mtime_ns for p in (out / "points").iterdir()} == stamps

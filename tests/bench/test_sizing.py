@@ -1,0 +1,69 @@
+"""The automatic size choice: features from images, and the rule's direction on plain vs detailed
+clothing (fake projects without fits, so no body model or OpenGL is needed)."""
+
+from pathlib import Path
+
+import numpy as np
+
+from morf.sizing.choose import SizingRule, choose_from_features, choose_train_config
+from morf.sizing.features import CaptureFeatures, image_features
+from morf.train.config import preset
+
+
+class FakeProject:
+    """Just what capture_features reads: frames, masks, decisions; no fits, no ground truth."""
+
+    def __init__(self, root: Path, pattern: str, n: int = 4, size: int = 128):
+        self.root = root
+        self.num_frames = n
+        self.image_size = (size, size)
+        self.fits_dir = root / "fits"
+        self.ground_truth_dir = root / "ground_truth"
+        y, x = np.mgrid[0:size, 0:size]
+        self.mask = (abs(x - size / 2) < 20) & (y > 14) & (y < 114)  # a person 99 px tall
+        body = np.full((size, size, 3), 140, np.uint8)
+        if pattern == "print":
+            body = np.where((((x // 2) + (y // 2)) % 2)[..., None] == 1, 230, 40).astype(np.uint8) * np.ones(3, np.uint8)
+        self.frame = np.where(self.mask[..., None], body, 90).astype(np.uint8)
+
+    def training_frames(self):
+        return list(range(self.num_frames))
+
+    def load_frame(self, i):
+        return self.frame
+
+    def load_mask(self, i):
+        return self.mask
+
+
+def test_image_features_detail_and_height(tmp_path):
+    plain, fine = FakeProject(tmp_path, "plain"), FakeProject(tmp_path, "print")
+    h, d_plain, _ = image_features([plain.frame], [plain.mask])
+    _, d_fine, _ = image_features([fine.frame], [fine.mask])
+    assert h == 99
+    assert d_plain < 1e-3 < d_fine
+
+
+def test_auto_picks_larger_texture_for_detailed_clothing(tmp_path):
+    cfg_plain, why_plain = choose_train_config(FakeProject(tmp_path, "plain"), "cpu")
+    cfg_fine, why_fine = choose_train_config(FakeProject(tmp_path, "print"), "cpu")
+    assert cfg_fine.texture_size > cfg_plain.texture_size
+    assert cfg_fine.texture_channels > cfg_plain.texture_channels
+    assert cfg_fine.renderer.width > cfg_plain.renderer.width  # plain, tight clothing: one step down
+    assert cfg_plain.renderer.in_channels == cfg_plain.texture_channels
+    assert cfg_fine.preset == "auto" and any("texture" in r for r in why_fine) and why_plain
+
+
+def test_rule_follows_person_height_and_looseness():
+    base = preset("cpu")
+    f = CaptureFeatures(frames=200, person_height_px=400, image_height_px=512, detail=0.05, detail_coarse=0.1,
+                        yaw_coverage_deg=360, pose_spread_rad=0.1, silhouette_excess=0.05)
+    small = CaptureFeatures(**{**f.to_dict(), "person_height_px": 60})
+    loose = CaptureFeatures(**{**f.to_dict(), "silhouette_excess": 0.3})
+    big_cfg, _ = choose_from_features(f, base, "cpu")
+    small_cfg, _ = choose_from_features(small, base, "cpu")
+    loose_cfg, reasons = choose_from_features(loose, base, "cpu")
+    # 256 px training crop -> about 221 px of person -> 221 / 0.82 = 269 texels -> 512 at density 1
+    assert big_cfg.texture_size == 512 and small_cfg.texture_size == 128
+    assert loose_cfg.renderer.width > big_cfg.renderer.width and any("loose" in r for r in reasons)
+    assert SizingRule().quality_margin_db > 0
