@@ -62,7 +62,7 @@ class AvatarModel(nn.Module):
         return warp_texture(self.texture.texture, offsets), offsets
 
     def forward(self, uv: torch.Tensor, uv_mask: torch.Tensor, pose: torch.Tensor | None = None,
-                frame_index: torch.Tensor | None = None) -> AvatarOutput:
+                frame_index: torch.Tensor | None = None, bf16: bool = False) -> AvatarOutput:
         """Render training frames.
 
         The warp is applied at the pixels' UVs (``sample_texture(..., offsets=)``) rather than by
@@ -72,13 +72,19 @@ class AvatarModel(nn.Module):
         Args:
             uv: (B, H, W, 2) rasterized UVs; uv_mask: (B, H, W) mesh coverage;
             pose: (B, pose_dim) pose features (see :func:`morf.avatar.warp.pose_features`);
-            frame_index: (B,) long indices into the warp's latent table.
+            frame_index: (B,) long indices into the warp's latent table;
+            bf16: run the renderer under bfloat16 autocast (outputs are returned as float32).
         """
         offsets = None
         if self.warp is not None and pose is not None:
             offsets = self.warp(pose, frame_index, self.texture_size)
         feats = sample_texture(self.texture.texture, uv, uv_mask, offsets)
-        out = self.renderer(feats)
+        x = feats
+        if self.renderer.stem[0].weight.is_contiguous(memory_format=torch.channels_last):
+            x = feats.contiguous(memory_format=torch.channels_last)
+        with torch.autocast(feats.device.type, dtype=torch.bfloat16, enabled=bf16):
+            out = self.renderer(x)
+        out = out.float().contiguous()
         return AvatarOutput(out[:, :3], out[:, 3:], feats, offsets)
 
     @torch.no_grad()

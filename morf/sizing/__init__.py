@@ -1,13 +1,24 @@
 """Right-sized avatars: the speed/accuracy sweep's building blocks and the automatic size choice.
 
-``choose_train_config(project, base_preset)`` -> (TrainConfig, reasons) is what ``--preset auto``
-calls; :mod:`morf.sizing.sweep`, :mod:`morf.sizing.evaluate` and :mod:`morf.sizing.charts` are
-shared by ``morf bench pareto`` and ``morf bench stability``.
+``morf.sizing.choose.choose_train_config(project, base_preset)`` -> (TrainConfig, reasons) is
+what ``--preset auto`` calls; :mod:`morf.sizing.sweep`, :mod:`morf.sizing.evaluate` and
+:mod:`morf.sizing.charts` are shared by ``morf bench pareto`` and ``morf bench stability``.
+
+Nothing is imported eagerly: the torch-free playback timing child imports
+:mod:`morf.sizing.evaluate` and must not pull in torch.
 """
 
-from morf.sizing.choose import SizingRule, choose_from_features, choose_train_config
-from morf.sizing.features import CaptureFeatures, capture_features
-from morf.sizing.front import near_front, pareto_front
+_LAZY = {"SizingRule": "choose", "choose_from_features": "choose", "choose_train_config": "choose",
+         "CaptureFeatures": "features", "capture_features": "features", "near_front": "front",
+         "pareto_front": "front"}
 
-__all__ = ["SizingRule", "choose_from_features", "choose_train_config", "CaptureFeatures", "capture_features",
-           "near_front", "pareto_front"]
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(f"morf.sizing.{_LAZY[name]}"), name)
+    raise AttributeError(name)
+
+
+__all__ = list(_LAZY)

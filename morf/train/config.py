@@ -54,6 +54,8 @@ class TrainConfig:
     checkpoint_minutes: float = 5.0  # checkpoint period (and always at the end / on stop)
     report_every: int = 10  # steps between Progress reports (and preview images)
     log_every: int = 10  # steps between metrics.jsonl lines
+    channels_last: bool = False  # renderer + discriminator in channels-last memory format (CPU speed)
+    bf16: bool = False  # bfloat16 autocast for renderer + discriminator (weights and losses stay float32)
     seed: int = 0  # RNG seed (frame order, crops, init)
     device: str = "auto"  # auto: CUDA when present, else CPU
 
@@ -109,7 +111,8 @@ PRESETS: dict[str, TrainConfig] = {
         preset="cpu", resolution=256, batch_size=4, steps=3000, texture_channels=16, texture_size=256,
         renderer=RendererConfig(in_channels=16, width=16, depth=4, max_width=64, stem=2, skip_hidden=16),
         warp=WarpConfig(latent_dim=16, style_dim=64, mlp_layers=3, fourier_freqs=5, base_resolution=32, width=16, levels=3),
-        disc_width=16, disc_scales=2, disc_layers=3, inpaint_steps=200, inpaint_views=16),
+        disc_width=16, disc_scales=1, disc_layers=3, inpaint_steps=200, inpaint_views=16,
+        channels_last=True, bf16=True),
     # Paper sizes: 640 px, 1024^2 texture, ~14M-parameter U-Net; meant for a GPU.
     "gpu": TrainConfig(
         preset="gpu", resolution=640, crop=512, batch_size=8, steps=100000, texture_channels=16, texture_size=1024,

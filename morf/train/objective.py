@@ -12,9 +12,18 @@ from morf.train.config import TrainConfig
 from morf.train.frames import Batch
 
 
-def render_batch(model: AvatarModel, batch: Batch) -> AvatarOutput:
+def render_batch(model: AvatarModel, batch: Batch, bf16: bool = False) -> AvatarOutput:
     pose = pose_features(batch.rotvecs) if model.warp is not None else None
-    return model(batch.uv, batch.uv_mask, pose, batch.index)
+    return model(batch.uv, batch.uv_mask, pose, batch.index, bf16=bf16)
+
+
+def run_discriminator(disc, x: torch.Tensor, bf16: bool = False) -> list[list[torch.Tensor]]:
+    """``disc(x)`` (optionally under bfloat16 autocast, channels-last if D is); features as float32."""
+    if next(disc.parameters()).is_contiguous(memory_format=torch.channels_last) and x.dim() == 4:
+        x = x.contiguous(memory_format=torch.channels_last)
+    with torch.autocast(x.device.type, dtype=torch.bfloat16, enabled=bf16):
+        feats = disc(x)
+    return [[f.float() for f in scale] for scale in feats]
 
 
 def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=None, perceptual=None,
@@ -32,11 +41,11 @@ def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=Non
         L["warp_l2"] = offset_l2(out.offsets)
         L["warp_tv"] = tv_loss(out.offsets)
     if disc is not None and gan_on:
-        fake = disc(torch.cat([out.rgb, out.mask], dim=1))
+        fake = run_discriminator(disc, torch.cat([out.rgb, out.mask], dim=1), cfg.bf16)
         L["gan"] = gan_generator_loss([f[-1] for f in fake])
         if perceptual is None:  # no VGG weights: discriminator feature matching stands in
             with torch.no_grad():
-                real = disc(torch.cat([target, batch.mask], dim=1))
+                real = run_discriminator(disc, torch.cat([target, batch.mask], dim=1), cfg.bf16)
             L["feature_matching"] = feature_matching_loss(real, fake)
     return L
 
@@ -49,8 +58,8 @@ def weighted_total(cfg: TrainConfig, losses: dict[str, torch.Tensor]) -> torch.T
     return sum(getattr(cfg, WEIGHTS[k]) * v for k, v in losses.items())
 
 
-def discriminator_loss(disc, out: AvatarOutput, batch: Batch) -> torch.Tensor:
+def discriminator_loss(disc, out: AvatarOutput, batch: Batch, bf16: bool = False) -> torch.Tensor:
     """Non-saturating discriminator loss on real frames vs the (detached) renders."""
-    real = disc(torch.cat([batch.image * batch.mask, batch.mask], dim=1))
-    fake = disc(torch.cat([out.rgb, out.mask], dim=1).detach())
+    real = run_discriminator(disc, torch.cat([batch.image * batch.mask, batch.mask], dim=1), bf16)
+    fake = run_discriminator(disc, torch.cat([out.rgb, out.mask], dim=1).detach(), bf16)
     return gan_discriminator_loss([r[-1] for r in real], [f[-1] for f in fake])
