@@ -14,7 +14,7 @@ def _shape(text: str) -> tuple[float, ...]:
 
 
 def add_parser(sub):
-    from morf.synth.config import DETECTORS, PRESETS
+    from morf.synth.config import CLOTHING, DETECTORS, PRESETS
 
     p = sub.add_parser("synth", help="render a synthetic capture project with ground truth",
                        description="Render a person turning in place (Anny body, procedural clothes) into a "
@@ -31,6 +31,8 @@ def add_parser(sub):
     p.add_argument("--corrupt", type=float, help="fraction of frames with keypoints of a wrong pose")
     p.add_argument("--detector", choices=DETECTORS, help="keypoints from MediaPipe (auto/mediapipe) or ground truth (none)")
     p.add_argument("--shape", type=_shape, help="Anny phenotype: 6 comma-separated values in [0, 1]")
+    p.add_argument("--clothing", choices=CLOTHING, help="print (patterned, high-frequency) or plain (flat colours)")
+    p.add_argument("--turn-degrees", type=float, help="how far the person turns (default 360; < 150 never shows the back)")
     p.add_argument("--force", action="store_true", help="rebuild an existing synthetic project in place")
     return p
 
@@ -40,7 +42,8 @@ def run(args) -> int:
 
     config = synth_config(args.preset, seed=args.seed, frames=args.frames, holdout_frames=args.holdout_frames,
                           size=args.size, slide=args.slide, loose=args.loose, kp_noise=args.kp_noise,
-                          corrupt=args.corrupt, detector=args.detector, shape=args.shape)
+                          corrupt=args.corrupt, detector=args.detector, shape=args.shape,
+                          clothing=args.clothing, turn_degrees=args.turn_degrees)
     project = make_synthetic_capture(args.project, config, overwrite=args.force)
     kp = project.load_keypoints()
     n_det = int((kp.source == "mediapipe").sum())

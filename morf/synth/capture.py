@@ -99,7 +99,8 @@ def make_synthetic_capture(root, config: SynthConfig, *, model=None, control: St
     scene = build_scene(config, streams, model)
     cam = scene.camera
     bones = scene.model.bone_names
-    motion = capture_motion(bones, N, streams["motion"], config.turn_fraction, config.sway, config.arms_out_deg)
+    motion = capture_motion(bones, N, streams["motion"], config.turn_fraction, config.sway, config.arms_out_deg,
+                            config.turn_degrees)
     field = make_slide_field(N, config.slide, streams["slide"])
     n_bad = int(round(config.corrupt * N))
     corrupted = np.zeros(N, bool)

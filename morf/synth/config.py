@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from morf.errors import InputError
 
 DETECTORS = ("auto", "mediapipe", "none")
+CLOTHING = ("print", "plain")
 
 
 @dataclass(frozen=True)
@@ -25,6 +26,8 @@ class SynthConfig:
     fov_deg: float = 40.0  # vertical field of view of the static camera
     person_height_frac: float = 0.8  # standing body height as a share of the image height
     turn_fraction: float = 0.8  # share of the capture spent turning; the rest shows the hands
+    turn_degrees: float = 360.0  # how far the person turns (under about 150: the back is never seen)
+    clothing: str = "print"  # print: patterned shirt + chest print + twill; plain: flat colours
     sway: float = 1.0  # scale of the natural sway while turning (0: a statue on a turntable)
     arms_out_deg: float = 12.0  # arms raised this far beyond Anny's rest A-pose while turning
     slide: float = 0.006  # cloth sliding: largest texture-space displacement, atlas units (1 = atlas side)
@@ -53,6 +56,8 @@ class SynthConfig:
             (0 < self.person_height_frac <= 1.5, f"person height fraction must be in (0, 1.5], got {self.person_height_frac}"),
             (5 <= self.fov_deg <= 120, f"field of view must be 5..120 degrees, got {self.fov_deg}"),
             (0 < self.turn_fraction <= 1, f"turn fraction must be in (0, 1], got {self.turn_fraction}"),
+            (0 <= self.turn_degrees <= 720, f"--turn-degrees must be in [0, 720], got {self.turn_degrees}"),
+            (self.clothing in CLOTHING, f"--clothing must be one of {', '.join(CLOTHING)}, got {self.clothing!r}"),
         ]
         if self.shape is not None:
             checks.append((len(self.shape) == 6 and all(0 <= s <= 1 for s in self.shape),

@@ -70,19 +70,20 @@ def _smoothstep(x: np.ndarray) -> np.ndarray:
 
 
 def capture_motion(bone_names: list[str], n: int, rng: np.random.Generator, turn_fraction: float = 0.8,
-                   sway: float = 1.0, arms_out_deg: float = 12.0) -> MotionSequence:
+                   sway: float = 1.0, arms_out_deg: float = 12.0, turn_degrees: float = 360.0) -> MotionSequence:
     """Turn 360 degrees in place, then show the hands in front of the torso.
 
     Args:
         n: number of frames; turn_fraction: share of frames spent turning.
         sway: scale of the natural sway (0 = a statue on a turntable).
         arms_out_deg: how far the arms are raised sideways beyond Anny's rest A-pose.
+        turn_degrees: how far the person turns (360: all the way round).
     """
     t = np.linspace(0.0, 1.0, n)
     n_turn = n if n < 4 else max(2, int(round(n * turn_fraction)))
     s = np.clip(np.arange(n) / max(n_turn - 1, 1), 0, 1)
     # Eased so the turn starts and ends gently, but never stops mid-way.
-    yaw = 2 * np.pi * (s - 0.35 * np.sin(2 * np.pi * s) / (2 * np.pi))
+    yaw = np.deg2rad(turn_degrees) * (s - 0.35 * np.sin(2 * np.pi * s) / (2 * np.pi))
     hands = np.arange(n) >= n_turn
     b = _smoothstep((np.arange(n) - n_turn) / max(0.4 * (n - n_turn), 1)) * hands
 

@@ -66,7 +66,8 @@ def build_scene(config: SynthConfig, streams: dict[str, np.random.Generator], mo
     rest_v = rest.vertices[0].numpy()
     rest_kp = rest.keypoints3d[0].numpy()
     regions = region_weights(model.dense_weights.cpu().numpy(), model.bone_names, rest_v, rest_kp)
-    clothing = paint_clothing(mesh, rest_v, regions, rest_kp, config.texture_size, streams["clothing"])
+    clothing = paint_clothing(mesh, rest_v, regions, rest_kp, config.texture_size, streams["clothing"],
+                              config.clothing)
     offset = loose_offsets(rest_v, regions, rest_kp, config.loose)
 
     # Level camera at mid-body height on -Y, far enough for the person to fill the asked share.

@@ -44,13 +44,17 @@ class ClothingTexture:
 
 
 def paint_clothing(mesh: RenderMesh, rest_vertices: np.ndarray, vertex_regions: np.ndarray,
-                   rest_keypoints: np.ndarray, size: int, rng: np.random.Generator) -> ClothingTexture:
+                   rest_keypoints: np.ndarray, size: int, rng: np.random.Generator,
+                   style: str = "print") -> ClothingTexture:
     """Paint shirt, trousers, shoes, skin and hair colours into a ``size`` x ``size`` atlas.
 
     Args:
         mesh: render mesh; rest_vertices: (V, 3) model-topology rest-pose vertices;
         vertex_regions: (V, 5) region weights per model vertex; rest_keypoints: (23, 3).
         rng: colours, pattern and print text are drawn from it.
+        style: "print" (patterned shirt with a chest print, twill trousers) or "plain" (flat colours).
+            Both draw the same random numbers, so a plain scene differs from its printed twin only in
+            the clothing detail.
     """
     attrs = np.concatenate([rest_vertices[mesh.vertex_map], vertex_regions[mesh.vertex_map]], axis=1)
     baked, coverage = bake_vertex_attributes(mesh, attrs, size)
@@ -91,6 +95,8 @@ def paint_clothing(mesh: RenderMesh, rest_vertices: np.ndarray, vertex_regions: 
         shirt_img = shirt_img * (1 - 0.35 * grid[..., None]) + accent * 0.35 * grid[..., None]
     print_mask = _chest_print(pos, kp, rng)
     shirt_img = shirt_img * (1 - print_mask[..., None]) + accent * print_mask[..., None]
+    if style == "plain":
+        shirt_img = np.broadcast_to(shirt, shirt_img.shape)
     sel = region == SHIRT
     img[sel] = shirt_img[sel]
 
@@ -98,6 +104,8 @@ def paint_clothing(mesh: RenderMesh, rest_vertices: np.ndarray, vertex_regions: 
     twill = np.sin((z + around) * 2 * np.pi / 0.006)
     seam = np.exp(-((np.abs(angle) - np.pi / 2) / 0.05) ** 2)
     trouser_img = trousers * (1 + 0.07 * twill[..., None]) * (1 - 0.3 * seam[..., None])
+    if style == "plain":
+        trouser_img = np.broadcast_to(trousers, trouser_img.shape)
     sel = region == TROUSERS
     img[sel] = trouser_img[sel]
 

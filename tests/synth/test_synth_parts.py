@@ -111,3 +111,33 @@ def test_cli_synth_and_bad_arguments(tmp_path, capsys):
     # a second run into the same folder is refused with one line
     assert main(["synth", str(out), "--preset", "tiny", "--frames", "2"]) == 2
     assert "not empty" in capsys.readouterr().err
+
+
+def test_plain_clothing_has_less_detail_and_same_scene(tmp_path):
+    import numpy as np
+
+    from morf.io import read_image
+    from morf.synth import make_synthetic_capture, synth_config
+
+    def detail(p):
+        tex = read_image(p.ground_truth_dir / "texture.png").astype(np.float32)
+        return np.abs(np.diff(tex, axis=1)).mean()
+
+    printed = make_synthetic_capture(tmp_path / "print", synth_config("tiny", frames=2, holdout_frames=0))
+    plain = make_synthetic_capture(tmp_path / "plain", synth_config("tiny", frames=2, holdout_frames=0, clothing="plain"))
+    assert detail(plain) < 0.7 * detail(printed)
+    a = np.load(printed.ground_truth_dir / "gt.npz")
+    b = np.load(plain.ground_truth_dir / "gt.npz")
+    assert np.array_equal(a["rotvecs"], b["rotvecs"]) and np.array_equal(a["shape"], b["shape"])
+
+
+def test_turn_degrees_limits_the_turn(body_model):
+    import numpy as np
+
+    from morf.synth.motion import capture_motion
+
+    names = body_model.bone_names
+    full = capture_motion(names, 40, np.random.default_rng(0))
+    half = capture_motion(names, 40, np.random.default_rng(0), turn_degrees=120)
+    assert np.rad2deg(full.yaw.max() - full.yaw.min()) > 350
+    assert np.rad2deg(half.yaw.max() - half.yaw.min()) < 125
