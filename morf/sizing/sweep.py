@@ -102,11 +102,10 @@ PRESETS: dict[str, SweepPreset] = {
                      (128, 384), (1000, 6000))),
 }
 
-# Synthetic scenes: SynthConfig overrides. The generator has no plain-clothing switch; a 64-texel
-# clothing atlas blurs the stripes, checks and print away, which is the nearest thing to it.
+# Synthetic scenes: SynthConfig overrides.
 SCENES: dict[str, dict] = {
     "print": {},
-    "plain": {"texture_size": 64},
+    "plain": {"clothing": "plain"},
     "loose": {"loose": 0.1},
 }
 
