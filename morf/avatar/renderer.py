@@ -41,7 +41,7 @@ class RendererConfig:
     max_width: int = 256  # channel cap per level
     stem: int = 2  # 1: full-resolution U-Net; 2 or 4: strided stem + full-resolution skip
     skip_hidden: int = 16  # hidden channels of the full-resolution head (stem > 1)
-    premultiply: bool = True  # RGB = linear head x sigmoid(mask logit): exactly black where the mask is 0
+    premultiply: bool = True  # RGB = linear head x sigmoid(mask logit): black wherever the mask is off
 
     @property
     def multiple(self) -> int:

@@ -10,7 +10,8 @@ is fitted from scratch and compared with the true poses:
 
 Metrics per configuration: vertex_error_mm (mean per-vertex error after aligning the root
 joint, over the frames kept for training), keypoint_error_px (fitted vs true, noise-free
-keypoints), silhouette_iou (vs the dressed person's mask), jitter (mean vertex acceleration,
+keypoints), silhouette_iou (of the fitted surface, body plus clothing offsets, vs the dressed
+person's mask), silhouette_iou_body (the body alone), jitter (mean vertex acceleration,
 mm / frame^2, over the whole sequence), jitter_reduction (share below the baseline),
 filter_precision / filter_recall (rejected vs corrupted frames), frames_per_second (fit +
 evaluation wall time).
@@ -34,7 +35,7 @@ ABLATION = {
     "silhouette": {"silhouette": True},
     "all": {"shared_shape": True, "frame_filter": True, "temporal": True, "silhouette": True},
 }
-COLUMNS = ["config", "vertex_error_mm", "keypoint_error_px", "silhouette_iou", "jitter", "jitter_reduction",
+COLUMNS = ["config", "vertex_error_mm", "keypoint_error_px", "silhouette_iou", "silhouette_iou_body", "jitter", "jitter_reduction",
            "filter_precision", "filter_recall", "frames_per_second"]
 
 
@@ -108,6 +109,10 @@ def evaluate_config(model, fits, rejected: dict[int, str], gt: dict, gt_verts, g
         "vertex_error_mm_all_frames": float(err.mean()),
         "keypoint_error_px": float(np.nanmean(kp_err[used])),
         "silhouette_iou": float(np.nanmean(fits.silhouette_iou[used])),
+        "silhouette_iou_body": float(np.nanmean((fits.silhouette_iou if fits.silhouette_iou_body is None
+                                                 else fits.silhouette_iou_body)[used])),
+        "offset_mean_mm": None if fits.offsets is None else float(fits.offsets.mean() * 1000),
+        "offset_max_mm": None if fits.offsets is None else float(fits.offsets.max() * 1000),
         "jitter": jitter_mm(verts),
         "filter_precision": precision,
         "filter_recall": recall,

@@ -7,14 +7,16 @@ sway, steps) with the ground-truth hold-out poses. Writes ``DIR/quality.json``
 ``{"methods": {"morf": {psnr, ssim, lpips, temporal, train_minutes, ...}, ...}}`` and
 ``DIR/quality.md``.
 
-Metrics (morf/avatar/metrics.py): PSNR and SSIM over the whole image (premultiplied render vs
-the frame times its mask) and over the person only; ``temporal`` is the weight-free temporal
+Metrics (morf/avatar/metrics.py, via ``evaluate_frames``): the render and the frame are both
+composited over the capture's backdrop colour (median outside the person masks), as the player
+composites; PSNR and SSIM over the whole image and over the person only; ``temporal`` is the weight-free temporal
 flicker (lower is better); LPIPS is null (no LPIPS weights on this machine). Training runs live in
 ``PROJECT/runs/bench-<method>-<preset>`` and resume if the benchmark is interrupted.
 """
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
@@ -97,6 +99,8 @@ def run(args) -> int:
               "holdout_frames": results[methods[0]]["frames"], "methods": results, "checks": checks,
               "machine": machine_info()}
     cols = ["method", "psnr", "psnr_person", "ssim", "ssim_person", "lpips", "temporal", "train_minutes", "steps"]
+    # the load average says how much of the 2-core CPU the run actually had
+    result["load_average"] = list(os.getloadavg())
     md = (f"# Avatar quality on novel-pose hold-out ({args.preset} preset)\n\n"
           + markdown_table(rows, cols, "{:.4g}")
           + "\nPSNR in dB (higher is better); SSIM (higher is better); temporal = flicker, lower is better.\n")

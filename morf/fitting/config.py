@@ -20,13 +20,14 @@ class StageConfig:
     body_pose: bool  # optimise the body bones' rotations
     shape: bool  # optimise the shape
     silhouette: bool  # add the silhouette loss (when FitConfig.silhouette is on)
+    offsets: bool = False  # optimise the clothing offsets (when FitConfig.offsets and the silhouette are on)
 
 
 def default_stages() -> tuple[StageConfig, ...]:
     return (
         StageConfig("global", 60, 0.06, body_pose=False, shape=False, silhouette=False),
         StageConfig("body", 140, 0.03, body_pose=True, shape=False, silhouette=False),
-        StageConfig("all", 80, 0.015, body_pose=True, shape=True, silhouette=True),
+        StageConfig("all", 80, 0.015, body_pose=True, shape=True, silhouette=True, offsets=True),
     )
 
 
@@ -67,6 +68,12 @@ class FitConfig:
     silhouette_resolution: int = 96  # raster size of the long image side for the silhouette loss
     silhouette_sigma: float = 0.5  # softness of the rasterizer, pixels of that raster
     silhouette_frame_fraction: float = 0.25  # share of frames rendered per step (rotating subsets)
+    # clothing offsets (offsets.py): outward only, at most offset_max metres, smooth over the proxy mesh
+    offsets: bool = True
+    offset_max: float = 0.06
+    offset_lr: float = 0.002  # Adam learning rate of the offsets, metres per step
+    offset_smooth_weight: float = 300.0  # squared offset differences over proxy edges (m^2)
+    offset_l2_weight: float = 1.0  # squared offsets (m^2), keeps them where the masks ask for them
     proxy_cell: float = 0.03  # vertex-clustering cell of the silhouette proxy mesh, metres
     yaw_hypotheses: int = 8  # initial body orientations tried per frame
     yaw_switch_weight: float = 0.5  # cost of turning between frames when choosing among them

@@ -11,6 +11,7 @@ import torch
 from morf.body.model import BodyPose
 from morf.camera import PinholeCamera
 from morf.fitting.losses import keypoint_residual_px, worst_keypoint_residual_px
+from morf.fitting.offsets import dressed_vertices
 from morf.raster.soft_silhouette import hard_coverage
 
 
@@ -18,7 +19,9 @@ from morf.raster.soft_silhouette import hard_coverage
 class FitEvaluation:
     """Fields:
         keypoint_residual_px: (N,) confidence-weighted mean distance, detected vs fitted keypoints.
-        silhouette_iou: (N,) IoU of the body's silhouette and the person mask (NaN without masks).
+        silhouette_iou: (N,) IoU of the fitted surface's silhouette (the body plus clothing offsets,
+            when there are any) and the person mask (NaN without masks).
+        silhouette_iou_body: (N,) the same for the body alone (equal to silhouette_iou without offsets).
         keypoint_worst_px: (N,) mean of the 3 largest keypoint distances (what the filter judges).
         projected_keypoints: (N, 23, 2) fitted keypoints in pixels.
     """
@@ -27,6 +30,7 @@ class FitEvaluation:
     keypoint_worst_px: np.ndarray
     silhouette_iou: np.ndarray
     projected_keypoints: np.ndarray
+    silhouette_iou_body: np.ndarray
 
 
 def posed_chunks(model, rotvecs: torch.Tensor, transl: torch.Tensor, shape: torch.Tensor,
@@ -58,19 +62,27 @@ def iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def evaluate_fit(model, rotvecs: torch.Tensor, transl: torch.Tensor, shape: torch.Tensor,
                  keypoints: np.ndarray, camera: PinholeCamera, masks_eval: np.ndarray | None,
-                 eval_scale: float, min_confidence: float = 0.3) -> FitEvaluation:
-    """Evaluate a fit. ``keypoints``: (N, 23, 3) detections; ``masks_eval``: (N, h, w) bool or None."""
+                 eval_scale: float, min_confidence: float = 0.3, offsets: torch.Tensor | None = None) -> FitEvaluation:
+    """Evaluate a fit. ``keypoints``: (N, 23, 3) detections; ``masks_eval``: (N, h, w) bool or None;
+    ``offsets``: optional (V,) clothing offsets (``offsets.py``)."""
     N = rotvecs.shape[0]
     proj = np.zeros((N, keypoints.shape[1], 2), np.float32)
     ious = np.full(N, np.nan, np.float32)
+    ious_body = ious.copy()
     faces = model.faces
     for sl, out in posed_chunks(model, rotvecs, transl, shape):
         proj[sl] = camera.project(out.keypoints3d).cpu().numpy()
         if masks_eval is not None:
             h, w = masks_eval.shape[1:]
             sil = silhouettes(out.vertices, faces, camera, eval_scale, w, h).cpu().numpy()
+            ious_body[sl] = iou(sil, masks_eval[sl])
+            if offsets is not None:
+                sh = shape if shape.shape[0] == 1 else shape[sl]
+                with torch.no_grad():
+                    dressed = dressed_vertices(model, out, sh, offsets)
+                sil = silhouettes(dressed, faces, camera, eval_scale, w, h).cpu().numpy()
             ious[sl] = iou(sil, masks_eval[sl])
     p, k = torch.as_tensor(proj), torch.as_tensor(keypoints)
     res = keypoint_residual_px(p, k, min_confidence).numpy().astype(np.float32)
     worst = worst_keypoint_residual_px(p, k, 3, min_confidence).numpy().astype(np.float32)
-    return FitEvaluation(res, worst, ious, proj)
+    return FitEvaluation(res, worst, ious, proj, ious_body)

@@ -7,7 +7,7 @@ project, resumes from the last completed stage, and writes PROJECT/fits/ atomica
 from __future__ import annotations
 
 import contextlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import torch
@@ -20,6 +20,7 @@ from morf.fitting.fits_io import BodyFits
 from morf.fitting.frame_filter import filter_frames, pose_change_deg
 from morf.fitting.global_init import fit_global
 from morf.fitting.inputs import FitInputs
+from morf.fitting.offsets import proxy_edges, spread_to_mesh
 from morf.fitting.optimize import FitProblem, run_stage
 from morf.fitting.params import FIT_BONES, FitParameters
 from morf.fitting.pose_prior import JointLimitPrior
@@ -34,12 +35,14 @@ class FitState:
     Fields:
         rotvecs: (N, J, 3) full model axis-angles; transl: (N, 3); shape: (1 or N, S).
         stage: number of completed stages.
+        offsets: (Vp,) clothing offsets of the silhouette proxy's vertices (empty when none).
     """
 
     rotvecs: torch.Tensor
     transl: torch.Tensor
     shape: torch.Tensor
     stage: int
+    offsets: torch.Tensor = field(default_factory=lambda: torch.zeros(0))
 
 
 def default_device() -> torch.device:
@@ -62,10 +65,11 @@ def _problem(model, inputs: FitInputs, cfg: FitConfig, device: torch.device) -> 
     proxy = body_proxy(model, cfg.proxy_cell) if (cfg.silhouette and inputs.masks is not None) else None
     body = FitBody(model, proxy).to(device)
     masks = torch.as_tensor(inputs.masks, device=device) if (proxy is not None) else None
+    edges = proxy_edges(proxy.faces).to(device) if proxy is not None else None
     sil_camera = inputs.camera.scaled(inputs.mask_scale) if masks is not None else None
     return FitProblem(body=body, prior=JointLimitPrior(model).to(device), inputs=inputs,
                       keypoints=torch.as_tensor(inputs.keypoints, device=device), masks=masks,
-                      sil_camera=sil_camera, shape_mean=model.default_shape().to(device),
+                      sil_camera=sil_camera, shape_mean=model.default_shape().to(device), offset_edges=edges,
                       keypoint_scale=0.01 * inputs.camera.height)
 
 
@@ -90,11 +94,13 @@ def _fit_sequence(model, inputs, cfg, control, start, device, on_stage) -> FitSt
     N = inputs.num_frames
     bone_ids = [model.bone_index(b) for b in FIT_BONES]
     shape0 = model.default_shape().to(device)
+    n_off = problem.body.proxy_ids.numel() if (cfg.offsets and problem.body.proxy_ids is not None) else 0
     done = 0
     if start is not None and start.stage > 0:
         params = FitParameters(N, len(model.bone_names), bone_ids, torch.eye(3, device=device).expand(N, 3, 3),
-                               start.transl.to(device), shape0, cfg.shared_shape).to(device)
-        params.load_state(start.rotvecs.to(device), start.transl.to(device), start.shape.to(device))
+                               start.transl.to(device), shape0, cfg.shared_shape, n_off).to(device)
+        params.load_state(start.rotvecs.to(device), start.transl.to(device), start.shape.to(device),
+                          start.offsets.to(device))
         done = start.stage
     else:
         first = cfg.stages[0]
@@ -105,7 +111,7 @@ def _fit_sequence(model, inputs, cfg, control, start, device, on_stage) -> FitSt
                        iterations=first.iterations, lr=first.lr, scale=0.01 * inputs.camera.height,
                        sigma=cfg.keypoint_robust_sigma, switch_weight=cfg.yaw_switch_weight, control=control)
         params = FitParameters(N, len(model.bone_names), bone_ids, g.root.to(device), g.transl.to(device),
-                               shape0, cfg.shared_shape).to(device)
+                               shape0, cfg.shared_shape, n_off).to(device)
         done = 1
         if on_stage is not None:
             on_stage(_state(params, done))
@@ -121,7 +127,7 @@ def _state(params: FitParameters, stage: int) -> FitState:
     with torch.no_grad():
         pose = params.pose()
         return FitState(pose.rotvecs.detach().float().cpu(), pose.transl.detach().float().cpu(),
-                        params.shape().detach().float().cpu(), stage)
+                        params.shape().detach().float().cpu(), stage, params.offsets.detach().float().cpu())
 
 
 def finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple[BodyFits, dict[int, str]]:
@@ -133,11 +139,15 @@ def finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple
 def _finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple[BodyFits, dict[int, str]]:
     device = next(iter(model.buffers())).device
     rv, tr, sh = (x.to(device) for x in (state.rotvecs, state.transl, state.shape))
+    offsets = None
+    if state.offsets.numel() > 0 and bool((state.offsets > 0).any()):
+        offsets = spread_to_mesh(model, body_proxy(model, cfg.proxy_cell).vertex_ids, state.offsets).to(device)
     ev = evaluate_fit(model, rv, tr, sh, inputs.keypoints, inputs.camera, inputs.masks_eval, inputs.eval_scale,
-                      cfg.filter.min_confidence)
+                      cfg.filter.min_confidence, offsets=offsets)
     fits = BodyFits(rotvecs=state.rotvecs.numpy(), transl=state.transl.numpy(), shape=state.shape.numpy(),
                     keypoint_residual_px=ev.keypoint_residual_px, keypoint_worst_px=ev.keypoint_worst_px,
-                    silhouette_iou=ev.silhouette_iou,
+                    silhouette_iou=ev.silhouette_iou, silhouette_iou_body=ev.silhouette_iou_body,
+                    offsets=None if offsets is None else offsets.cpu().numpy(),
                     projected_keypoints=ev.projected_keypoints, config=cfg.to_dict())
     rejected: dict[int, str] = {}
     if cfg.frame_filter:

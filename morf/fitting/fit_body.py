@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import torch
 
 from morf.body.model import BodyPose
+from morf.fitting.offsets import vertex_normals
 from morf.fitting.proxy_mesh import ProxyMesh
 
 
@@ -68,10 +69,13 @@ class FitBody(torch.nn.Module):
         else:
             self.proxy_ids = self.proxy_weights = self.proxy_faces = None
 
-    def forward(self, pose: BodyPose, shape: torch.Tensor, proxy_rows: torch.Tensor | None = None) -> FitBodyOutput:
+    def forward(self, pose: BodyPose, shape: torch.Tensor, proxy_rows: torch.Tensor | None = None,
+                proxy_offsets: torch.Tensor | None = None) -> FitBodyOutput:
         """``pose``: (B, J, 3) rotvecs + (B, 3) transl; ``shape``: (1, S) shared or (B, S).
 
         ``proxy_rows``: (P,) batch rows whose proxy vertices are needed (default: all rows).
+        ``proxy_offsets``: optional (Vp,) clothing offsets of the proxy vertices, metres along the
+        rest-pose normals (see ``offsets.py``).
         """
         model = self.model
         rest = self._rest(shape)
@@ -93,6 +97,9 @@ class FitBody(torch.nn.Module):
         if self.proxy_ids is not None and (proxy_rows is None or proxy_rows.numel() > 0):
             rows = slice(None) if proxy_rows is None else proxy_rows
             pv = rest_v[:, self.proxy_ids]
+            if proxy_offsets is not None:
+                normals = vertex_normals(rest_v.detach(), model.faces)[:, self.proxy_ids]
+                pv = pv + proxy_offsets[None, :, None] * normals
             proxy = _skin(T34[rows], self.proxy_weights, pv if pv.shape[0] == 1 else pv[rows])
         return FitBodyOutput(keypoints3d=kp, proxy_vertices=proxy)
 

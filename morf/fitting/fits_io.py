@@ -28,6 +28,11 @@ class BodyFits:
         silhouette_iou: (N,) float32 IoU of body silhouette and person mask (NaN without masks).
         projected_keypoints: (N, 23, 2) float32 fitted keypoints in pixels.
         config: the FitConfig as a dict.
+        silhouette_iou_body: (N,) float32 IoU of the body alone (without offsets) and the mask.
+        offsets: (V,) float32 clothing offsets per model vertex, metres along the outward normals
+            of the shaped rest mesh, or None. The fitted surface of frame i is the body skinned
+            from ``rest_vertices + offsets[:, None] * rest_normals``:
+            ``morf.fitting.offsets.dressed_vertices(model, model(pose, shape), shape, offsets)``.
     """
 
     rotvecs: np.ndarray
@@ -38,6 +43,8 @@ class BodyFits:
     silhouette_iou: np.ndarray
     projected_keypoints: np.ndarray
     config: dict
+    silhouette_iou_body: np.ndarray | None = None
+    offsets: np.ndarray | None = None
 
     @property
     def num_frames(self) -> int:
@@ -49,12 +56,14 @@ class BodyFits:
 
 
 def save_fits(path: str | Path, fits: BodyFits) -> None:
+    extra = {k: getattr(fits, k).astype(np.float32) for k in ("silhouette_iou_body", "offsets")
+             if getattr(fits, k) is not None}
     save_npz(path, rotvecs=fits.rotvecs.astype(np.float32), transl=fits.transl.astype(np.float32),
              shape=fits.shape.astype(np.float32), keypoint_residual_px=fits.keypoint_residual_px.astype(np.float32),
              keypoint_worst_px=fits.keypoint_worst_px.astype(np.float32),
              silhouette_iou=fits.silhouette_iou.astype(np.float32),
              projected_keypoints=fits.projected_keypoints.astype(np.float32),
-             config=np.array(json.dumps(fits.config)))
+             config=np.array(json.dumps(fits.config)), **extra)
 
 
 def read_fits(path: str | Path) -> BodyFits:
@@ -63,12 +72,15 @@ def read_fits(path: str | Path) -> BodyFits:
         fits = BodyFits(rotvecs=d["rotvecs"], transl=d["transl"], shape=d["shape"],
                         keypoint_residual_px=d["keypoint_residual_px"], keypoint_worst_px=d["keypoint_worst_px"],
                         silhouette_iou=d["silhouette_iou"],
-                        projected_keypoints=d["projected_keypoints"], config=json.loads(str(d["config"])))
+                        projected_keypoints=d["projected_keypoints"], config=json.loads(str(d["config"])),
+                        silhouette_iou_body=d.get("silhouette_iou_body"), offsets=d.get("offsets"))
     except (KeyError, ValueError) as e:
         raise ProjectError(f"damaged fits file {path}: {e}") from None
     N = fits.rotvecs.shape[0]
     if fits.rotvecs.ndim != 3 or fits.transl.shape != (N, 3) or fits.shape.shape[0] not in (1, N):
         raise ProjectError(f"damaged fits file {path}: inconsistent shapes")
+    if fits.offsets is not None and fits.offsets.ndim != 1:
+        raise ProjectError(f"damaged fits file {path}: offsets must be (V,)")
     return fits
 
 
@@ -84,19 +96,20 @@ def load_fits(project) -> BodyFits:
 
 
 def save_checkpoint(path: Path, *, stage: int, rotvecs: np.ndarray, transl: np.ndarray, shape: np.ndarray,
-                    config: dict) -> None:
-    """Parameters after ``stage`` completed stages (resume point)."""
+                    config: dict, offsets: np.ndarray | None = None) -> None:
+    """Parameters after ``stage`` completed stages (resume point); ``offsets``: (Vp,) proxy offsets."""
+    off = np.zeros(0, np.float32) if offsets is None else offsets.astype(np.float32)
     save_npz(path, stage=np.array(stage), rotvecs=rotvecs.astype(np.float32), transl=transl.astype(np.float32),
-             shape=shape.astype(np.float32), config=np.array(json.dumps(config, sort_keys=True)))
+             shape=shape.astype(np.float32), offsets=off, config=np.array(json.dumps(config, sort_keys=True)))
 
 
 def read_checkpoint(path: Path) -> dict | None:
-    """The checkpoint as a dict (stage, rotvecs, transl, shape, config) or None if unreadable."""
+    """The checkpoint as a dict (stage, rotvecs, transl, shape, offsets, config) or None if unreadable."""
     if not path.is_file():
         return None
     try:
         d = load_npz(path)
         return {"stage": int(d["stage"]), "rotvecs": d["rotvecs"], "transl": d["transl"], "shape": d["shape"],
-                "config": json.loads(str(d["config"]))}
+                "offsets": d.get("offsets", np.zeros(0, np.float32)), "config": json.loads(str(d["config"]))}
     except (ProjectError, KeyError, ValueError):
         return None

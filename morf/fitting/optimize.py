@@ -17,6 +17,7 @@ from morf.fitting.config import FitConfig, StageConfig
 from morf.fitting.fit_body import FitBody
 from morf.fitting.inputs import FitInputs
 from morf.fitting.losses import dice_loss, keypoint_loss, rotation_temporal_loss, shape_loss, temporal_loss
+from morf.fitting.offsets import smoothness_loss
 from morf.fitting.params import FitParameters
 from morf.fitting.pose_prior import JointLimitPrior
 from morf.pipeline.control import Progress, StageControl
@@ -35,15 +36,18 @@ class FitProblem:
     masks: torch.Tensor | None  # (N, h, w) soft person masks at the silhouette raster
     sil_camera: PinholeCamera | None  # the camera scaled to the silhouette raster
     shape_mean: torch.Tensor  # (1, S) prior mean of the shape
+    offset_edges: torch.Tensor | None  # (E, 2) edges of the proxy mesh (offset smoothness), or None
     keypoint_scale: float  # pixels per keypoint residual unit (1% of the image height)
 
 
 def _data_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, idx: torch.Tensor,
-                sil_idx: torch.Tensor | None, sil_factor: float) -> tuple[torch.Tensor, dict[str, float]]:
+                sil_idx: torch.Tensor | None, sil_factor: float,
+                offsets: bool = False) -> tuple[torch.Tensor, dict[str, float]]:
     """Keypoint (+ silhouette) loss of the frames ``idx`` (a chunk)."""
     use_sil = sil_idx is not None and sil_idx.numel() > 0
-    local = torch.searchsorted(idx, sil_idx) if use_sil else idx.new_zeros(0)
-    out = problem.body(params.pose(idx), params.shape(idx), proxy_rows=local)
+    local = torch.searchsorted(idx, sil_idx.contiguous()) if use_sil else idx.new_zeros(0)
+    out = problem.body(params.pose(idx), params.shape(idx), proxy_rows=local,
+                       proxy_offsets=params.offsets if (offsets and use_sil) else None)
     cam = problem.inputs.camera
     proj = cam.project(out.keypoints3d)
     kp = keypoint_loss(proj, problem.keypoints[idx], problem.keypoint_scale, cfg.keypoint_robust_sigma).sum()
@@ -63,9 +67,14 @@ def _data_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, idx:
     return total, logs
 
 
-def _sequence_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, stage: StageConfig):
+def _sequence_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, stage: StageConfig,
+                    offsets: bool = False):
     total = params.transl.new_zeros(())
     logs = {}
+    if offsets:
+        smooth = smoothness_loss(params.offsets, problem.offset_edges)
+        total = total + cfg.offset_smooth_weight * smooth + cfg.offset_l2_weight * params.offsets.pow(2).sum()
+        logs["offset_mm"] = float(params.offsets.detach().mean()) * 1000 * params.num_frames
     if stage.body_pose:
         prior = problem.prior(params.body).sum()
         l2 = params.body.pow(2).sum()
@@ -94,10 +103,14 @@ def run_stage(problem: FitProblem, params: FitParameters, cfg: FitConfig, stage:
         trainable.append(params.body)
     if stage.shape:
         trainable.append(params.shape_logit)
-    opt = torch.optim.Adam(trainable, lr=stage.lr)
     N = params.num_frames
     device = params.transl.device
     use_sil = cfg.silhouette and stage.silhouette and problem.masks is not None
+    use_offsets = use_sil and cfg.offsets and stage.offsets and params.offsets.numel() > 0
+    groups_ = [{"params": trainable, "lr": stage.lr}]
+    if use_offsets:
+        groups_.append({"params": [params.offsets], "lr": cfg.offset_lr})
+    opt = torch.optim.Adam(groups_)
     sil_frames = torch.arange(N, device=device)
     if use_sil:
         # frames with a detected person and a non-empty mask take part in the silhouette loss
@@ -115,15 +128,18 @@ def run_stage(problem: FitProblem, params: FitParameters, cfg: FitConfig, stage:
             sil_idx = None
             if sil_now is not None:
                 sil_idx = sil_now[(sil_now >= idx[0]) & (sil_now <= idx[-1])]
-            loss, part = _data_terms(problem, params, cfg, idx, sil_idx, float(groups))
+            loss, part = _data_terms(problem, params, cfg, idx, sil_idx, float(groups), use_offsets)
             loss.backward()
             for k, v in part.items():
                 logs[k] = logs.get(k, 0.0) + v
-        seq, part = _sequence_terms(problem, params, cfg, stage)
+        seq, part = _sequence_terms(problem, params, cfg, stage, use_offsets)
         if seq.requires_grad:
             seq.backward()
         logs.update(part)
         opt.step()
+        if use_offsets:
+            with torch.no_grad():  # projected gradient: outward only, bounded
+                params.offsets.clamp_(0.0, cfg.offset_max)
         bar.update(1)
         if it % 10 == 0 or it == stage.iterations - 1:
             per_frame = {k: v / N for k, v in logs.items()}

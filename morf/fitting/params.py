@@ -39,10 +39,12 @@ class FitParameters(torch.nn.Module):
         transl: (N, 3) root translation, metres.
         body: (N, len(FIT_BONES), 3) axis-angle per fitted bone.
         shape_logit: (1 or N, S) shape = sigmoid(shape_logit).
+        offsets: (Vp,) clothing offsets of the silhouette proxy's vertices, metres along the rest
+            normals, kept in [0, max] by projection after each step (empty without a proxy).
     """
 
     def __init__(self, num_frames: int, num_bones: int, bone_ids: list[int], root_init: torch.Tensor,
-                 transl_init: torch.Tensor, shape_init: torch.Tensor, shared_shape: bool):
+                 transl_init: torch.Tensor, shape_init: torch.Tensor, shared_shape: bool, num_offsets: int = 0):
         super().__init__()
         N = num_frames
         self.num_bones = num_bones
@@ -55,6 +57,7 @@ class FitParameters(torch.nn.Module):
         if not shared_shape:
             shape = shape.expand(N, -1)
         self.shape_logit = torch.nn.Parameter(logit(shape).clone())
+        self.offsets = torch.nn.Parameter(torch.zeros(num_offsets, dtype=root_init.dtype, device=root_init.device))
 
     @property
     def num_frames(self) -> int:
@@ -79,8 +82,9 @@ class FitParameters(torch.nn.Module):
         rot = torch.cat([root[:, None], rot[:, 1:]], dim=1)
         return BodyPose(rotvecs=rot, transl=self.transl[idx])
 
-    def load_state(self, rotvecs: torch.Tensor, transl: torch.Tensor, shape: torch.Tensor) -> None:
-        """Set parameters from saved full rotvecs (N, J, 3), transl (N, 3), shape (1 or N, S)."""
+    def load_state(self, rotvecs: torch.Tensor, transl: torch.Tensor, shape: torch.Tensor,
+                   offsets: torch.Tensor | None = None) -> None:
+        """Set parameters from saved full rotvecs (N, J, 3), transl (N, 3), shape (1 or N, S), offsets (Vp,)."""
         with torch.no_grad():
             self.root_init.copy_(axis_angle_to_matrix(rotvecs[:, 0]))
             self.root_delta.zero_()
@@ -90,6 +94,8 @@ class FitParameters(torch.nn.Module):
             if s.shape[0] != self.shape_logit.shape[0]:
                 s = s.mean(0, keepdim=True).expand_as(self.shape_logit)
             self.shape_logit.copy_(logit(s))
+            if offsets is not None and offsets.shape == self.offsets.shape:
+                self.offsets.copy_(offsets)
 
 
 def yaw_matrix(angle: torch.Tensor) -> torch.Tensor:

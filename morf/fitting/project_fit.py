@@ -24,6 +24,7 @@ from morf.fitting.evaluate import posed_chunks, silhouettes
 from morf.fitting.fit import FitState, cpu_threads, default_device, finalize, fit_sequence
 from morf.fitting.fits_io import CHECKPOINT_FILE, FITS_FILE, BodyFits, read_checkpoint, save_checkpoint, save_fits
 from morf.fitting.inputs import load_fit_inputs
+from morf.fitting.offsets import dressed_vertices
 from morf.fitting.overlays import draw_overlay
 from morf.io import atomic_write_json, write_image
 from morf.pipeline.control import Progress, StageControl
@@ -85,13 +86,14 @@ def fit_project(project, cfg: FitConfig, *, model=None, focal: float | None = No
     start = None
     if ckpt is not None and ckpt["config"] == key and ckpt["rotvecs"].shape[0] == inputs.num_frames:
         start = FitState(torch.as_tensor(ckpt["rotvecs"]), torch.as_tensor(ckpt["transl"]),
-                         torch.as_tensor(ckpt["shape"]), ckpt["stage"])
+                         torch.as_tensor(ckpt["shape"]), ckpt["stage"], torch.as_tensor(ckpt["offsets"]))
     resumed = start.stage if start is not None else 0
     atomic_write_json(out / "fit_config.json", cfg.to_dict())
 
     def save(state: FitState) -> None:
         save_checkpoint(out / CHECKPOINT_FILE, stage=state.stage, rotvecs=state.rotvecs.numpy(),
-                        transl=state.transl.numpy(), shape=state.shape.numpy(), config=key)
+                        transl=state.transl.numpy(), shape=state.shape.numpy(), config=key,
+                        offsets=state.offsets.numpy())
 
     complete = start is not None and start.stage >= len(cfg.stages)
     if complete and (out / FITS_FILE).is_file() and (out / "filter.json").is_file():
@@ -124,9 +126,11 @@ def write_overlays(project, model, fits: BodyFits, keypoints: np.ndarray, camera
     device = next(iter(model.buffers())).device
     W, H = camera.width, camera.height
     rv, tr, sh = (torch.as_tensor(x, device=device) for x in (fits.rotvecs, fits.transl, fits.shape))
+    off = None if fits.offsets is None else torch.as_tensor(fits.offsets, device=device)
     bar = progress(total=fits.num_frames, desc="fit overlays", unit="frame")
     for sl, out in posed_chunks(model, rv, tr, sh, chunk=8):
-        sil = silhouettes(out.vertices, model.faces, camera, 1.0, W, H).cpu().numpy()
+        verts = dressed_vertices(model, out, sh if sh.shape[0] == 1 else sh[sl], off)
+        sil = silhouettes(verts, model.faces, camera, 1.0, W, H).cpu().numpy()
         for j, i in enumerate(range(sl.start, sl.stop)):
             img = draw_overlay(project.load_frame(i), sil[j], keypoints[i], fits.projected_keypoints[i],
                                rejected.get(i))

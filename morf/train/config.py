@@ -32,7 +32,7 @@ class TrainConfig:
     warp: WarpConfig = field(default_factory=WarpConfig)  # warp network sizes (method morf only)
     lr_texture: float = 2e-3  # small, so the spectral init is not washed out
     lr_renderer: float = 1e-3  # Adam on the renderer
-    lr_warp: float = 1e-4  # Adam on W, E, F
+    lr_warp: float = 5e-4  # Adam on W, E, F (1e-4 left offsets at ~0.1 texel after 400 cpu steps)
     lr_latent: float = 1e-3  # Adam on the per-frame latents
     lr_discriminator: float = 4e-4  # Adam on the discriminator
     w_l1: float = 1.0  # L1 on premultiplied RGB
@@ -41,8 +41,8 @@ class TrainConfig:
     w_gan: float = 0.02  # non-saturating GAN loss
     w_dice: float = 1.0  # Dice on the mask
     w_tv_rgb: float = 0.01  # low-weight TV on the image
-    w_warp_l2: float = 10.0  # offsets -> 0 (offsets in texture grid units)
-    w_warp_tv: float = 10.0  # TV on the offset field
+    w_warp_l2: float = 1.0  # offsets -> 0 (offsets in texture grid units)
+    w_warp_tv: float = 1.0  # TV on the offset field (L1; at 10 it pinned local offsets to zero)
     gan_start: int = 0  # step from which the adversarial terms are on
     disc_width: int = 32  # first-layer channels of each PatchGAN
     disc_scales: int = 2  # number of PatchGAN scales

@@ -53,3 +53,31 @@ def test_onnx_export_matches_torch(tmp_path):
     with torch.no_grad():
         ref = r(x).numpy()
     np.testing.assert_allclose(got, ref, atol=1e-4, rtol=1e-4)
+
+
+def test_premultiplied_output_is_black_where_the_mask_is_off():
+    torch.manual_seed(0)
+    cfg = RendererConfig(in_channels=4, width=4, depth=1, stem=2, skip_hidden=4)
+    r = UNetRenderer(cfg)
+    plain = UNetRenderer(RendererConfig(**{**cfg.__dict__, "premultiply": False}))
+    plain.load_state_dict(r.state_dict())
+    x = torch.randn(1, 4, 16, 16)
+    out, raw = r(x), plain(x)
+    assert torch.allclose(out[:, 3:], raw[:, 3:])
+    assert torch.allclose(out[:, :3], raw[:, :3] * torch.sigmoid(raw[:, 3:]), atol=1e-6)
+    with torch.no_grad():
+        r.head[-1].bias[3] = -30.0  # mask off everywhere
+    assert r(x)[:, :3].abs().max() < 1e-9
+
+
+def test_bf16_channels_last_forward_close_to_float32():
+    from morf.avatar.texture import texel_centre_uvs
+
+    torch.manual_seed(0)
+    m = AvatarModel(torch.rand(4, 16, 16), RendererConfig(in_channels=4, width=4, depth=1, stem=2, skip_hidden=4), None, 3)
+    uv, cover = texel_centre_uvs(16, 16)[None], torch.ones(1, 16, 16, dtype=torch.bool)
+    ref = m(uv, cover)
+    m.renderer.to(memory_format=torch.channels_last)
+    fast = m(uv, cover, bf16=True)
+    assert fast.rgb.dtype == torch.float32 and fast.rgb.is_contiguous()
+    assert torch.allclose(fast.rgb, ref.rgb, atol=0.03) and not torch.equal(fast.rgb, ref.rgb)

@@ -44,3 +44,17 @@ def test_uv_atlas_interpolates_vertex_values_and_dilates():
     assert np.allclose(vals[cov], centres[cov], atol=1e-5)
     grown, gcov = dilate_texture(vals, cov, 2)
     assert gcov.sum() > cov.sum() and np.array_equal(grown[cov], vals[cov])
+
+
+def test_sampling_with_offsets_equals_sampling_the_warped_texture():
+    from morf.avatar.warp import warp_texture
+
+    g = torch.Generator().manual_seed(0)
+    tex = torch.rand(4, 8, 8, generator=g)
+    off = torch.zeros(1, 2, 8, 8)
+    off[:, 0], off[:, 1] = 0.3 * 2 / 8, -1.0 * 2 / 8  # a third of a texel right, one texel up
+    uv = texel_centre_uvs(8, 8)[None]
+    direct = sample_texture(tex, uv, None, off)
+    via_warp = sample_texture(warp_texture(tex, off)[0], uv)
+    assert torch.allclose(direct, via_warp, atol=1e-6)
+    assert not torch.allclose(direct, sample_texture(tex, uv), atol=1e-3)
