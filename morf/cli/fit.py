@@ -59,7 +59,11 @@ def run(args) -> int:
     print(f"fitted {n} frames in {report.seconds:.1f} s ({n / max(report.seconds, 1e-9):.1f} frames/s)")
     print(f"keypoint residual: median {float(torch.as_tensor(fits.keypoint_residual_px).nanmedian()):.1f} px")
     if not torch.as_tensor(fits.silhouette_iou).isnan().all():
-        print(f"silhouette IoU: median {float(torch.as_tensor(fits.silhouette_iou).nanmedian()):.3f}")
+        line = f"silhouette IoU: median {float(torch.as_tensor(fits.silhouette_iou).nanmedian()):.3f}"
+        if fits.offsets is not None and fits.silhouette_iou_body is not None:
+            line += (f" with clothing offsets (mean {1000 * float(fits.offsets.mean()):.1f} mm), "
+                     f"{float(torch.as_tensor(fits.silhouette_iou_body).nanmedian()):.3f} body alone")
+        print(line)
     print(f"frame filter: {len(report.rejected)} of {n} frames rejected")
     for i, reason in list(report.rejected.items())[:10]:
         print(f"  {i:6d}  {reason}")

@@ -140,7 +140,7 @@ def _finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tupl
     device = next(iter(model.buffers())).device
     rv, tr, sh = (x.to(device) for x in (state.rotvecs, state.transl, state.shape))
     offsets = None
-    if state.offsets.numel() > 0 and bool((state.offsets > 0).any()):
+    if state.offsets.numel() > 0 and bool((state.offsets != 0).any()):
         offsets = spread_to_mesh(model, body_proxy(model, cfg.proxy_cell).vertex_ids, state.offsets).to(device)
     ev = evaluate_fit(model, rv, tr, sh, inputs.keypoints, inputs.camera, inputs.masks_eval, inputs.eval_scale,
                       cfg.filter.min_confidence, offsets=offsets)

@@ -61,7 +61,8 @@ def spread_weights(rest_vertices: torch.Tensor, proxy_ids: torch.Tensor, k: int 
     pv = rest_vertices[proxy_ids]
     ids, ws = [], []
     for s in range(0, rest_vertices.shape[0], chunk):
-        d = torch.cdist(rest_vertices[s:s + chunk], pv)
+        # exact distances (the matmul form rounds a point's distance to itself to ~1e-3)
+        d = torch.cdist(rest_vertices[s:s + chunk], pv, compute_mode="donot_use_mm_for_euclid_dist")
         dk, ik = d.topk(k, dim=1, largest=False)
         w = 1.0 / (dk + 1e-4)
         w = torch.where(dk[:, :1] < 1e-6, (torch.arange(k) == 0).to(w.dtype).expand_as(w), w)

@@ -117,6 +117,8 @@ def run_stage(problem: FitProblem, params: FitParameters, cfg: FitConfig, stage:
         usable = torch.as_tensor(problem.inputs.detected, device=device) & (problem.masks.sum((1, 2)) > 1.0)
         sil_frames = sil_frames[usable]
     groups = max(1, round(1.0 / min(1.0, max(cfg.silhouette_frame_fraction, 1e-3))))
+    # at least 8 frames per step: on short sequences a rotating eighth is one noisy frame a step
+    groups = min(groups, max(1, int(sil_frames.numel()) // 8))
     chunks = torch.arange(N, device=device).split(max(1, cfg.chunk_frames))
     logs: dict[str, float] = {}
     bar = progress(total=stage.iterations, desc=f"fit {stage_number}/{len(cfg.stages)} {stage.name}", unit="step")
@@ -138,8 +140,8 @@ def run_stage(problem: FitProblem, params: FitParameters, cfg: FitConfig, stage:
         logs.update(part)
         opt.step()
         if use_offsets:
-            with torch.no_grad():  # projected gradient: outward only, bounded
-                params.offsets.clamp_(0.0, cfg.offset_max)
+            with torch.no_grad():  # projected gradient: bounded, (almost) outward only
+                params.offsets.clamp_(cfg.offset_min, cfg.offset_max)
         bar.update(1)
         if it % 10 == 0 or it == stage.iterations - 1:
             per_frame = {k: v / N for k, v in logs.items()}
