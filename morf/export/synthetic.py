@@ -7,6 +7,7 @@ texture and renderer learned, only on their sizes. Needs torch and the body mode
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -56,3 +57,38 @@ def build_synthetic_avatar(out_dir: str | Path, body_model=None, renderer_cfg=No
     return export_avatar(out_dir, texture=texture, renderer=renderer, body_model=body_model,
                          shape=body_model.default_shape(), calibration=views[:calibration_views],
                          heldout=views[calibration_views:], cfg=cfg)
+
+
+def coverage_renderer():
+    """A stand-in renderer whose mask is the body's coverage (texture channel 0 set to 1) and whose
+    colour comes from channels 1-3: renders of it are checkable by eye and by tests. Pair it with a
+    texture from :func:`coverage_texture`."""
+    import torch
+
+    class CoverageRenderer(torch.nn.Module):
+        cfg = SimpleNamespace(in_channels=16, multiple=8)
+
+        def __init__(self):
+            super().__init__()
+            self.conv = torch.nn.Conv2d(16, 4, 1)
+            with torch.no_grad():
+                self.conv.weight.zero_()
+                self.conv.bias.zero_()
+                for c in range(3):
+                    self.conv.weight[c, c + 1] = 2.0
+                self.conv.weight[3, 0] = 40.0
+                self.conv.bias[3] = -8.0
+
+        def forward(self, x):
+            h = self.conv(x)
+            m = h[:, 3:]
+            return torch.cat([torch.sigmoid(h[:, :3]) * torch.sigmoid(m), m], 1)
+
+    return CoverageRenderer()
+
+
+def coverage_texture(size: int = 64, seed: int = 4):
+    """(16, size, size) spectral texture with channel 0 = 1 (the coverage channel)."""
+    tex = spectral_texture(16, size, seed=seed) * 0.5
+    tex[0] = 1.0
+    return tex

@@ -84,13 +84,15 @@ def test_a_player_that_cannot_open_or_fails_is_reported_not_raised():
 
 @pytest.fixture(scope="module")
 def tiny_avatar_dir(tmp_path_factory, body_model):
-    """A tiny exported avatar: seeded random renderer of the tiny training preset + spectral texture."""
-    from morf.export.synthetic import build_synthetic_avatar
-    from morf.train.config import preset
+    """A tiny exported avatar: a renderer whose mask is the body's coverage + a spectral texture."""
+    from types import SimpleNamespace
+
+    from morf.export.synthetic import build_synthetic_avatar, coverage_renderer, coverage_texture
 
     out = tmp_path_factory.mktemp("avatar") / "avatar"
-    build_synthetic_avatar(out, body_model, renderer_cfg=preset("tiny").renderer, texture_size=64,
-                           image_size=64, calibration_views=4, heldout_views=1, seed=3)
+    build_synthetic_avatar(out, body_model, renderer=coverage_renderer(), texture=coverage_texture(),
+                           renderer_cfg=SimpleNamespace(in_channels=16), image_size=64,
+                           calibration_views=4, heldout_views=1, seed=3)
     return out
 
 
