@@ -16,8 +16,9 @@ def add_parser(sub):
     p.add_argument("project", help="capture project folder (after 'morf fit')")
     p.add_argument("--method", choices=("morf", "stylepeople", "anr"), default="morf",
                    help="morf: texture warping (default); stylepeople: no warping; anr: split optimisation")
-    p.add_argument("--preset", choices=("tiny", "cpu", "gpu"), default=None,
-                   help="model and schedule sizes (default: gpu when CUDA is present, else cpu)")
+    p.add_argument("--preset", choices=("tiny", "cpu", "gpu", "auto"), default=None,
+                   help="model and schedule sizes (default: gpu when CUDA is present, else cpu); auto: the "
+                        "smallest texture and renderer the capture needs, chosen from the capture itself")
     p.add_argument("--name", default=None, help="run name under PROJECT/runs (default: METHOD-PRESET)")
     p.add_argument("--steps", type=int, default=None, help="override the preset's number of steps")
     p.add_argument("--resolution", type=int, default=None, help="override the working image side (pixels)")
@@ -33,15 +34,22 @@ def add_parser(sub):
     return p
 
 
-def resolve_config(args):
+def resolve_config(args, project=None):
+    """The run's TrainConfig, and the reasons for an automatic size choice (empty otherwise)."""
     import torch
 
     from morf.train.config import preset
 
-    name = args.preset or ("gpu" if torch.cuda.is_available() else "cpu")
+    base = "gpu" if torch.cuda.is_available() else "cpu"
     overrides = {k: v for k, v in (("steps", args.steps), ("resolution", args.resolution), ("crop", args.crop),
                                    ("batch_size", args.batch_size)) if v is not None}
-    return preset(name, args.method, device=args.device, **overrides)
+    if args.preset == "auto":
+        from morf.body import load_body_model
+        from morf.sizing.choose import choose_train_config
+
+        return choose_train_config(project, base_preset=base, method=args.method, model=load_body_model("anny"),
+                                   device=args.device, **overrides)
+    return preset(args.preset or base, args.method, device=args.device, **overrides), []
 
 
 def run(args) -> int:
@@ -51,7 +59,14 @@ def run(args) -> int:
     from morf.train.project_run import train_project
 
     project = CaptureProject.open(args.project)
-    cfg = resolve_config(args)
+    cfg, reasons = resolve_config(args, project)
+    if reasons:
+        from morf.io import atomic_write_text
+        from morf.train.project_run import default_run_name
+
+        print("automatic size choice:\n  " + "\n  ".join(reasons))
+        atomic_write_text(project.runs_dir / (args.name or default_run_name(cfg)) / "auto_size.txt",
+                          "\n".join(reasons) + "\n")
     bar = progress(total=cfg.steps, desc=f"train {cfg.method}", unit="step")
 
     def on_progress(p):

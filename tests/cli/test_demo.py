@@ -52,3 +52,16 @@ def test_not_a_project_is_one_line_error(tmp_path, capsys):
     rc = main(["info", str(tmp_path)])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "not a MoRF capture project" in err[0]
+
+
+def test_train_preset_auto_logs_its_choice(tmp_path, capsys):
+    from morf.synth import make_synthetic_capture, synth_config
+
+    p = make_synthetic_capture(tmp_path / "cap", synth_config("tiny"))
+    rc = main(["train", str(p.root), "--preset", "auto", "--steps", "2", "--resolution", "64", "--fits", "ground-truth"])
+    assert rc == 0
+    out = capsys.readouterr().out
+    assert "automatic size choice" in out and "texture" in out
+    config = json.loads((p.runs_dir / "morf-auto" / "config.json").read_text())
+    assert config["preset"] == "auto"
+    assert (p.runs_dir / "morf-auto" / "auto_size.txt").read_text().strip()
