@@ -17,7 +17,7 @@ import numpy as np
 import torch
 
 from morf.avatar.trained import save_trained_avatar
-from morf.avatar.warp import offsets_to_rgb
+from morf.avatar.warp import offsets_to_rgb, warp_texture
 from morf.errors import InputError, TrainingDiverged
 from morf.pipeline.control import Progress, StageControl
 from morf.train.config import TrainConfig
@@ -56,13 +56,22 @@ class TrainResult:
     resumed_from: int
 
 
-def _preview(out, batch) -> dict[str, np.ndarray]:
+def _preview(out, batch, texture: torch.Tensor | None = None) -> dict[str, np.ndarray]:
+    """Images for the studio: the render, its target, and with warping the frame's offset field
+    ("warp") and its effect on the texture ("warp_effect": channels 0-2 before | after warping)."""
     def img(t):
         return (t.detach().clamp(0, 1).permute(1, 2, 0).cpu().numpy() * 255).astype(np.uint8)
 
     images = {"render": img(out.rgb[0]), "target": img(batch.image[0] * batch.mask[0])}
     if out.offsets is not None:
         images["warp"] = offsets_to_rgb(out.offsets[0]).numpy()
+        if texture is not None:
+            with torch.no_grad():
+                rgb = texture.detach()[:3].float()
+                lo = rgb.amin(dim=(1, 2), keepdim=True)
+                rgb = (rgb - lo) / (rgb.amax(dim=(1, 2), keepdim=True) - lo).clamp_min(1e-6)
+                warped = warp_texture(rgb, out.offsets[:1].detach().float())[0]
+            images["warp_effect"] = np.concatenate([img(rgb), img(warped)], axis=1)
     return images
 
 
@@ -128,7 +137,8 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         if s % cfg.log_every == 0 or s == cfg.steps:
             run.append_metrics({"step": s, "time_s": trainer.elapsed_s + time.monotonic() - t_session, **losses})
         if s % cfg.report_every == 0 or s == cfg.steps:
-            control.report(Progress("train", s, cfg.steps, f"training {cfg.method}", losses, _preview(out, batch)))
+            control.report(Progress("train", s, cfg.steps, f"training {cfg.method}", losses,
+                                    _preview(out, batch, trainer.model.texture.texture)))
         if time.monotonic() - last_ckpt > cfg.checkpoint_minutes * 60:
             t_session = save()
             last_ckpt = t_session

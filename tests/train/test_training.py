@@ -141,3 +141,18 @@ def test_bf16_channels_last_training_matches_float32(frames_factory):
         assert np.isfinite(list(b.values())).all()
         assert abs(a["l1"] - b["l1"]) < 0.02 * a["l1"] + 1e-3
     assert fast.parameters_finite()
+
+
+def test_preview_shows_the_warp_and_its_effect_on_the_texture():
+    from types import SimpleNamespace
+
+    from morf.train.loop import _preview
+
+    tex = torch.randn(8, 16, 16)
+    batch = SimpleNamespace(image=torch.rand(1, 3, 8, 8), mask=torch.ones(1, 1, 8, 8))
+    still = _preview(SimpleNamespace(rgb=torch.rand(1, 3, 8, 8), offsets=torch.zeros(1, 2, 16, 16)), batch, tex)
+    left, right = still["warp_effect"][:, :16], still["warp_effect"][:, 16:]
+    assert still["warp"].shape == (16, 16, 3) and np.array_equal(left, right)  # zero offsets change nothing
+    moved = _preview(SimpleNamespace(rgb=torch.rand(1, 3, 8, 8), offsets=torch.full((1, 2, 16, 16), 0.2)), batch, tex)
+    assert not np.array_equal(moved["warp_effect"][:, :16], moved["warp_effect"][:, 16:])
+    assert "warp" not in _preview(SimpleNamespace(rgb=torch.rand(1, 3, 8, 8), offsets=None), batch, tex)
