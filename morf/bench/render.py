@@ -46,6 +46,26 @@ def _motion(n: int, num_bones: int, seed: int = 0) -> tuple[np.ndarray, np.ndarr
     return rot, np.zeros((n, 3), np.float32)
 
 
+def time_player(p, rot, tr, cams, frames: int, steps: dict | None = None) -> tuple[float, float]:
+    """Seconds per frame over frames 5.. of a motion (the first 5 are warm-up, played by the caller),
+    and the median milliseconds of the renderer alone on one rasterization. ``steps`` collects the
+    player's per-step timings when given."""
+    t0 = time.perf_counter()
+    for i in range(5, len(rot)):
+        p.render(rot[i], tr[i], cams[i])
+        if steps is not None:
+            for k, v in p.last_timings.items():
+                steps.setdefault(k, []).append(v)
+    seq = (time.perf_counter() - t0) / frames
+    x = p.rasterize(rot[0], tr[0], cams[0])
+    rt = []
+    for _ in range(max(10, frames // 3)):
+        t1 = time.perf_counter()
+        p.renderer(x)
+        rt.append((time.perf_counter() - t1) * 1e3)
+    return seq, float(np.median(rt))
+
+
 def measure(avatar_dir: str, size: int, frames: int) -> dict:
     """Timings of one avatar (run in a process without torch)."""
     from morf.playback.camera_paths import front_camera
@@ -58,23 +78,12 @@ def measure(avatar_dir: str, size: int, frames: int) -> dict:
         for i in range(5):  # warm-up: shader compile, ORT first-run allocations
             p.render(rot[i], tr[i], cams[i])
         steps: dict[str, list[float]] = {}
-        t0 = time.perf_counter()
-        for i in range(5, len(rot)):
-            p.render(rot[i], tr[i], cams[i])
-            for k, v in p.last_timings.items():
-                steps.setdefault(k, []).append(v)
-        seq = (time.perf_counter() - t0) / frames
+        seq, renderer_ms = time_player(p, rot, tr, cams, frames, steps)
         t0 = time.perf_counter()
         images = list(p.render_sequence((rot[i], tr[i], cams[i]) for i in range(5, len(rot))))
         piped = (time.perf_counter() - t0) / frames
-        x = p.rasterize(rot[0], tr[0], cams[0])
-        rt = []
-        for _ in range(max(10, frames // 3)):
-            t1 = time.perf_counter()
-            p.renderer(x)
-            rt.append((time.perf_counter() - t1) * 1e3)
         out["breakdown_ms"] = {k: float(np.median(v)) for k, v in steps.items()}
-        out["renderer_only_ms"] = float(np.median(rt))
+        out["renderer_only_ms"] = renderer_ms
     out["peak_rss_mb"] = _peak_rss_mb()  # before the fp32 comparison below
     out.update(frame_ms=seq * 1e3, fps_end_to_end=1.0 / seq, frame_ms_pipelined=piped * 1e3,
                fps_pipelined=1.0 / piped)

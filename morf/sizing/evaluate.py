@@ -12,10 +12,7 @@ import json
 import math
 import subprocess
 import sys
-import time
 from pathlib import Path
-
-import numpy as np
 
 from morf.errors import InputError, TrainingDiverged
 
@@ -90,7 +87,7 @@ def measure_speed(avatar_dir: Path, size: int, frames: int, precision: str) -> d
 
 def _fp32_child() -> None:
     """Child process: time the fp32 player like morf.bench.render.measure times the int8 one."""
-    from morf.bench.render import _motion
+    from morf.bench.render import _motion, time_player
     from morf.playback.camera_paths import front_camera
     from morf.playback.player import Player
 
@@ -101,17 +98,8 @@ def _fp32_child() -> None:
     with Player(a["avatar"], size=size, background=(255, 255, 255), precision="fp32") as p:
         for i in range(5):
             p.render(rot[i], tr[i], cams[i])
-        t0 = time.perf_counter()
-        for i in range(5, len(rot)):
-            p.render(rot[i], tr[i], cams[i])
-        seq = (time.perf_counter() - t0) / frames
-        x = p.rasterize(rot[0], tr[0], cams[0])
-        rt = []
-        for _ in range(max(10, frames // 3)):
-            t1 = time.perf_counter()
-            p.renderer(x)
-            rt.append((time.perf_counter() - t1) * 1e3)
-    print(json.dumps({"fps": 1.0 / seq, "frame_ms": seq * 1e3, "renderer_ms": float(np.median(rt))}))
+        seq, renderer_ms = time_player(p, rot, tr, cams, frames)
+    print(json.dumps({"fps": 1.0 / seq, "frame_ms": seq * 1e3, "renderer_ms": renderer_ms}))
 
 
 def speed_of_run(run_dir, work: Path, size: int, frames: int, precision: str, body_model) -> dict:
