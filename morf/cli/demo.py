@@ -75,7 +75,7 @@ def run(args) -> int:
         ("avatar training", True, train),
         ("int8 export", True, ["export", str(project), "--run", f"demo-{args.preset}"]),
         ("animation", True, ["animate", str(project), "--motion", str(motion), "--out", str(root / "animation.mp4"),
-                             "--size", str(preset.size), "--max-frames", str(preset.max_frames), "--camera", "orbit"]),
+                             "--size", str(preset.size), "--max-frames", str(preset.max_frames), "--camera", "follow"]),
     ]
     t_all = time.perf_counter()
     for i, (what, needed, argv) in enumerate(steps, 1):

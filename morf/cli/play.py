@@ -2,7 +2,24 @@
 
 from __future__ import annotations
 
+import json
+import sys
 import time
+from pathlib import Path
+
+import numpy as np
+
+# Below this PSNR (int8 against fp32 on held-out views, measured at export) int8 output is visibly
+# wrong, so playback falls back to the fp32 renderer and says so.
+INT8_MIN_PSNR_DB = 30.0
+
+
+def _int8_psnr(avatar: str) -> float | None:
+    try:
+        manifest = json.loads((Path(avatar) / "manifest.json").read_text())
+        return float(manifest["int8_quality"]["psnr_db"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None  # the player reports a missing or damaged folder itself
 
 
 def add_parser(sub):
@@ -22,11 +39,13 @@ def add_playback_options(p) -> None:
     p.add_argument("--precision", choices=("int8", "fp32"), default="int8")
     p.add_argument("--background", default="255,255,255", help="R,G,B background colour")
     p.add_argument("--max-frames", type=int, default=0, help="stop after this many frames (0: all)")
+    p.add_argument("--force-int8", action="store_true",
+                   help="play int8 even when the export measured it far from fp32")
 
 
 def run(args) -> int:
     from morf.errors import InputError
-    from morf.playback.camera_paths import follow_camera, front_camera, orbit_camera
+    from morf.playback.camera_paths import front_camera, orbit_camera
     from morf.playback.motion_input import load_playback_motion, resample
     from morf.playback.player import open_player
     from morf.playback.video_sink import VideoSink
@@ -39,19 +58,28 @@ def run(args) -> int:
         raise InputError(f"--background must be R,G,B, got {args.background!r}") from None
     if args.fps <= 0:
         raise InputError("--fps must be positive")
-    with open_player(args.avatar, size=args.size, precision=args.precision, background=bg) as player:
+    precision = args.precision
+    quality = _int8_psnr(args.avatar)
+    if precision == "int8" and not args.force_int8 and quality is not None and quality < INT8_MIN_PSNR_DB:
+        print(f"morf play: this avatar's int8 renderer is only {quality:.1f} dB from fp32 (below "
+              f"{INT8_MIN_PSNR_DB:.0f} dB); playing fp32 instead (--force-int8 to override)", file=sys.stderr)
+        precision = "fp32"
+    with open_player(args.avatar, size=args.size, precision=precision, background=bg) as player:
         clip = load_playback_motion(args.motion, player.avatar.skeleton.num_bones)
         rotvecs, transl = resample(clip, args.fps)
         if args.max_frames > 0:
             rotvecs, transl = rotvecs[:args.max_frames], transl[:args.max_frames]
         size = args.size
+        # Motions are grounded (feet on z = 0), so aim at the root's typical height, not the origin.
+        mid = np.median(transl, axis=0)
+        centre = (float(mid[0]), float(mid[1]), float(mid[2]))
 
         def camera(i):
             if args.camera == "orbit":
-                return orbit_camera(size, i / args.fps)
+                return orbit_camera(size, i / args.fps, center=centre)
             if args.camera == "follow":
-                return follow_camera(size, transl[i])
-            return front_camera(size)
+                return front_camera(size, center=(float(transl[i, 0]), float(transl[i, 1]), centre[2]))
+            return front_camera(size, center=centre)
 
         sink = VideoSink(args.out, args.fps, (size, size))
         ok = False
