@@ -106,14 +106,19 @@ class AnnyBodyModel(BodyModel):
         trans[:, 0, :3, 3] = pose.transl
         return T + trans
 
+    def bone_transforms(self, pose: BodyPose, rest_bone_poses: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Skinning matrices and posed bone poses, both (B, J, 4, 4), for ``pose`` on a shaped rest
+        skeleton ``rest_bone_poses`` (1 or B, J, 4, 4) from :meth:`rest`."""
+        B = pose.batch_size
+        if rest_bone_poses.shape[0] == 1 and B > 1:
+            rest_bone_poses = rest_bone_poses.expand(B, -1, -1, -1)
+        return self.anny.get_bone_transforms(self.pose_to_deltas(pose), rest_bone_poses)
+
     def forward(self, pose: BodyPose, shape: torch.Tensor) -> BodyOutput:
         """Pose a batch. ``shape`` is (1, 6) shared or (B, 6) per frame."""
         rest = self.rest(shape)
-        rest_poses = rest["rest_bone_poses"]
         B = pose.batch_size
-        if rest_poses.shape[0] == 1 and B > 1:
-            rest_poses = rest_poses.expand(B, -1, -1, -1)
-        bone_transforms, bone_poses = self.anny.get_bone_transforms(self.pose_to_deltas(pose), rest_poses)
+        bone_transforms, bone_poses = self.bone_transforms(pose, rest["rest_bone_poses"])
         rest_v = rest["rest_vertices"]
         verts = linear_blend_skinning(rest_v.expand(B, -1, -1), self.dense_weights, bone_transforms)
         kp = torch.einsum("kv,bvc->bkc", self.keypoint_regressor, verts)

@@ -79,11 +79,7 @@ class FitBody(torch.nn.Module):
         """
         model = self.model
         rest = self._rest(shape)
-        rest_poses = rest["rest_bone_poses"]
-        B = pose.batch_size
-        if rest_poses.shape[0] == 1 and B > 1:
-            rest_poses = rest_poses.expand(B, -1, -1, -1)
-        T, _ = model.anny.get_bone_transforms(model.pose_to_deltas(pose), rest_poses)
+        T, _ = model.bone_transforms(pose, rest["rest_bone_poses"])
         T34 = T[:, :, :3, :]  # (B, J, 3, 4)
         rest_v = rest["rest_vertices"]
         kv = rest_v[:, self.kp_ids]
