@@ -82,11 +82,16 @@ class UNetRenderer(nn.Module):
             self.head_low = nn.Sequential(nn.Conv2d(ch[0], ch[0], 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
             self.head = nn.Sequential(nn.Conv2d(ch[0] + cfg.in_channels, cfg.skip_hidden, 1),
                                       nn.LeakyReLU(0.2, inplace=True), nn.Conv2d(cfg.skip_hidden, 4, 1))
-        last = self.head if cfg.stem == 1 else self.head[-1]
         with torch.no_grad():
-            last.bias[3] = MASK_BIAS_INIT
+            self.last.bias[3] = MASK_BIAS_INIT
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
+    @property
+    def last(self) -> nn.Conv2d:
+        """The final convolution: 3 linear RGB channels and the mask logit."""
+        return self.head if self.cfg.stem == 1 else self.head[-1]
+
+    def features(self, x: torch.Tensor) -> torch.Tensor:
+        """Everything before :attr:`last` (the exporter splits that convolution per output)."""
         h = self.enc0(self.stem(x))
         skips = [h]
         for layer in self.down:
@@ -96,10 +101,12 @@ class UNetRenderer(nn.Module):
             h = F.interpolate(h, scale_factor=2.0, mode="bilinear", align_corners=False)
             h = layer(torch.cat([h, skips.pop()], dim=1))
         if self.cfg.stem == 1:
-            out = self.head(h)
-        else:
-            h = F.interpolate(self.head_low(h), scale_factor=float(self.cfg.stem), mode="bilinear", align_corners=False)
-            out = self.head(torch.cat([h, x], dim=1))
+            return h
+        h = F.interpolate(self.head_low(h), scale_factor=float(self.cfg.stem), mode="bilinear", align_corners=False)
+        return self.head[:-1](torch.cat([h, x], dim=1))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        out = self.last(self.features(x))
         if self.cfg.premultiply:
             logit = out[:, 3:]
             out = torch.cat([out[:, :3] * torch.sigmoid(logit), logit], dim=1)

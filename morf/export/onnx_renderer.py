@@ -14,6 +14,7 @@ starts with one ``DequantizeLinear(1/127, 128)`` (fp32) or directly with uint8 c
 
 from __future__ import annotations
 
+import functools
 import io
 import os
 import tempfile
@@ -41,6 +42,7 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
 
     cfg = getattr(renderer, "cfg", None)
     used = int(getattr(cfg, "in_channels", len(scales)))
+    split = hasattr(renderer, "features") and isinstance(getattr(renderer, "last", None), torch.nn.Conv2d)
 
     class _Wrapper(torch.nn.Module):
         def __init__(self):
@@ -50,8 +52,19 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
 
         def forward(self, x):
             x = x * self.scale
-            out = self.renderer(x if used == x.shape[1] else x[:, :used])
-            return torch.cat([out[:, :3], torch.sigmoid(out[:, 3:4])], dim=1)
+            x = x if used == x.shape[1] else x[:, :used]
+            if not split:
+                out = self.renderer(x)
+                return torch.cat([out[:, :3], torch.sigmoid(out[:, 3:4])], dim=1)
+            # The last convolution as two: RGB and the mask logit get their own activation ranges
+            # (one shared int8 range let a trained renderer's large logits swamp the colours).
+            h, last = self.renderer.features(x), self.renderer.last
+            conv = functools.partial(torch.nn.functional.conv2d, stride=last.stride, padding=last.padding)
+            rgb = conv(h, last.weight[:3], last.bias[:3])
+            mask = torch.sigmoid(conv(h, last.weight[3:4], last.bias[3:4]))
+            if getattr(cfg, "premultiply", False):
+                rgb = rgb * mask
+            return torch.cat([rgb, mask], dim=1)
 
     wrapper = _Wrapper().eval().float()
     x = torch.zeros(1, len(scales), *sample_hw)

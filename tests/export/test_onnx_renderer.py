@@ -69,6 +69,27 @@ def test_int8_close_to_fp32(tmp_path, renderers):
         assert 30 < psnr < 120  # close, yet really quantised
 
 
+@pytest.mark.parametrize("stem", [2, 1])
+def test_int8_keeps_colours_under_large_mask_logits(tmp_path, stem):
+    """A trained renderer's mask logit spans tens of units while RGB spans one: int8 stays close."""
+    torch.manual_seed(3)
+    r = UNetRenderer(RendererConfig(width=8, depth=2, stem=stem, skip_hidden=8)).eval()
+    with torch.no_grad():
+        r.last.weight[3] *= 400.0  # logits of about +-30, as after training with a Dice loss
+        r.last.bias[3] = 0.0
+    calib, scales = _rasters(4, seed=2)
+    held, _ = _rasters(2, seed=5)
+    export_fp32(r, scales, tmp_path / "f.onnx")
+    export_int8(r, scales, tmp_path / "q.onnx", calib)
+    for x in held:
+        with torch.no_grad():
+            logit = r(torch.from_numpy((x.astype(np.float32) - 128) * scales[None, :, None, None]))[:, 3]
+        assert logit.abs().max() > 10  # the logits really are large
+        a, b = _run(tmp_path / "f.onnx", x), _run(tmp_path / "q.onnx", x)
+        psnr = -10 * np.log10(np.mean((a[:, :3] - b[:, :3]) ** 2))
+        assert psnr > 30
+
+
 def test_small_renderer_reads_first_channels(tmp_path):
     torch.manual_seed(1)
     r = UNetRenderer(RendererConfig(in_channels=8, width=8, depth=2, stem=2, skip_hidden=8)).eval()
