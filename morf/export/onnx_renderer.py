@@ -14,7 +14,6 @@ starts with one ``DequantizeLinear(1/127, 128)`` (fp32) or directly with uint8 c
 
 from __future__ import annotations
 
-import functools
 import io
 import os
 import tempfile
@@ -32,11 +31,39 @@ FLOAT_INPUT = "x"
 OPSET = 17
 
 
-def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]) -> onnx.ModelProto:
+def logit_scale(renderer, scales: np.ndarray, rasters: Iterable[np.ndarray]) -> float:
+    """How much the mask logit must shrink to share one int8 range with the colours (>= 1).
+
+    A trained renderer's mask logit spans tens of units while its linear RGB spans about one; in
+    one per-tensor int8 range the logit would swamp the colours. The exported graph computes
+    ``logit / k`` in the last convolution and multiplies by ``k`` before the sigmoid (one
+    convolution instead of two: a 1-channel convolution at full resolution costs as much as a
+    4-channel one). ``k`` = the logit's largest magnitude over the colours' on the calibration views.
+    """
+    import torch
+
+    cfg = getattr(renderer, "cfg", None)
+    used = int(getattr(cfg, "in_channels", len(scales)))
+    if not hasattr(renderer, "features"):
+        return 1.0
+    s = torch.as_tensor(np.asarray(scales, np.float32)).view(1, -1, 1, 1)
+    rgb_max, logit_max = 1e-3, 0.0
+    with torch.no_grad():
+        for r in rasters:
+            x = (torch.as_tensor(np.asarray(r, np.float32)) - ZERO_POINT) * s
+            out = renderer.last(renderer.features(x[:, :used]))
+            rgb_max = max(rgb_max, float(out[:, :3].abs().max()))
+            logit_max = max(logit_max, float(out[:, 3].abs().max()))
+    return max(1.0, logit_max / max(rgb_max, 0.5))
+
+
+def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int],
+                        mask_scale: float = 1.0) -> onnx.ModelProto:
     """Export ``renderer(x * 127 * scales)`` with output RGB + sigmoid(mask) and fold the scale.
 
     A renderer with fewer input channels than the 16 GL channels (small presets) reads the first
     ones; the texture's extra channels are zero (128) and the scale then stays a ``Mul``.
+    ``mask_scale``: see :func:`logit_scale` (1 for the fp32 graph).
     """
     import torch
 
@@ -56,12 +83,12 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
             if not split:
                 out = self.renderer(x)
                 return torch.cat([out[:, :3], torch.sigmoid(out[:, 3:4])], dim=1)
-            # The last convolution as two: RGB and the mask logit get their own activation ranges
-            # (one shared int8 range let a trained renderer's large logits swamp the colours).
-            h, last = self.renderer.features(x), self.renderer.last
-            conv = functools.partial(torch.nn.functional.conv2d, stride=last.stride, padding=last.padding)
-            rgb = conv(h, last.weight[:3], last.bias[:3])
-            mask = torch.sigmoid(conv(h, last.weight[3:4], last.bias[3:4]))
+            last = self.renderer.last
+            k = torch.ones(4, 1, 1, 1)
+            k[3] = mask_scale
+            out = torch.nn.functional.conv2d(self.renderer.features(x), last.weight / k, last.bias / k.view(-1),
+                                             stride=last.stride, padding=last.padding)
+            rgb, mask = out[:, :3], torch.sigmoid(out[:, 3:4] * mask_scale if mask_scale != 1 else out[:, 3:4])
             if getattr(cfg, "premultiply", False):
                 rgb = rgb * mask
             return torch.cat([rgb, mask], dim=1)
@@ -111,7 +138,8 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
     from onnxruntime.quantization import CalibrationMethod, QuantFormat, QuantType, quantize_static
     from onnxruntime.quantization.shape_inference import quant_pre_process
 
-    model = _export_float_graph(renderer, scales, sample_hw)
+    calibration = list(calibration)
+    model = _export_float_graph(renderer, scales, sample_hw, logit_scale(renderer, scales, calibration))
     with tempfile.TemporaryDirectory() as tmp:
         f32, pre, q8 = (Path(tmp) / n for n in ("f32.onnx", "pre.onnx", "q8.onnx"))
         onnx.save(model, f32)
