@@ -60,6 +60,7 @@ def run(args) -> int:
     from morf.errors import InputError
     from morf.train.config import preset
     from morf.train.data import build_holdout_frames
+    from morf.train.plateau import run_plateau
     from morf.train.project_run import evaluate_frames, train_project
 
     out = Path(args.out)
@@ -83,6 +84,9 @@ def run(args) -> int:
         m = evaluate_frames(avatar, holdout)
         m.update({"lpips": None, "train_minutes": res.train_minutes, "steps": res.step,
                   "wall_minutes_this_session": (time.time() - t0) / 60})
+        plat = run_plateau(res.run_dir)
+        m["plateau"] = plat
+        m["plateau_minutes"] = None if plat is None else plat["minutes"]
         results[method] = m
         rows.append({"method": method, **m})
         print(f"{method}: PSNR {m['psnr']:.2f} dB (person {m['psnr_person']:.2f}), SSIM {m['ssim']:.4f}, "
@@ -95,10 +99,14 @@ def run(args) -> int:
         checks["target_temporal_10pct_better"] = bool(checks["temporal_gain_vs_stylepeople"] is not None
                                                       and checks["temporal_gain_vs_stylepeople"] >= 0.10)
         checks["target_psnr_within_0p5db"] = bool(checks["psnr_delta_vs_stylepeople_db"] >= -0.5)
+    if results.get("morf", {}).get("plateau_minutes") is not None:
+        checks["morf_plateau_minutes"] = results["morf"]["plateau_minutes"]
+        checks["target_plateau_within_30min"] = bool(results["morf"]["plateau_minutes"] <= 30)
     result = {"benchmark": "quality", "preset": args.preset, "project": str(project.root), "fits": args.fits,
               "holdout_frames": results[methods[0]]["frames"], "methods": results, "checks": checks,
               "machine": machine_info()}
-    cols = ["method", "psnr", "psnr_person", "ssim", "ssim_person", "lpips", "temporal", "train_minutes", "steps"]
+    cols = ["method", "psnr", "psnr_person", "ssim", "ssim_person", "lpips", "temporal", "train_minutes",
+            "plateau_minutes", "steps"]
     # the load average says how much of the 2-core CPU the run actually had
     result["load_average"] = list(os.getloadavg())
     md = (f"# Avatar quality on novel-pose hold-out ({args.preset} preset)\n\n"

@@ -1,0 +1,49 @@
+"""When did a training run stop improving? Read from its ``metrics.jsonl`` (no evaluation needed).
+
+The per-step L1 is noisy (a batch of a few random frames), so it is averaged over windows of a
+tenth of the run. The plateau is the end of the first window whose mean is within ``tolerance``
+(relative) of the last window's mean: from then on the run gained less than that. Reported in
+minutes of training time (``time_s`` of the log, which excludes time the run was stopped).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+
+def read_metrics(path: str | Path) -> list[dict]:
+    """The run's metric lines (a torn last line, from a killed run, is skipped)."""
+    rows = []
+    for line in Path(path).read_text().splitlines():
+        try:
+            rows.append(json.loads(line))
+        except json.JSONDecodeError:
+            continue
+    return rows
+
+
+def plateau(rows: list[dict], key: str = "l1", tolerance: float = 0.05, windows: int = 10) -> dict | None:
+    """``{"step", "minutes", "final", "tolerance"}`` of the plateau, or None with too few lines.
+
+    Args:
+        rows: metric lines with "step", "time_s" and ``key``, in step order.
+    """
+    rows = [r for r in rows if key in r and "time_s" in r and np.isfinite(r[key])]
+    if len(rows) < 2 * windows:
+        return None
+    values = np.array([r[key] for r in rows], np.float64)
+    w = len(values) // windows
+    means = np.convolve(values, np.ones(w) / w, mode="valid")  # means[i] = mean of values[i : i + w]
+    final = means[-1]
+    ok = np.nonzero(means <= final * (1 + tolerance))[0]
+    end = int(ok[0]) + w - 1
+    return {"step": int(rows[end]["step"]), "minutes": float(rows[end]["time_s"]) / 60, "final": float(final),
+            "tolerance": tolerance, "key": key}
+
+
+def run_plateau(run_dir: str | Path, **kwargs) -> dict | None:
+    path = Path(run_dir) / "metrics.jsonl"
+    return plateau(read_metrics(path), **kwargs) if path.is_file() else None
