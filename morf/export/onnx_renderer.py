@@ -14,6 +14,7 @@ starts with one ``DequantizeLinear(1/127, 128)`` (fp32) or directly with uint8 c
 
 from __future__ import annotations
 
+import contextlib
 import io
 import os
 import tempfile
@@ -31,45 +32,50 @@ FLOAT_INPUT = "x"
 OPSET = 17
 
 
-def logit_scale(renderer, scales: np.ndarray, rasters: Iterable[np.ndarray]) -> float:
-    """How much the mask logit must shrink to share one int8 range with the colours (>= 1).
+MASK_LOGIT_SPAN = 8.0  # |logit| beyond this is a saturated mask (sigmoid(8) = 0.9997)
 
-    A trained renderer's mask logit spans tens of units while its linear RGB spans about one; in
-    one per-tensor int8 range the logit would swamp the colours. The exported graph computes
-    ``logit / k`` in the last convolution and multiplies by ``k`` before the sigmoid (one
-    convolution instead of two: a 1-channel convolution at full resolution costs as much as a
-    4-channel one). ``k`` = the logit's largest magnitude over the colours' on the calibration views.
+
+def colour_range(renderer, inputs, mask_threshold: float = 0.02) -> tuple[float, float]:
+    """Range of the linear RGB head over the pixels that show (mask > threshold), at least [0, 1].
+
+    Where the mask is off the RGB is multiplied by ~0 and may be anything (it reached +-13 on a
+    trained renderer); calibrating the shared output range on it cost 4 bits of colour.
     """
     import torch
 
-    cfg = getattr(renderer, "cfg", None)
-    used = int(getattr(cfg, "in_channels", len(scales)))
-    if not hasattr(renderer, "features"):
-        return 1.0
-    s = torch.as_tensor(np.asarray(scales, np.float32)).view(1, -1, 1, 1)
-    rgb_max, logit_max = 1e-3, 0.0
+    lo, hi = 0.0, 1.0
     with torch.no_grad():
-        for r in rasters:
-            x = (torch.as_tensor(np.asarray(r, np.float32)) - ZERO_POINT) * s
-            out = renderer.last(renderer.features(x[:, :used]))
-            rgb_max = max(rgb_max, float(out[:, :3].abs().max()))
-            logit_max = max(logit_max, float(out[:, 3].abs().max()))
-    return max(1.0, logit_max / max(rgb_max, 0.5))
+        for x in inputs:
+            out = renderer.last(renderer.features(x))
+            on = (torch.sigmoid(out[:, 3:4]) > mask_threshold).expand(-1, 3, -1, -1)
+            rgb = out[:, :3][on]
+            if rgb.numel():
+                lo, hi = min(lo, float(rgb.min())), max(hi, float(rgb.max()))
+    return lo, hi
 
 
 def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int],
-                        mask_scale: float = 1.0) -> onnx.ModelProto:
+                        colours: tuple[float, float] | None = None) -> tuple[onnx.ModelProto, str | None]:
     """Export ``renderer(x * 127 * scales)`` with output RGB + sigmoid(mask) and fold the scale.
 
     A renderer with fewer input channels than the 16 GL channels (small presets) reads the first
     ones; the texture's extra channels are zero (128) and the scale then stays a ``Mul``.
-    ``mask_scale``: see :func:`logit_scale` (1 for the fp32 graph).
+
+    ``colours`` (int8 graphs): the RGB range of :func:`colour_range`. The last convolution then
+    writes the mask logit mapped affinely from [-8, 8] onto that range (and the graph maps it
+    back before the sigmoid), so one per-tensor int8 range serves both, pinned to ``colours``
+    by the caller. Returns the model and the name of the last convolution's output (or None).
     """
     import torch
 
     cfg = getattr(renderer, "cfg", None)
     used = int(getattr(cfg, "in_channels", len(scales)))
     split = hasattr(renderer, "features") and isinstance(getattr(renderer, "last", None), torch.nn.Conv2d)
+    k, c = 1.0, 0.0
+    if colours is not None:
+        lo, hi = colours
+        k = 2 * MASK_LOGIT_SPAN / (hi - lo)  # logit = k * channel + c
+        c = -MASK_LOGIT_SPAN - lo * k
 
     class _Wrapper(torch.nn.Module):
         def __init__(self):
@@ -84,13 +90,13 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
                 out = self.renderer(x)
                 return torch.cat([out[:, :3], torch.sigmoid(out[:, 3:4])], dim=1)
             last = self.renderer.last
-            k = torch.ones(4, 1, 1, 1)
-            k[3] = mask_scale
-            out = torch.nn.functional.conv2d(self.renderer.features(x), last.weight / k, last.bias / k.view(-1),
-                                             stride=last.stride, padding=last.padding)
-            rgb, mask = out[:, :3], torch.sigmoid(out[:, 3:4] * mask_scale if mask_scale != 1 else out[:, 3:4])
-            if getattr(cfg, "premultiply", False):
-                rgb = rgb * mask
+            w, b = last.weight.clone(), last.bias.clone()
+            w[3] /= k
+            b[3] = (b[3] - c) / k
+            out = torch.nn.functional.conv2d(self.renderer.features(x), w, b, stride=last.stride, padding=last.padding)
+            logit = out[:, 3:4] if colours is None else out[:, 3:4] * k + c
+            mask = torch.sigmoid(logit)
+            rgb = out[:, :3] * mask if getattr(cfg, "premultiply", False) else out[:, :3]
             return torch.cat([rgb, mask], dim=1)
 
     wrapper = _Wrapper().eval().float()
@@ -104,13 +110,14 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
     model = onnx.load_from_string(buf.getvalue())
     if not fold_input_scale(model, FLOAT_INPUT):
         warnings.warn("renderer input scale could not be folded into the first convolutions; kept as a Mul")
-    return model
+    convs = [n for n in model.graph.node if n.op_type == "Conv"]
+    return model, (convs[-1].output[0] if split and convs else None)
 
 
 def export_fp32(renderer, scales: np.ndarray, path: str | os.PathLike, layout: str = "nchw",
                 sample_hw: tuple[int, int] = (128, 128)) -> None:
     """Write the fp32 renderer with a uint8 input (see module docstring)."""
-    model = uint8_input(_export_float_graph(renderer, scales, sample_hw), FLOAT_INPUT, layout)
+    model = uint8_input(_export_float_graph(renderer, scales, sample_hw)[0], FLOAT_INPUT, layout)
     onnx.checker.check_model(model)
     _save(model, path)
 
@@ -132,25 +139,41 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
                 layout: str = "nchw", sample_hw: tuple[int, int] = (128, 128)) -> None:
     """Write the int8 renderer: static QDQ, per-channel int8 weights, uint8 activations.
 
+    The renderer is first equalised (``equalize.py``: same function, activation ranges that suit
+    one int8 scale per tensor); activation ranges are calibrated at the 99.99th percentile (the
+    extreme values of a few pixels cost every other pixel precision), the RGB + mask output of
+    the last convolution is pinned to the colour range of the pixels that show.
+
     Args:
         calibration: uint8 (1, 16, H, W) neural rasterizations (the capture's own training views).
     """
     from onnxruntime.quantization import CalibrationMethod, QuantFormat, QuantType, quantize_static
     from onnxruntime.quantization.shape_inference import quant_pre_process
 
+    from morf.export.equalize import dequantized_inputs, equalize_renderer
+
     calibration = list(calibration)
-    model = _export_float_graph(renderer, scales, sample_hw, logit_scale(renderer, scales, calibration))
+    cfg = getattr(renderer, "cfg", None)
+    used = int(getattr(cfg, "in_channels", len(scales)))
+    colours = None
+    overrides = {FLOAT_INPUT: [{"scale": np.array(1 / 127, np.float32), "zero_point": np.array(ZERO_POINT, np.uint8)}]}
+    if hasattr(renderer, "features"):
+        inputs = dequantized_inputs(calibration, scales, used, ZERO_POINT)
+        renderer = equalize_renderer(renderer, inputs)
+        colours = colour_range(renderer, inputs)
+    model, last_out = _export_float_graph(renderer, scales, sample_hw, colours)
+    if last_out is not None and colours is not None:
+        overrides[last_out] = [{"rmin": np.array(colours[0], np.float32), "rmax": np.array(colours[1], np.float32)}]
     with tempfile.TemporaryDirectory() as tmp:
         f32, pre, q8 = (Path(tmp) / n for n in ("f32.onnx", "pre.onnx", "q8.onnx"))
         onnx.save(model, f32)
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
             warnings.simplefilter("ignore")
             quant_pre_process(str(f32), str(pre), skip_symbolic_shape=True)
             quantize_static(str(pre), str(q8), _Calibration(calibration), quant_format=QuantFormat.QDQ,
                             per_channel=True, activation_type=QuantType.QUInt8, weight_type=QuantType.QInt8,
-                            calibrate_method=CalibrationMethod.MinMax,
-                            extra_options={"TensorQuantOverrides": {FLOAT_INPUT: [
-                                {"scale": np.array(1 / 127, np.float32), "zero_point": np.array(ZERO_POINT, np.uint8)}]}})
+                            calibrate_method=CalibrationMethod.Percentile,
+                            extra_options={"CalibPercentile": 99.99, "TensorQuantOverrides": overrides})
         q = onnx.load(q8)
     q = uint8_input(q, FLOAT_INPUT, layout, quantized=True)
     onnx.checker.check_model(q)
