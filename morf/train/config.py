@@ -52,6 +52,9 @@ class TrainConfig:
     inpaint_lr: float = 5e-3  # Adam on the unseen texels of the baked texture
     anr_texture_every: int = 2  # anr: steps alternate; every this-many-th step updates the texture only
     checkpoint_minutes: float = 5.0  # checkpoint period (and always at the end / on stop)
+    # on NaN or a collapsed mask (health.py): roll back to the last checkpoint with the learning
+    # rates halved, at most this many times, then stop with TrainingDiverged
+    max_recoveries: int = 2
     report_every: int = 10  # steps between Progress reports (and preview images)
     log_every: int = 10  # steps between metrics.jsonl lines
     channels_last: bool = False  # renderer + discriminator in channels-last memory format (CPU speed)

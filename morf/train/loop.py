@@ -19,6 +19,7 @@ import torch
 from morf.avatar.trained import save_trained_avatar
 from morf.avatar.warp import offsets_to_rgb, warp_texture
 from morf.errors import InputError, TrainingDiverged
+from morf.train.health import CollapseMonitor
 from morf.pipeline.control import Progress, StageControl
 from morf.train.config import TrainConfig
 from morf.train.frames import FrameSet
@@ -86,7 +87,9 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         feature matching is used, and the log says so); inpaint: pseudo views for the fine-tune or None;
         shape, camera: stored with the avatar for export; notes: extra lines for the log.
     Raises:
-        TrainingDiverged: NaN/inf; the last good checkpoint is kept.
+        TrainingDiverged: NaN/inf or a collapsed mask (``health.py``) that rolling back to the last
+            checkpoint with halved learning rates (``cfg.max_recoveries`` times) did not cure; the
+            last good checkpoint is kept.
         StopRequested: the user stopped; a checkpoint of the current step was written first.
     """
     control = control or StageControl()
@@ -122,6 +125,8 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
     t_session = time.monotonic()
     last_ckpt = time.monotonic()
     losses: dict[str, float] = {}
+    monitor = CollapseMonitor()
+    recoveries = 0
     while trainer.step < cfg.steps:
         if control.stop_requested:
             t_session = save()
@@ -129,17 +134,30 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         control.check()
         try:
             losses, out, batch = trainer.train_step()
+            collapse = monitor.update(losses)
+            if collapse:
+                raise TrainingDiverged(f"training diverged at step {trainer.step}: {collapse}")
         except TrainingDiverged as e:
             kept = f"; the last good checkpoint ({run.checkpoint_path}) is kept" if run.has_checkpoint else ""
             run.log(f"diverged: {e}")
-            raise TrainingDiverged(f"{e}{kept}") from None
+            if recoveries >= cfg.max_recoveries or not run.has_checkpoint:
+                raise TrainingDiverged(f"{e}{kept}") from None
+            recoveries += 1
+            spent = trainer.elapsed_s + time.monotonic() - t_session  # the lost steps took time too
+            trainer.load_state_dict(run.load_checkpoint(map_location=trainer.device))
+            trainer.elapsed_s, t_session = spent, time.monotonic()
+            trainer.scale_learning_rates(0.5)
+            monitor.reset()
+            run.log(f"rolled back to the checkpoint of step {trainer.step} with the learning rates halved "
+                    f"(recovery {recoveries} of {cfg.max_recoveries})")
+            continue
         s = trainer.step
         if s % cfg.log_every == 0 or s == cfg.steps:
             run.append_metrics({"step": s, "time_s": trainer.elapsed_s + time.monotonic() - t_session, **losses})
         if s % cfg.report_every == 0 or s == cfg.steps:
             control.report(Progress("train", s, cfg.steps, f"training {cfg.method}", losses,
                                     _preview(out, batch, trainer.model.texture.texture)))
-        if time.monotonic() - last_ckpt > cfg.checkpoint_minutes * 60:
+        if time.monotonic() - last_ckpt > cfg.checkpoint_minutes * 60 and monitor.healthy:
             t_session = save()
             last_ckpt = t_session
     t_session = save()

@@ -90,6 +90,13 @@ class Trainer:
         self.step = int(d["step"])
         self.elapsed_s = float(d.get("elapsed_s", 0.0))
 
+    def scale_learning_rates(self, factor: float) -> None:
+        """Multiply every optimizer's learning rates (kept in the optimizer state, so in checkpoints)."""
+        for opt in (self.opt, getattr(self, "opt_d", None)):
+            if opt is not None:
+                for group in opt.param_groups:
+                    group["lr"] *= factor
+
     def parameters_finite(self) -> bool:
         return all(bool(torch.isfinite(p).all()) for p in self.model.parameters())
 

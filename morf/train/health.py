@@ -1,0 +1,51 @@
+"""Catch a training run that collapsed without any NaN: the renderer's mask died.
+
+A GAN can win against the renderer in a few dozen steps: the discriminator's loss falls to ~0,
+the renderer's mask logit goes to minus infinity everywhere and it renders the background only
+(Dice ~1, image TV 0), after which nothing recovers. Seen once in a 3000-step cpu-preset run
+(stylepeople, step ~2380, after its Dice had been below 0.01 for a thousand steps).
+
+:class:`CollapseMonitor` follows a smoothed Dice loss and reports a collapse when it climbs back
+above ``collapsed`` after it had once been below ``learned``. ``healthy`` says whether the
+current state may be saved as a checkpoint (it is not while the Dice is far above its best).
+"""
+
+from __future__ import annotations
+
+import math
+
+
+class CollapseMonitor:
+    """Args:
+        decay: weight of the running mean per step (0.9: about ten steps).
+        learned: the mask counts as learned once the running Dice was below this.
+        collapsed: a learned mask whose running Dice is above this has collapsed.
+    """
+
+    def __init__(self, decay: float = 0.9, learned: float = 0.3, collapsed: float = 0.8):
+        self.decay, self.learned, self.collapsed = decay, learned, collapsed
+        self.mean: float | None = None
+        self.best = math.inf
+
+    def update(self, losses: dict[str, float]) -> str | None:
+        """Feed one step's losses; returns a reason when the run has collapsed, else None."""
+        dice = losses.get("dice")
+        if dice is None or not math.isfinite(dice):
+            return None
+        self.mean = dice if self.mean is None else self.decay * self.mean + (1 - self.decay) * dice
+        self.best = min(self.best, self.mean)
+        if self.best < self.learned and self.mean > self.collapsed:
+            return (f"the mask collapsed (Dice {self.mean:.3f}, was {self.best:.3f}): the renderer now draws "
+                    "no person")
+        return None
+
+    @property
+    def healthy(self) -> bool:
+        """False while the running Dice is far above the best it reached (a collapse may be starting)."""
+        if self.mean is None or self.best >= self.learned:
+            return True
+        return self.mean <= 2.0 * self.best + 0.05
+
+    def reset(self) -> None:
+        """After rolling back to a checkpoint: start the running mean again (the best is kept)."""
+        self.mean = None

@@ -1,0 +1,80 @@
+"""Collapse detection and the roll-back that answers it."""
+
+import pytest
+import torch
+
+from morf.errors import TrainingDiverged
+from morf.train.config import preset
+from morf.train.health import CollapseMonitor
+from morf.train.loop import train_avatar
+from morf.train.run_dir import RunDir
+
+
+def _cfg(**kw):
+    return preset("tiny", "stylepeople", resolution=32, batch_size=2, texture_size=32, inpaint_steps=0,
+                  steps=8, checkpoint_minutes=0.0, device="cpu", **kw)  # checkpoint after every step
+
+
+def _texture(cfg):
+    return torch.zeros(cfg.texture_channels, cfg.texture_size, cfg.texture_size)
+
+
+def _feed(monitor, values):
+    return [monitor.update({"dice": v}) for v in values]
+
+
+def test_monitor_reports_a_learned_mask_that_dies():
+    m = CollapseMonitor()
+    assert not any(_feed(m, [0.9] * 20 + [0.5] * 20 + [0.05] * 50))  # learning: never a collapse
+    assert m.healthy
+    out = _feed(m, [0.03, 0.4, 0.9, 1.0] + [1.0] * 30)
+    assert not m.healthy
+    assert any(out) and "collapsed" in [r for r in out if r][0]
+
+
+def test_monitor_is_quiet_before_the_mask_is_learned_and_on_noise():
+    m = CollapseMonitor()
+    assert not any(_feed(m, [1.0] * 50 + [0.95, 0.99] * 20))  # never learned: nothing to lose
+    m = CollapseMonitor()
+    assert not any(_feed(m, [0.01, 0.03, 0.008, 0.05, 0.02] * 40))  # noisy but learned
+    assert m.healthy
+    assert CollapseMonitor().update({"l1": 0.1}) is None  # no mask loss (no Dice): nothing to judge
+
+
+def _collapse_at(monkeypatch, steps):
+    """Make the monitor report a collapse on the given step numbers (as counted by update calls)."""
+    calls = {"n": 0}
+    real = CollapseMonitor.update
+
+    def update(self, losses):
+        calls["n"] += 1
+        real(self, losses)
+        return "the mask collapsed (test)" if calls["n"] in steps else None
+
+    monkeypatch.setattr(CollapseMonitor, "update", update)
+    return calls
+
+
+def test_collapse_rolls_back_to_the_checkpoint_and_finishes(frames_factory, tmp_path, monkeypatch):
+    frames = frames_factory()
+    cfg = _cfg()
+    _collapse_at(monkeypatch, {5})
+    res = train_avatar(frames, tmp_path / "run", cfg, _texture(cfg))
+    run = RunDir(res.run_dir)
+    log = (run.root / "train.log").read_text()
+    assert "diverged" in log and "rolled back to the checkpoint of step 4" in log
+    assert res.step == 8 and run.is_done
+    ckpt = run.load_checkpoint()
+    lrs = [g["lr"] for g in ckpt["opt"]["param_groups"]]
+    assert lrs and all(abs(lr - 0.5 * base) < 1e-12 for lr, base in zip(lrs, [cfg.lr_texture, cfg.lr_renderer]))
+
+
+def test_repeated_collapse_stops_with_the_checkpoint_kept(frames_factory, tmp_path, monkeypatch):
+    frames = frames_factory()
+    cfg = _cfg(max_recoveries=1)
+    _collapse_at(monkeypatch, {5, 6})
+    with pytest.raises(TrainingDiverged, match="kept"):
+        train_avatar(frames, tmp_path / "run", cfg, _texture(cfg))
+    run = RunDir(tmp_path / "run")
+    assert run.load_checkpoint()["step"] == 4 and not run.is_done
+    assert all(torch.isfinite(v).all() for v in run.load_checkpoint()["model"].values() if v.is_floating_point())
