@@ -27,3 +27,14 @@ def shared_data() -> Path:
     if not p.is_dir():
         pytest.skip("../shared/data is not present beside the repository")
     return p
+
+
+@pytest.fixture(scope="module")
+def gl():
+    """A headless OpenGL (EGL) context; tests that need one skip cleanly where EGL is missing."""
+    from morf.raster import GLUnavailable, gl_state
+
+    try:
+        return gl_state()
+    except GLUnavailable as e:
+        pytest.skip(str(e))
