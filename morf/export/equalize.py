@@ -27,6 +27,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from morf.export.texture_quant import ZERO_POINT
+
 
 def _max_abs(renderer, modules: dict[str, nn.Module], inputs: list[torch.Tensor], per_channel: bool = False):
     """Largest |output| of each named module over ``inputs`` (per channel: a (C,) tensor)."""
@@ -109,8 +111,7 @@ def equalize_renderer(renderer, inputs: Iterable[torch.Tensor], input_range: flo
     return r
 
 
-def dequantized_inputs(rasters: Iterable[np.ndarray], scales: np.ndarray, channels: int,
-                       zero_point: int) -> list[torch.Tensor]:
+def dequantized_inputs(rasters: Iterable[np.ndarray], scales: np.ndarray, channels: int) -> list[torch.Tensor]:
     """uint8 (1, 16, H, W) rasterizations -> the renderer's float inputs (first ``channels``)."""
     s = torch.as_tensor(np.asarray(scales, np.float32)).view(1, -1, 1, 1)
-    return [((torch.as_tensor(np.asarray(r, np.float32)) - zero_point) * s)[:, :channels] for r in rasters]
+    return [((torch.as_tensor(np.asarray(r, np.float32)) - ZERO_POINT) * s)[:, :channels] for r in rasters]

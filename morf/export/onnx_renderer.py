@@ -158,7 +158,7 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
     colours = None
     overrides = {FLOAT_INPUT: [{"scale": np.array(1 / 127, np.float32), "zero_point": np.array(ZERO_POINT, np.uint8)}]}
     if hasattr(renderer, "features"):
-        inputs = dequantized_inputs(calibration, scales, used, ZERO_POINT)
+        inputs = dequantized_inputs(calibration, scales, used)
         renderer = equalize_renderer(renderer, inputs)
         colours = colour_range(renderer, inputs)
     model, last_out = _export_float_graph(renderer, scales, sample_hw, colours)

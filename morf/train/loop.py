@@ -19,10 +19,10 @@ import torch
 from morf.avatar.trained import save_trained_avatar
 from morf.avatar.warp import offsets_to_rgb, warp_texture
 from morf.errors import InputError, TrainingDiverged
-from morf.train.health import CollapseMonitor
 from morf.pipeline.control import Progress, StageControl
 from morf.train.config import TrainConfig
 from morf.train.frames import FrameSet
+from morf.train.health import CollapseMonitor
 from morf.train.run_dir import RunDir
 from morf.train.trainer import Trainer
 
