@@ -102,8 +102,14 @@ class UNetRenderer(nn.Module):
             h = layer(torch.cat([h, skips.pop()], dim=1))
         if self.cfg.stem == 1:
             return h
-        h = F.interpolate(self.head_low(h), scale_factor=float(self.cfg.stem), mode="bilinear", align_corners=False)
-        return self.head[:-1](torch.cat([h, x], dim=1))
+        # head[0] is a 1x1 conv on cat(upsample(h), x). A 1x1 conv commutes with bilinear
+        # upsampling, so its h part runs at low resolution before the upsampling and its x part
+        # at full resolution, summed: the same function without a full-resolution concat
+        # (the int8 graph's most expensive node) and with the upsampling on skip_hidden channels.
+        conv, c = self.head[0], self.head_low[0].out_channels
+        h = F.conv2d(self.head_low(h), conv.weight[:, :c], conv.bias)
+        h = F.interpolate(h, scale_factor=float(self.cfg.stem), mode="bilinear", align_corners=False)
+        return self.head[1](h + F.conv2d(x, conv.weight[:, c:]))
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         out = self.last(self.features(x))

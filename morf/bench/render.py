@@ -130,9 +130,9 @@ def _build(tmp: Path, names: list[str], size: int) -> dict[str, Path]:
 
     body = load_body_model("anny")
     built = {}
-    jobs = [(n, "nchw") for n in names] + [(DEFAULT_VARIANT, "planes")]
+    jobs = [(n, "nhwc") for n in names] + [(DEFAULT_VARIANT, "nchw")]
     for name, layout in jobs:
-        key = name if layout == "nchw" else f"{name}@planes"
+        key = name if layout == "nhwc" else f"{name}@{layout}"
         cfg = RendererConfig(**VARIANTS[name])
         print(f"building synthetic avatar {key} ({count_parameters(UNetRenderer(cfg)) / 1e6:.2f} M parameters)", file=sys.stderr)
         build_synthetic_avatar(tmp / key, body_model=body, renderer_cfg=cfg, image_size=size, calibration_views=6,

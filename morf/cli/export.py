@@ -16,7 +16,8 @@ def add_parser(sub):
     p.add_argument("project", help="capture project folder")
     p.add_argument("--run", default=None, help="training run name under PROJECT/runs (default: the newest finished)")
     p.add_argument("--out", default=None, help="output folder (default: PROJECT/avatar)")
-    p.add_argument("--layout", choices=("nchw", "planes"), default="nchw", help="renderer input layout")
+    p.add_argument("--layout", choices=("nhwc", "nchw", "planes"), default="nhwc",
+                   help="renderer input layout (nhwc: the GL read-back as it is, the fastest)")
     p.add_argument("--calibration-views", type=int, default=32, help="training views used to calibrate int8")
     p.add_argument("--fits", choices=("auto", "fits", "ground-truth"), default="auto",
                    help="body fits that pose the calibration views (as for 'morf train')")

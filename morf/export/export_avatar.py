@@ -21,7 +21,7 @@ from morf.export.onnx_renderer import OPSET, export_fp32, export_int8
 from morf.export.skeleton import Skeleton, skeleton_from_body_model
 from morf.export.texture_quant import QuantizedTexture, quantize_texture
 from morf.pipeline.control import Progress, StageControl
-from morf.playback.neural_raster import NUM_CHANNELS, NeuralRasterizer, SkinnedMesh, create_headless_context, planes_to_nchw
+from morf.playback.neural_raster import NUM_CHANNELS, NeuralRasterizer, SkinnedMesh, create_headless_context, to_layout
 
 
 @dataclass(frozen=True)
@@ -41,7 +41,7 @@ class View:
 class ExportConfig:
     """Choices of the exporter."""
 
-    input_layout: str = "nchw"  # "nchw" or "planes" (see morf.export.onnx_graph; nchw measured faster)
+    input_layout: str = "nhwc"  # see morf.export.onnx_graph.LAYOUTS; nhwc is the GL read-back as it is
     max_calibration_views: int = 32  # int8 calibration rasterizations (more: slower export, same ranges)
     max_heldout_views: int = 8  # views for the int8-vs-fp32 quality report
     extra: dict = field(default_factory=dict)  # free-form facts copied into the manifest
@@ -71,7 +71,7 @@ def rasterize_views(ctx, mesh: SkinnedMesh, texture: QuantizedTexture, skeleton:
         out = []
         for v in views:
             nr.draw(skeleton.bone_transforms(v.rotvecs, v.transl), v.camera)
-            out.append(planes_to_nchw(nr.read()))
+            out.append(to_layout(nr.read(), "nchw"))
         return out
     finally:
         nr.release()
@@ -81,8 +81,7 @@ def nchw_to_layout(raster: np.ndarray, layout: str) -> np.ndarray:
     """(1, 16, H, W) uint8 -> the renderer's input layout."""
     if layout == "nchw":
         return raster
-    _, _, H, W = raster.shape
-    return np.ascontiguousarray(raster[0].reshape(4, 4, H, W).transpose(0, 2, 3, 1))
+    return to_layout(np.ascontiguousarray(raster[0].transpose(1, 2, 0)), layout).copy()
 
 
 def int8_quality(fp32_path: Path, int8_path: Path, rasters: Sequence[np.ndarray], layout: str = "nchw") -> dict:
@@ -98,8 +97,9 @@ def int8_quality(fp32_path: Path, int8_path: Path, rasters: Sequence[np.ndarray]
     ps, ss, ps_person = [], [], []
     for r in rasters:
         r = nchw_to_layout(r, layout)
-        a = torch.from_numpy(s32.run(None, {"raster": r})[0])
-        b = torch.from_numpy(s8.run(None, {"raster": r})[0])
+        feed = {"raster": r, "background": np.zeros((1, 3, 1, 1), np.float32)}
+        a = torch.from_numpy(s32.run(["rgba"], feed)[0])
+        b = torch.from_numpy(s8.run(["rgba"], feed)[0])
         ps.append(psnr(b[:, :3], a[:, :3]))
         ss.append(ssim(b[:, :3], a[:, :3]))
         ps_person.append(psnr(b[:, :3], a[:, :3], mask=a[:, 3] > 0.5))
@@ -191,10 +191,13 @@ def _manifest_fields(qtex, skeleton, mesh, rcfg, image_hw, shape, cfg, quality, 
                     "channel_scales": qtex.scales.tolist()},
         "renderer": {"input": "raster", "input_layout": cfg.input_layout, "output": "rgba",
                      "output_meaning": "RGB premultiplied by the mask, then mask probability",
+                     "composite": {"input": "background", "output": "image",
+                                   "meaning": "uint8 (1, H, W, 3): rgba over background (float32 (1, 3, H|1, W|1), 0-255)"},
                      "size_multiple": int(rcfg.multiple) if rcfg is not None else 32,
                      "config": dataclasses.asdict(rcfg) if dataclasses.is_dataclass(rcfg) else None,
                      "int8": {"format": "QDQ", "weights": "int8 per-channel", "activations": "uint8",
-                              "calibration_views": n_calib, "calibration_method": "minmax"}},
+                              "calibration_views": n_calib, "calibration_method": "percentile 99.99",
+                              "equalized": True}},
         "int8_quality": quality,
         "export_seconds": round(seconds, 1),
         **cfg.extra,

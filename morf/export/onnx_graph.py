@@ -14,8 +14,7 @@ import onnx
 from onnx import TensorProto, helper, numpy_helper
 
 from morf.export.texture_quant import ZERO_POINT
-
-LAYOUTS = ("nchw", "planes")  # (1, 16, H, W) or the four read-back attachments (4, H, W, 4)
+from morf.playback.neural_raster import LAYOUTS
 
 
 def _initializers(model: onnx.ModelProto) -> dict[str, onnx.TensorProto]:
@@ -106,6 +105,16 @@ def fold_input_scale(model: onnx.ModelProto, input_name: str) -> bool:
     return True
 
 
+def downstream_nodes(model: onnx.ModelProto, name: str) -> list[str]:
+    """Names of the nodes that read ``name`` directly or through other nodes."""
+    found, frontier = [], {name}
+    for node in model.graph.node:  # ONNX graphs are stored in topological order
+        if frontier.intersection(node.input):
+            found.append(node.name)
+            frontier.update(node.output)
+    return found
+
+
 def uint8_input(model: onnx.ModelProto, float_input: str, layout: str, new_name: str = "raster",
                 quantized: bool = False) -> onnx.ModelProto:
     """Make the graph read uint8 bytes instead of the float input ``x = (q - 128) / 127``.
@@ -113,14 +122,14 @@ def uint8_input(model: onnx.ModelProto, float_input: str, layout: str, new_name:
     ``quantized=False`` (fp32 graph): a ``DequantizeLinear(1/127, 128)`` is inserted.
     ``quantized=True`` (QDQ graph whose input ``QuantizeLinear`` already uses exactly 1/127 and
     128): that ``QuantizeLinear`` is removed, its consumers read the bytes directly.
-    ``layout``: "nchw" reads (1, 16, H, W); "planes" reads the four GL attachments (4, H, W, 4)
-    and rearranges them in the graph (a uint8 transpose, 4x cheaper than on floats).
+    ``layout`` (see :data:`LAYOUTS`): the graph rearranges "nhwc" and "planes" inputs itself
+    (uint8 transposes, 4x cheaper than on floats, and free for "nhwc" in onnxruntime).
     """
     if layout not in LAYOUTS:
         raise ValueError(f"layout must be one of {LAYOUTS}")
     g = model.graph
     old = next(i for i in g.input if i.name == float_input)
-    nchw = f"{new_name}_nchw" if layout == "planes" else new_name
+    nchw = new_name if layout == "nchw" else f"{new_name}_nchw"
     new_nodes = []
     if quantized:
         q = [n for n in _consumers(model, float_input) if n.op_type == "QuantizeLinear"]
@@ -144,6 +153,9 @@ def uint8_input(model: onnx.ModelProto, float_input: str, layout: str, new_name:
         new_nodes = [helper.make_node("Transpose", [new_name], [f"{new_name}_t"], perm=[0, 3, 1, 2]),
                      helper.make_node("Reshape", [f"{new_name}_t", "raster_nchw_shape"], [nchw])] + new_nodes
         shape = [4, "height", "width", 4]
+    elif layout == "nhwc":
+        new_nodes = [helper.make_node("Transpose", [new_name], [nchw], perm=[0, 3, 1, 2])] + new_nodes
+        shape = [1, "height", "width", 16]
     else:
         shape = [1, 16, "height", "width"]
     for i, n in enumerate(new_nodes):
@@ -154,4 +166,46 @@ def uint8_input(model: onnx.ModelProto, float_input: str, layout: str, new_name:
     for vi in list(g.value_info):
         if vi.name == float_input and quantized:
             g.value_info.remove(vi)
+    return model
+
+
+def append_composite(model: onnx.ModelProto, rgba: str = "rgba", background: str = "background",
+                     image: str = "image") -> onnx.ModelProto:
+    """Add the compositing to the graph, in place: a second output ``image`` (1, H, W, 3) uint8 =
+    ``round(clip(255 * rgb + (1 - mask) * background, 0, 255))`` from the premultiplied ``rgba``
+    (1, 4, H, W) output and a new float32 input ``background`` (1, 3, H, W) in 0-255, or
+    (1, 3, 1, 1) for a plain colour (broadcast). The input is required even when only ``rgba``
+    is fetched (feed zeros); an optional input (an initializer of the same name) would do, but
+    onnxruntime warns about those on every session it opens.
+
+    The compositing runs on onnxruntime's threads in channel planes (broadcasting the mask over
+    channel planes is a fast path; channels-last it is not), then a uint8 Transpose (0.2 ms at
+    640x640) interleaves the image. The no-op Reshape before that Transpose fences it: without
+    it onnxruntime's transpose optimizer moves it up through the float ops, which then broadcast
+    along the last axis and cost 7 ms more (measured at 640x640, 2 threads).
+    """
+    g = model.graph
+    if any(o.name == image for o in g.output):
+        return model
+    g.initializer.extend([numpy_helper.from_array(np.array([3, 1], np.int64), "composite_split"),
+                          numpy_helper.from_array(np.array(255.0, np.float32), "composite_255"),
+                          numpy_helper.from_array(np.array(1.0, np.float32), "composite_one"),
+                          numpy_helper.from_array(np.array(0.0, np.float32), "composite_lo"),
+                          numpy_helper.from_array(np.array(255.0, np.float32), "composite_hi"),
+                          numpy_helper.from_array(np.array(0.5, np.float32), "composite_half"),
+                          numpy_helper.from_array(np.array([1, 3, 0, 0], np.int64), "composite_shape")])
+    g.node.extend([
+        helper.make_node("Split", [rgba, "composite_split"], ["composite_rgb", "composite_mask"], axis=1),
+        helper.make_node("Mul", ["composite_rgb", "composite_255"], ["composite_fg"]),
+        helper.make_node("Sub", ["composite_one", "composite_mask"], ["composite_inv"]),
+        helper.make_node("Mul", ["composite_inv", background], ["composite_bg"]),
+        helper.make_node("Add", ["composite_fg", "composite_bg"], ["composite_sum"]),
+        helper.make_node("Clip", ["composite_sum", "composite_lo", "composite_hi"], ["composite_clipped"]),
+        helper.make_node("Add", ["composite_clipped", "composite_half"], ["composite_rounded"]),
+        helper.make_node("Cast", ["composite_rounded"], ["composite_planes"], to=TensorProto.UINT8),  # truncates: round half up
+        helper.make_node("Reshape", ["composite_planes", "composite_shape"], ["composite_fence"]),
+        helper.make_node("Transpose", ["composite_fence"], [image], perm=[0, 2, 3, 1]),
+    ])
+    g.input.append(helper.make_tensor_value_info(background, TensorProto.FLOAT, [1, 3, "bg_height", "bg_width"]))
+    g.output.append(helper.make_tensor_value_info(image, TensorProto.UINT8, [1, "height", "width", 3]))
     return model

@@ -1,10 +1,13 @@
 """The renderer as ONNX: fp32 and int8 (static QDQ), both reading the uint8 neural rasterization.
 
 Graph contract (both files):
-    input  "raster": uint8, (1, 16, H, W) ("nchw") or (4, H, W, 4) ("planes", the GL attachments),
-           value = 128 + round(feature / scale[c]); 128 is background.
+    input  "raster": uint8, (1, H, W, 16) ("nhwc", the GL read-back), (1, 16, H, W) ("nchw") or
+           (4, H, W, 4) ("planes"); value = 128 + round(feature / scale[c]); 128 is background.
+    input  "background": float32 (1, 3, H, W) image or (1, 3, 1, 1) colour, 0-255.
     output "rgba":  float32 (1, 4, H, W): RGB premultiplied by the mask in [0, 1], then the mask
            probability (the sigmoid of the renderer's mask logit is taken in the graph).
+    output "image": uint8 (1, H, W, 3): rgba composited over the background (see
+           :func:`morf.export.onnx_graph.append_composite`).
 H and W are free (multiples of the renderer's ``cfg.multiple``).
 
 The per-channel texture scales are folded into the first convolutions' weights, so the graph
@@ -25,7 +28,7 @@ from typing import Iterable
 import numpy as np
 import onnx
 
-from morf.export.onnx_graph import fold_input_scale, uint8_input
+from morf.export.onnx_graph import append_composite, downstream_nodes, fold_input_scale, uint8_input
 from morf.export.texture_quant import ZERO_POINT
 
 FLOAT_INPUT = "x"
@@ -118,6 +121,7 @@ def export_fp32(renderer, scales: np.ndarray, path: str | os.PathLike, layout: s
                 sample_hw: tuple[int, int] = (128, 128)) -> None:
     """Write the fp32 renderer with a uint8 input (see module docstring)."""
     model = uint8_input(_export_float_graph(renderer, scales, sample_hw)[0], FLOAT_INPUT, layout)
+    append_composite(model)
     onnx.checker.check_model(model)
     _save(model, path)
 
@@ -171,11 +175,13 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
             warnings.simplefilter("ignore")
             quant_pre_process(str(f32), str(pre), skip_symbolic_shape=True)
             quantize_static(str(pre), str(q8), _Calibration(calibration), quant_format=QuantFormat.QDQ,
+                            nodes_to_exclude=downstream_nodes(model, last_out) if last_out else [],
                             per_channel=True, activation_type=QuantType.QUInt8, weight_type=QuantType.QInt8,
                             calibrate_method=CalibrationMethod.Percentile,
                             extra_options={"CalibPercentile": 99.99, "TensorQuantOverrides": overrides})
         q = onnx.load(q8)
     q = uint8_input(q, FLOAT_INPUT, layout, quantized=True)
+    append_composite(q)
     onnx.checker.check_model(q)
     _save(q, path)
 

@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from morf.errors import ProjectError
+from morf.playback.neural_raster import LAYOUTS
 from morf.pipeline.control import Progress, StageControl
 
-LAYOUTS = ("nchw", "planes")
 
 
 @dataclass(frozen=True)
@@ -26,7 +26,7 @@ class ProjectExportConfig:
 
     run: str | None = None  # run name under PROJECT/runs (None: the newest finished run)
     out: str | None = None  # output folder (None: PROJECT/avatar)
-    input_layout: str = "nchw"  # renderer input layout: "nchw" (measured faster) or "planes"
+    input_layout: str = "nhwc"  # renderer input layout (morf.export.onnx_graph.LAYOUTS)
     calibration_views: int = 32  # training views used to calibrate int8 (spread over the capture)
     heldout_every: int = 8  # every this-many-th training view is held out of calibration for the report
     fits: str = "auto"  # body fits to pose the views: auto | fits | ground-truth (as 'morf train --fits')

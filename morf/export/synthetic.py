@@ -30,7 +30,7 @@ def turntable_views(num: int, size: int, seed: int = 0, num_bones: int = 104, po
 
 def build_synthetic_avatar(out_dir: str | Path, body_model=None, renderer_cfg=None, texture_size: int = 256,
                            image_size: int = 128, calibration_views: int = 6, heldout_views: int = 2,
-                           input_layout: str = "nchw", seed: int = 0, renderer=None, texture=None) -> dict:
+                           input_layout: str = "nhwc", seed: int = 0, renderer=None, texture=None) -> dict:
     """Export a synthetic avatar to ``out_dir``; returns its manifest.
 
     ``renderer_cfg``: a :class:`morf.avatar.renderer.RendererConfig` (default: the "cpu" training

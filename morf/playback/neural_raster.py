@@ -2,14 +2,17 @@
 
 What the paper's phone app does per frame: skin the render mesh in the vertex shader from the
 frame's bone matrices, sample the quantised neural texture (four RGBA8 textures, bilinear) and
-write the 16 channels, still 8-bit, to four RGBA8 colour attachments cleared to 128 (= 0).
-Reading the attachments back gives the int8 renderer's input without any float conversion.
+write the 16 channels, still 8-bit, packed into one RGBA32UI colour attachment (16 bytes a pixel)
+cleared to 128 (= 0). Reading it back gives the int8 renderer's channels-last input (H, W, 16)
+without any float conversion or re-layout. (Four RGBA8 attachments were the first design: they
+need an interleaving copy on the CPU, and drawing into them was slower on Mesa llvmpipe.)
 
 Torch-free on purpose (numpy + moderngl): an exported avatar plays without torch.
 """
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,6 +23,13 @@ from morf.export.texture_quant import ZERO_POINT, QuantizedTexture
 SHADER_DIR = Path(__file__).resolve().parents[2] / "resources" / "shaders"
 NEAR, FAR = 0.05, 100.0  # the same clip planes as the training rasterizer (morf.raster.gl_buffers)
 NUM_CHANNELS = 16
+# Renderer input layouts: "nhwc" (1, H, W, 16) is the read-back as it is (onnxruntime's int8
+# convolutions run channels last, so the graph's leading Transpose cancels against theirs);
+# "nchw" (1, 16, H, W); "planes" (4, H, W, 4), an older four-attachment rasterizer's read-back.
+LAYOUTS = ("nhwc", "nchw", "planes")
+# moderngl clears every attachment from four floats and hands their bits to integer attachments:
+# the float whose bits are 0x80808080 clears each byte of the RGBA32UI attachment to the zero point.
+_CLEAR_WORD = struct.unpack("<f", bytes([ZERO_POINT] * 4))[0]
 
 
 @dataclass(frozen=True)
@@ -62,7 +72,7 @@ def create_headless_context():
 
 
 class NeuralRasterizer:
-    """Renders the 16-channel neural rasterization of a posed mesh into four RGBA8 attachments.
+    """Renders the 16-channel neural rasterization of a posed mesh into one RGBA32UI attachment.
 
     Args:
         ctx: a moderngl context (headless or a window's); every call must happen where it is current.
@@ -98,9 +108,9 @@ class NeuralRasterizer:
             tex.repeat_x = tex.repeat_y = False  # clamp to edge = grid_sample padding_mode="border"
             self.textures.append(tex)
             self.program[f"u_texture{i}"].value = i
-        self.attachments = [ctx.texture((self.width, self.height), 4) for _ in range(NUM_CHANNELS // 4)]
+        self.attachment = ctx.texture((self.width, self.height), 4, dtype="u4")
         self._depth = ctx.depth_renderbuffer((self.width, self.height))
-        self.fbo = ctx.framebuffer(color_attachments=self.attachments, depth_attachment=self._depth)
+        self.fbo = ctx.framebuffer(color_attachments=[self.attachment], depth_attachment=self._depth)
 
     def draw(self, bone_transforms: np.ndarray, camera) -> None:
         """Render one frame into :attr:`fbo`.
@@ -126,32 +136,40 @@ class NeuralRasterizer:
         ctx.viewport = (0, 0, self.width, self.height)
         ctx.disable(ctx.BLEND | ctx.CULL_FACE)
         ctx.enable(ctx.DEPTH_TEST)
-        z = ZERO_POINT / 255.0
-        self.fbo.clear(z, z, z, z, depth=1.0)
+        self.fbo.clear(_CLEAR_WORD, _CLEAR_WORD, _CLEAR_WORD, _CLEAR_WORD, depth=1.0)
         self.vao.render()
 
     def read(self, out: np.ndarray | None = None) -> np.ndarray:
-        """Read the four attachments into (4, H, W, 4) uint8 (channel 4*i+k = out[i, ..., k]).
-
-        Row 0 is image row 0 (``gl_projection`` flips y). ``out`` is reused when given.
-        """
+        """Read the attachment into (H, W, 16) uint8 (channels last; row 0 = image row 0, as
+        ``gl_projection`` flips y). ``out`` (any C-contiguous uint8 array of H*W*16 bytes, e.g.
+        the renderer's (1, H, W, 16) input) is filled in place when given."""
         if out is None:
-            out = np.empty((4, self.height, self.width, 4), np.uint8)
-        plane = self.height * self.width * 4
-        for i in range(len(self.attachments)):
-            self.fbo.read_into(out, components=4, attachment=i, alignment=1, write_offset=i * plane)
+            out = np.empty((self.height, self.width, NUM_CHANNELS), np.uint8)
+        if not (out.flags.c_contiguous and out.dtype == np.uint8 and out.size == self.height * self.width * NUM_CHANNELS):
+            raise ValueError("read buffer must be C-contiguous uint8 with H*W*16 elements")
+        self.fbo.read_into(out, components=4, dtype="u4", alignment=1)
         return out
 
     def release(self) -> None:
         for obj in [self.vao, self.program, self.fbo, self._depth, self._index, *self._buffers, *self.textures,
-                    *self.attachments]:
+                    self.attachment]:
             obj.release()
 
 
-def planes_to_nchw(planes: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-    """(4, H, W, 4) read-back planes -> (1, 16, H, W) uint8 (channel 4*i+k)."""
-    _, H, W, _ = planes.shape
+def to_layout(hwc: np.ndarray, layout: str, out: np.ndarray | None = None) -> np.ndarray:
+    """(H, W, 16) read-back -> the renderer input in ``layout``: "nhwc" (1, H, W, 16), a view;
+    "nchw" (1, 16, H, W) or "planes" (4, H, W, 4, the layout of an older four-attachment
+    rasterizer), copies (into ``out`` when given)."""
+    H, W, C = hwc.shape
+    if layout == "nhwc":
+        return hwc.reshape(1, H, W, C)
+    if layout == "nchw":
+        src, shape = hwc.transpose(2, 0, 1)[None], (1, C, H, W)
+    elif layout == "planes":
+        src, shape = hwc.reshape(H, W, C // 4, 4).transpose(2, 0, 1, 3), (C // 4, H, W, 4)
+    else:
+        raise ValueError(f"unknown renderer input layout {layout!r}; choose one of {', '.join(LAYOUTS)}")
     if out is None:
-        out = np.empty((1, 16, H, W), np.uint8)
-    out.reshape(4, 4, H, W)[...] = planes.transpose(0, 3, 1, 2)
+        out = np.empty(shape, np.uint8)
+    out[...] = src
     return out

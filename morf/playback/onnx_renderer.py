@@ -22,7 +22,12 @@ def session_options(threads: int = 2, spinning: bool = False):
 
 
 class OnnxRenderer:
-    """uint8 neural rasterization -> (H, W, 4) float32 premultiplied RGB + mask probability."""
+    """uint8 neural rasterization -> premultiplied RGB + mask, or the composited image.
+
+    Graphs exported since compositing moved into the graph have a ``background`` input and an
+    ``image`` output (:func:`morf.export.onnx_graph.append_composite`); for older ones
+    :meth:`image` composites in numpy.
+    """
 
     def __init__(self, path: str | Path, threads: int = 2, spinning: bool = False):
         import onnxruntime as ort
@@ -34,8 +39,33 @@ class OnnxRenderer:
                                                 providers=["CPUExecutionProvider"])
         except Exception as e:  # onnxruntime raises its own exception types for bad files
             raise InputError(f"cannot load renderer {path}: {e}") from None
-        self.input_name = self.session.get_inputs()[0].name
+        inputs = [i.name for i in self.session.get_inputs()]
+        self.input_name = inputs[0]
+        self.composites = "background" in inputs and any(o.name == "image" for o in self.session.get_outputs())
+        self._black = np.zeros((1, 3, 1, 1), np.float32)
 
     def __call__(self, raster: np.ndarray) -> np.ndarray:
-        """raster: uint8 in the graph's layout -> (1, 4, H, W) float32."""
-        return self.session.run(None, {self.input_name: raster})[0]
+        """raster: uint8 in the graph's layout -> (1, 4, H, W) float32 premultiplied RGB + mask."""
+        feed = {self.input_name: raster}
+        if self.composites:
+            feed["background"] = self._black
+        return self.session.run(["rgba"], feed)[0]
+
+    def image(self, raster: np.ndarray, background: np.ndarray) -> np.ndarray:
+        """raster -> (H, W, 3) uint8 composited over ``background`` (see :func:`background_planes`)."""
+        if not self.composites:
+            from morf.playback.composite import composite
+
+            return composite(self(raster), background[0].transpose(1, 2, 0))
+        return self.session.run(["image"], {self.input_name: raster, "background": background})[0][0]
+
+
+def background_planes(background, size: int) -> np.ndarray:
+    """An RGB colour triple or an (H, W, 3) image (0-255) -> the graph's float32 ``background``:
+    (1, 3, 1, 1) for a colour, (1, 3, H, W) for an image (which must be size x size)."""
+    bg = np.asarray(background, np.float32)
+    if bg.shape == (3,):
+        return bg.reshape(1, 3, 1, 1).copy()
+    if bg.shape != (size, size, 3):
+        raise ValueError(f"background must be an RGB triple or a ({size}, {size}, 3) image, got {bg.shape}")
+    return np.ascontiguousarray(bg.transpose(2, 0, 1)[None])

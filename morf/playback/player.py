@@ -1,9 +1,10 @@
 """Real-time playback of an exported avatar: pose in, composited image out (torch-free).
 
 Per frame: numpy forward kinematics (bone matrices) -> GL neural rasterization (skinning in the
-vertex shader, 16 uint8 channels into four RGBA8 attachments) -> read-back -> int8 renderer
-(onnxruntime) -> composite over the background. :meth:`Player.render_sequence` overlaps the GL
-work of frame t+1 with the renderer on frame t (onnxruntime releases the GIL).
+vertex shader, 16 uint8 channels packed into one RGBA32UI attachment) -> read-back straight into
+the renderer's channels-last input -> int8 renderer + composite over the background, both in one
+onnxruntime graph. :meth:`Player.render_sequence` overlaps the GL work of frame t+1 with the
+renderer on frame t (onnxruntime releases the GIL).
 """
 
 from __future__ import annotations
@@ -17,9 +18,8 @@ import numpy as np
 
 from morf.errors import InputError
 from morf.export.avatar_folder import ExportedAvatar, load_exported_avatar
-from morf.playback.composite import composite
-from morf.playback.neural_raster import NeuralRasterizer, create_headless_context, planes_to_nchw
-from morf.playback.onnx_renderer import OnnxRenderer
+from morf.playback.neural_raster import NUM_CHANNELS, NeuralRasterizer, create_headless_context, to_layout
+from morf.playback.onnx_renderer import OnnxRenderer, background_planes
 
 
 class Player:
@@ -47,10 +47,29 @@ class Player:
                                        self.avatar.skeleton.num_bones)
         self.renderer = OnnxRenderer(self.avatar.renderer_path(precision), threads=threads, spinning=spinning)
         self.background = background
-        self._planes = np.empty((4, size, size, 4), np.uint8)
-        self._nchw = np.empty((1, 16, size, size), np.uint8)
+        self._hwc = np.empty((size, size, NUM_CHANNELS), np.uint8)
+        self._input = self._new_input()
         self.output_texture = None
         self.last_timings: dict[str, float] = {}
+
+    @property
+    def background(self):
+        return self._background_value
+
+    @background.setter
+    def background(self, value) -> None:
+        """RGB colour triple or (size, size, 3) image, 0-255."""
+        try:
+            self._background = background_planes(value, self.size)
+        except ValueError as e:
+            raise InputError(str(e)) from None
+        self._background_value = value
+
+    def _new_input(self) -> np.ndarray:
+        """A buffer for one renderer input in the avatar's layout."""
+        n, s = NUM_CHANNELS, self.size
+        shape = {"nhwc": (1, s, s, n), "nchw": (1, n, s, s), "planes": (n // 4, s, s, 4)}[self.avatar.input_layout]
+        return np.empty(shape, np.uint8)
 
     # ---- the stages ------------------------------------------------------------------------
     def _camera(self, camera):
@@ -68,15 +87,15 @@ class Player:
         self.raster.draw(T, self._camera(camera))
         self.ctx.finish()
         t2 = time.perf_counter()
-        if self.avatar.input_layout == "planes":
-            # The read-back already is the renderer input: read straight into the caller's buffer.
-            x = self.raster.read(self._planes if out is None else out)
-            t3 = time.perf_counter()
+        layout = self.avatar.input_layout
+        if layout == "nhwc":  # the read-back is the renderer input: read into the caller's buffer
+            x = self.raster.read(self._input if out is None else out)
+            t3 = t4 = time.perf_counter()
         else:
-            planes = self.raster.read(self._planes)
+            hwc = self.raster.read(self._hwc)
             t3 = time.perf_counter()
-            x = planes_to_nchw(planes, self._nchw if out is None else out)
-        t4 = time.perf_counter()
+            x = to_layout(hwc, layout, self._input if out is None else out)
+            t4 = time.perf_counter()
         self.last_timings.update(bones_ms=(t1 - t0) * 1e3, raster_ms=(t2 - t1) * 1e3, readback_ms=(t3 - t2) * 1e3,
                                  layout_ms=(t4 - t3) * 1e3)
         return x
@@ -84,11 +103,9 @@ class Player:
     def shade(self, raster: np.ndarray) -> np.ndarray:
         """Renderer + composite: uint8 raster -> (H, W, 3) uint8."""
         t0 = time.perf_counter()
-        rgba = self.renderer(raster)
+        img = self.renderer.image(raster, self._background)
         t1 = time.perf_counter()
-        img = composite(rgba, self.background)
-        t2 = time.perf_counter()
-        self.last_timings.update(renderer_ms=(t1 - t0) * 1e3, composite_ms=(t2 - t1) * 1e3)
+        self.last_timings.update(renderer_ms=(t1 - t0) * 1e3)  # the composite runs inside the renderer's graph
         return img
 
     # ---- public entry points -----------------------------------------------------------------
@@ -119,7 +136,7 @@ class Player:
             for rot, tr, cam in frames:
                 yield self.render(rot, tr, cam)
             return
-        buffers = [np.empty_like(self._planes if self.avatar.input_layout == "planes" else self._nchw) for _ in range(2)]
+        buffers = [self._new_input() for _ in range(2)]
         with ThreadPoolExecutor(max_workers=1) as pool:
             pending = None
             for i, (rot, tr, cam) in enumerate(frames):

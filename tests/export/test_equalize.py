@@ -81,7 +81,7 @@ def test_int8_of_an_imbalanced_renderer_stays_close_to_fp32(tmp_path, monkeypatc
 
     def psnr_int8(name):
         export_int8(r, q.scales, tmp_path / name, rasters[:4])
-        run = lambda p, x: ort.InferenceSession(str(p), providers=["CPUExecutionProvider"]).run(None, {"raster": x})[0]  # noqa: E731
+        run = lambda p, x: ort.InferenceSession(str(p), providers=["CPUExecutionProvider"]).run(["rgba"], {"raster": x, "background": np.zeros((1, 3, 1, 1), np.float32)})[0]  # noqa: E731
         err = np.mean([np.mean((run(tmp_path / "f.onnx", x)[:, :3] - run(tmp_path / name, x)[:, :3]) ** 2) for x in rasters[4:]])
         return -10 * np.log10(err)
 

@@ -9,6 +9,8 @@ import torch
 from morf.avatar.renderer import RendererConfig, UNetRenderer
 from morf.export.onnx_renderer import export_fp32, export_int8
 from morf.export.texture_quant import quantize_texture, spectral_texture
+from morf.playback.composite import composite
+from morf.playback.neural_raster import to_layout
 
 H = W = 32
 
@@ -30,8 +32,10 @@ def _torch_reference(renderer, x, scales):
     return torch.cat([y[:, :3], torch.sigmoid(y[:, 3:])], 1).numpy()
 
 
-def _run(path, x):
-    return ort.InferenceSession(str(path), providers=["CPUExecutionProvider"]).run(None, {"raster": x})[0]
+def _run(path, x, output="rgba", background=None):
+    bg = np.zeros((1, 3, 1, 1), np.float32) if background is None else background
+    return ort.InferenceSession(str(path), providers=["CPUExecutionProvider"]).run(
+        [output], {"raster": x, "background": bg})[0]
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +46,7 @@ def renderers():
 
 
 @pytest.mark.parametrize("name", ["stem2", "stem1"])
-@pytest.mark.parametrize("layout", ["nchw", "planes"])
+@pytest.mark.parametrize("layout", ["nhwc", "nchw", "planes"])
 def test_fp32_matches_torch(tmp_path, renderers, name, layout):
     rasters, scales = _rasters(1, seed=1)
     export_fp32(renderers[name], scales, tmp_path / "r.onnx", layout)
@@ -51,7 +55,7 @@ def test_fp32_matches_torch(tmp_path, renderers, name, layout):
     # The per-channel dequantisation was folded into the convolutions: no Mul on the input path.
     assert "Mul" not in [n.op_type for n in model.graph.node[:4]]
     x = rasters[0]
-    feed = x if layout == "nchw" else np.ascontiguousarray(x[0].reshape(4, 4, H, W).transpose(0, 2, 3, 1))
+    feed = to_layout(np.ascontiguousarray(x[0].transpose(1, 2, 0)), layout)
     np.testing.assert_allclose(_run(tmp_path / "r.onnx", feed), _torch_reference(renderers[name], x, scales), atol=2e-5)
 
 
@@ -100,3 +104,25 @@ def test_small_renderer_reads_first_channels(tmp_path):
         y = r(torch.from_numpy((x[:, :8].astype(np.float32) - 128) * scales[None, :8, None, None]))
     ref = torch.cat([y[:, :3], torch.sigmoid(y[:, 3:])], 1).numpy()
     np.testing.assert_allclose(_run(tmp_path / "r.onnx", x), ref, atol=2e-5)
+
+
+@pytest.mark.parametrize("precision", ["fp32", "int8"])
+def test_graph_composites_like_numpy(tmp_path, renderers, precision):
+    """The graph's ``image`` output is the numpy composite of its ``rgba`` output (colour and image
+    backgrounds), channels last, with the same rounding."""
+    rasters, scales = _rasters(3, seed=4)
+    path = tmp_path / "r.onnx"
+    if precision == "fp32":
+        export_fp32(renderers["stem2"], scales, path, "nhwc")
+    else:
+        export_int8(renderers["stem2"], scales, path, rasters, "nhwc")
+    x = to_layout(np.ascontiguousarray(rasters[1][0].transpose(1, 2, 0)), "nhwc")
+    rgba = _run(path, x)
+    colour = np.array([20, 200, 90], np.float32)
+    img = np.random.default_rng(0).integers(0, 256, (H, W, 3)).astype(np.uint8)
+    for bg, feed in [(colour, colour.reshape(1, 3, 1, 1)), (img, img.astype(np.float32).transpose(2, 0, 1)[None])]:
+        out = _run(path, x, "image", np.ascontiguousarray(feed))
+        assert out.shape == (1, H, W, 3) and out.dtype == np.uint8
+        ref = composite(rgba, bg)
+        assert np.abs(out[0].astype(int) - ref).max() <= 1  # float rounding at .5 only
+        assert (out[0] != ref).mean() < 0.01

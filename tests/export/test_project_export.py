@@ -53,7 +53,7 @@ def test_bad_runs_and_configs_are_one_line_errors(trained_capture, tmp_path):
     with pytest.raises(ProjectError, match="has not finished"):
         pick_run(trained_capture, "unfinished")
     with pytest.raises(ProjectError, match="layout"):
-        export_project(trained_capture, ProjectExportConfig(input_layout="nhwc"))
+        export_project(trained_capture, ProjectExportConfig(input_layout="hwcn"))
     from morf.capture.project import CaptureProject
 
     empty = CaptureProject.create(tmp_path / "empty", num_frames=1, width=8, height=8, fps=1.0, source={"kind": "test"})

@@ -10,7 +10,7 @@ from morf.export.export_avatar import skinned_mesh_from_body_model
 from morf.export.skeleton import skeleton_from_body_model
 from morf.export.texture_quant import quantize_texture, spectral_texture
 from morf.playback.camera_paths import front_camera
-from morf.playback.neural_raster import NeuralRasterizer, create_headless_context, planes_to_nchw
+from morf.playback.neural_raster import NeuralRasterizer, create_headless_context
 from morf.raster import rasterize_uv
 
 
@@ -24,7 +24,7 @@ def test_gl_matches_torch_sampling(body_model, still_pose):
     try:
         nr = NeuralRasterizer(ctx, skinned_mesh_from_body_model(body_model, shape), q, 128, 128, skel.num_bones)
         nr.draw(skel.bone_transforms(rot, tr), cam)
-        gl = planes_to_nchw(nr.read())[0].astype(np.int32)
+        gl = nr.read().transpose(2, 0, 1).astype(np.int32)  # (H, W, 16) channels last
         nr.release()
     finally:
         ctx.release()
