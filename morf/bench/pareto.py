@@ -40,6 +40,8 @@ def add_arguments(p) -> None:
     p.add_argument("--scene", choices=("print", "plain", "loose"), default="print",
                    help="synthetic scene when a capture is made")
     p.add_argument("--axes", default=None, help="comma-separated subset of the sweep's knobs (default: all)")
+    p.add_argument("--points", default=None,
+                   help="comma-separated point names (e.g. base,renderer-stem4_b32; default: all on --axes)")
     p.add_argument("--auto-check", action="store_true",
                    help="check --preset auto on the plain, print and loose scenes instead of one sweep")
 
@@ -128,7 +130,8 @@ def charts(rows: list[dict], front: dict, out: Path, fps_size: int, title: str) 
 
 
 def run_sweep(out, preset: str = "default", scene: str = "print", project_path: str | None = None,
-              axes: list[str] | None = None, model=None, extra: list | None = None) -> dict:
+              axes: list[str] | None = None, model=None, extra: list | None = None,
+              points: list[str] | None = None) -> dict:
     """Run (or resume) one sweep and write its JSON, Markdown and charts; returns the result.
 
     ``extra``: (SweepPoint, TrainConfig) pairs measured beside the sweep's own points (the
@@ -144,7 +147,7 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
 
         model = load_body_model("anny")
     project = make_capture(out, sweep, scene, model, project_path)
-    todo = [(p, None) for p in select(sweep, axes)] + list(extra or [])
+    todo = [(p, None) for p in select(sweep, axes, points)] + list(extra or [])
     rows, reused = [], []
     for i, (point, cfg) in enumerate(todo):
         print(f"[{i + 1}/{len(todo)}] {point.name}")
@@ -185,5 +188,6 @@ def run(args) -> int:
         auto_check(Path(args.out), args.preset)
         return 0
     axes = [a.strip() for a in args.axes.split(",") if a.strip()] if args.axes else None
-    run_sweep(Path(args.out), args.preset, args.scene, args.project, axes)
+    points = [a.strip() for a in args.points.split(",") if a.strip()] if args.points else None
+    run_sweep(Path(args.out), args.preset, args.scene, args.project, axes, points=points)
     return 0

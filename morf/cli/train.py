@@ -29,6 +29,9 @@ def add_parser(sub):
     p.add_argument("--vgg", default=None, metavar="PATH",
                    help="VGG-16 weights (torchvision state dict) for the perceptual loss; else $MORF_VGG16_WEIGHTS; "
                         "without them discriminator feature matching is used")
+    p.add_argument("--renderer", default=None, metavar="NAME",
+                   help="renderer size instead of the preset's: stem2_b8, stem2_b16 (cpu), stem2_b24, stem4_b16, "
+                        "stem4_b24, stem4_b32, stem4_b48, plain_b16 (see docs/benchmarks.md for speed against quality)")
     p.add_argument("--device", default="auto", help="auto (CUDA when present), cpu or cuda")
     p.add_argument("--restart", action="store_true", help="delete an existing run of that name and start over")
     return p
@@ -43,6 +46,16 @@ def resolve_config(args, project=None):
     base = "gpu" if torch.cuda.is_available() else "cpu"
     overrides = {k: v for k, v in (("steps", args.steps), ("resolution", args.resolution), ("crop", args.crop),
                                    ("batch_size", args.batch_size)) if v is not None}
+    if getattr(args, "renderer", None):
+        from morf.avatar.renderer import RendererConfig
+        from morf.errors import InputError
+        from morf.sizing.sweep import renderer_fields
+
+        if args.preset == "auto":
+            raise InputError("--renderer and --preset auto both choose the renderer; give one of them")
+        cfg = preset(args.preset or base, args.method, device=args.device, **overrides)
+        rcfg = RendererConfig(in_channels=cfg.texture_channels, **renderer_fields(args.renderer))
+        return cfg.replace(renderer=rcfg), []
     if args.preset == "auto":
         from morf.body import load_body_model
         from morf.sizing.choose import choose_train_config

@@ -169,6 +169,9 @@ def uint8_input(model: onnx.ModelProto, float_input: str, layout: str, new_name:
     return model
 
 
+COMPOSITE_PREFIX = "composite_"
+
+
 def append_composite(model: onnx.ModelProto, rgba: str = "rgba", background: str = "background",
                      image: str = "image") -> onnx.ModelProto:
     """Add the compositing to the graph, in place: a second output ``image`` (1, H, W, 3) uint8 =
@@ -194,7 +197,7 @@ def append_composite(model: onnx.ModelProto, rgba: str = "rgba", background: str
                           numpy_helper.from_array(np.array(255.0, np.float32), "composite_hi"),
                           numpy_helper.from_array(np.array(0.5, np.float32), "composite_half"),
                           numpy_helper.from_array(np.array([1, 3, 0, 0], np.int64), "composite_shape")])
-    g.node.extend([
+    nodes = [
         helper.make_node("Split", [rgba, "composite_split"], ["composite_rgb", "composite_mask"], axis=1),
         helper.make_node("Mul", ["composite_rgb", "composite_255"], ["composite_fg"]),
         helper.make_node("Sub", ["composite_one", "composite_mask"], ["composite_inv"]),
@@ -205,7 +208,10 @@ def append_composite(model: onnx.ModelProto, rgba: str = "rgba", background: str
         helper.make_node("Cast", ["composite_rounded"], ["composite_planes"], to=TensorProto.UINT8),  # truncates: round half up
         helper.make_node("Reshape", ["composite_planes", "composite_shape"], ["composite_fence"]),
         helper.make_node("Transpose", ["composite_fence"], [image], perm=[0, 2, 3, 1]),
-    ])
+    ]
+    for i, node in enumerate(nodes):
+        node.name = f"{COMPOSITE_PREFIX}{i}_{node.op_type}"  # profiles tell the compositing's share by name
+    g.node.extend(nodes)
     g.input.append(helper.make_tensor_value_info(background, TensorProto.FLOAT, [1, 3, "bg_height", "bg_width"]))
     g.output.append(helper.make_tensor_value_info(image, TensorProto.UINT8, [1, "height", "width", 3]))
     return model

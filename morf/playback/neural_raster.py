@@ -134,10 +134,16 @@ class NeuralRasterizer:
             tex.use(i)
         self.fbo.use()
         ctx.viewport = (0, 0, self.width, self.height)
-        ctx.disable(ctx.BLEND | ctx.CULL_FACE)
-        ctx.enable(ctx.DEPTH_TEST)
+        ctx.disable(ctx.BLEND)
+        # Back faces are culled: hidden behind front faces on the closed body, so the image is the
+        # same (identical on 30 views around the body) and llvmpipe shades ~25% fewer fragments.
+        # gl_projection flips y, which turns the mesh's counter-clockwise front faces clockwise.
+        ctx.enable(ctx.DEPTH_TEST | ctx.CULL_FACE)
+        ctx.front_face, ctx.cull_face = "cw", "back"
         self.fbo.clear(_CLEAR_WORD, _CLEAR_WORD, _CLEAR_WORD, _CLEAR_WORD, depth=1.0)
         self.vao.render()
+        ctx.disable(ctx.CULL_FACE)  # the GL default, for whoever draws next in a shared context
+        ctx.front_face = "ccw"
 
     def read(self, out: np.ndarray | None = None) -> np.ndarray:
         """Read the attachment into (H, W, 16) uint8 (channels last; row 0 = image row 0, as

@@ -45,6 +45,7 @@ class Player:
         self.ctx = ctx or create_headless_context()
         self.raster = NeuralRasterizer(self.ctx, self.avatar.mesh, self.avatar.texture, size, size,
                                        self.avatar.skeleton.num_bones)
+        self.precision = precision
         self.renderer = OnnxRenderer(self.avatar.renderer_path(precision), threads=threads, spinning=spinning)
         self.background = background
         self._hwc = np.empty((size, size, NUM_CHANNELS), np.uint8)

@@ -23,6 +23,8 @@ RENDERERS: dict[str, dict] = {
     "stem2_b8": dict(stem=2, width=8, depth=4, max_width=32, skip_hidden=8),
     "stem2_b16": dict(stem=2, width=16, depth=4, max_width=64, skip_hidden=16),  # the "cpu" preset
     "stem2_b24": dict(stem=2, width=24, depth=4, max_width=96, skip_hidden=16),
+    "stem4_b16": dict(stem=4, width=16, depth=4, max_width=64, skip_hidden=16),
+    "stem4_b24": dict(stem=4, width=24, depth=4, max_width=96, skip_hidden=16),
     "stem4_b32": dict(stem=4, width=32, depth=4, max_width=128, skip_hidden=16),
     "stem4_b48": dict(stem=4, width=48, depth=4, max_width=192, skip_hidden=16),
     # CI sizes (the "tiny" training preset's renderer and its neighbours)
@@ -98,7 +100,8 @@ PRESETS: dict[str, SweepPreset] = {
     # By hand, many hours on 2 cores: the full synthetic capture and the "cpu" training preset.
     "default": SweepPreset(
         "default", ("default", {"detector": "none"}), ("cpu", {}), 640, 60,
-        _axis_points(("stem2_b8", "stem2_b24", "stem4_b32", "stem4_b48", "plain_b16"), (128, 512, 1024), (4, 8),
+        _axis_points(("stem2_b8", "stem2_b24", "stem4_b16", "stem4_b24", "stem4_b32", "stem4_b48", "plain_b16"),
+                     (128, 512, 1024), (4, 8),
                      (128, 384), (1000, 6000))),
 }
 
@@ -136,11 +139,15 @@ def train_key(cfg: TrainConfig) -> str:
     return hashlib.sha1(json.dumps(cfg.to_dict(), sort_keys=True).encode()).hexdigest()[:10]
 
 
-def select(sweep: SweepPreset, axes: list[str] | None) -> list[SweepPoint]:
-    """The sweep's points on the given axes (all when None); the base point is always kept."""
-    if not axes:
-        return list(sweep.points)
-    bad = [a for a in axes if a not in AXES]
+def select(sweep: SweepPreset, axes: list[str] | None, names: list[str] | None = None) -> list[SweepPoint]:
+    """The sweep's points on the given axes (all when None), or only those named in ``names``;
+    the base point is always kept (every other point is read against it)."""
+    bad = [a for a in axes or [] if a not in AXES]
     if bad:
         raise InputError(f"unknown sweep axes {bad}; choose from {', '.join(AXES)}")
-    return [p for p in sweep.points if p.axis in axes or p.axis == "base"]
+    known = [p.name for p in sweep.points]
+    unknown = [n for n in names or [] if n not in known]
+    if unknown:
+        raise InputError(f"unknown sweep points {unknown}; the {sweep.name} sweep has {', '.join(known)}")
+    return [p for p in sweep.points if p.axis == "base"
+            or ((not axes or p.axis in axes) and (not names or p.name in names))]

@@ -1,0 +1,32 @@
+"""``morf train`` options that change the configuration (no training here)."""
+
+from types import SimpleNamespace
+
+import pytest
+
+from morf.cli.train import resolve_config
+from morf.errors import InputError
+
+
+def _args(**kw):
+    base = dict(preset="cpu", method="morf", steps=None, resolution=None, crop=None, batch_size=None,
+                device="cpu", renderer=None)
+    return SimpleNamespace(**{**base, **kw})
+
+
+def test_renderer_option_replaces_the_presets_renderer():
+    cfg, reasons = resolve_config(_args(renderer="stem4_b24"))
+    assert reasons == []
+    assert (cfg.renderer.stem, cfg.renderer.width, cfg.renderer.max_width) == (4, 24, 96)
+    assert cfg.renderer.in_channels == cfg.texture_channels
+    default, _ = resolve_config(_args())
+    assert (default.renderer.stem, default.renderer.width) == (2, 16)
+
+
+def test_bad_renderer_choices_are_user_errors():
+    with pytest.raises(InputError, match="unknown renderer"):
+        resolve_config(_args(renderer="huge"))
+    with pytest.raises(InputError, match="--preset auto"):
+        resolve_config(_args(renderer="stem4_b16", preset="auto"))
+    with pytest.raises(InputError, match="multiples"):  # the renderer's size multiple (64) vs a 96 px crop
+        resolve_config(_args(renderer="stem4_b16", resolution=96, crop=96))
