@@ -18,12 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-VARIANTS = {  # name -> RendererConfig fields
-    "plain_b16": dict(stem=1, width=16, depth=4, max_width=64),
-    "stem2_b16_skip": dict(stem=2, width=16, depth=4, max_width=64, skip_hidden=16),  # the "cpu" preset
-    "stem4_b32_skip": dict(stem=4, width=32, depth=4, max_width=128, skip_hidden=16),
-}
-DEFAULT_VARIANT = "stem2_b16_skip"
+VARIANT_NAMES = ("plain_b16", "stem2_b16", "stem4_b16", "stem4_b24", "stem4_b32")  # see morf.sizing.sweep.RENDERERS
+DEFAULT_VARIANT = "stem2_b16"  # the "cpu" training preset's renderer
 
 
 def add_arguments(p) -> None:
@@ -163,10 +159,12 @@ def _build(tmp: Path, names: list[str], size: int) -> dict[str, Path]:
 
     body = load_body_model("anny")
     built = {}
+    from morf.sizing.sweep import RENDERERS
+
     jobs = [(n, "nhwc") for n in names] + [(DEFAULT_VARIANT, "nchw")]
     for name, layout in jobs:
         key = name if layout == "nhwc" else f"{name}@{layout}"
-        cfg = RendererConfig(**VARIANTS[name])
+        cfg = RendererConfig(in_channels=16, **RENDERERS[name])
         print(f"building synthetic avatar {key} ({count_parameters(UNetRenderer(cfg)) / 1e6:.2f} M parameters)", file=sys.stderr)
         build_synthetic_avatar(tmp / key, body_model=body, renderer_cfg=cfg, image_size=size, calibration_views=6,
                                heldout_views=2, input_layout=layout)
@@ -187,7 +185,7 @@ def run(args) -> int:
             avatars = {"given": Path(args.avatar)}
             result["avatar"] = str(Path(args.avatar).resolve())
         else:
-            names = [DEFAULT_VARIANT] if args.no_variants else list(VARIANTS)
+            names = [DEFAULT_VARIANT] if args.no_variants else list(VARIANT_NAMES)
             avatars = _build(Path(tmpd), names, args.size)
             result["avatar"] = f"synthetic: spectral texture 256x256x16 + random-init renderer '{DEFAULT_VARIANT}' (cpu preset)"
         per = {}

@@ -8,7 +8,9 @@ last checkpoint; a finished run is not trained again.
 
 from __future__ import annotations
 
+import copy
 import time
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -25,6 +27,8 @@ from morf.train.frames import FrameSet
 from morf.train.health import CollapseMonitor
 from morf.train.run_dir import RunDir
 from morf.train.trainer import Trainer
+
+SNAPSHOT_EVERY = 100  # steps between in-memory snapshots of a healthy state (rollback targets)
 
 
 @dataclass(frozen=True)
@@ -127,9 +131,16 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
     losses: dict[str, float] = {}
     monitor = CollapseMonitor()
     recoveries = 0
+    # Rollback targets: (state, recoveries when taken). Checkpoints are minutes apart (and short
+    # runs never write one before the end), so healthy states are also kept in memory; a rollback
+    # takes the older of the two latest snapshots, so a collapse that began before the monitor
+    # saw it is not restored.
+    snapshots: deque = deque(maxlen=2)
+    ckpt = (trainer.step if run.has_checkpoint else None, 0)  # (step, recoveries) of the disk checkpoint
     while trainer.step < cfg.steps:
         if control.stop_requested:
             t_session = save()
+            ckpt = (trainer.step, recoveries)
             run.log(f"stopped at step {trainer.step}")
         control.check()
         try:
@@ -140,16 +151,24 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         except TrainingDiverged as e:
             kept = f"; the last good checkpoint ({run.checkpoint_path}) is kept" if run.has_checkpoint else ""
             run.log(f"diverged: {e}")
-            if recoveries >= cfg.max_recoveries or not run.has_checkpoint:
+            snap = snapshots[0] if snapshots else None
+            use_snap = snap is not None and (ckpt[0] is None or snap[0]["step"] >= ckpt[0])
+            if recoveries >= cfg.max_recoveries or not (use_snap or run.has_checkpoint):
                 raise TrainingDiverged(f"{e}{kept}") from None
             recoveries += 1
             spent = trainer.elapsed_s + time.monotonic() - t_session  # the lost steps took time too
-            trainer.load_state_dict(run.load_checkpoint(map_location=trainer.device))
+            if use_snap:
+                trainer.load_state_dict(snap[0])
+                taken = snap[1]
+            else:
+                trainer.load_state_dict(run.load_checkpoint(map_location=trainer.device))
+                taken = ckpt[1]
             trainer.elapsed_s, t_session = spent, time.monotonic()
-            trainer.scale_learning_rates(0.5)
+            trainer.scale_learning_rates(0.5 ** (recoveries - taken))  # halved once per recovery
             monitor.reset()
-            run.log(f"rolled back to the checkpoint of step {trainer.step} with the learning rates halved "
-                    f"(recovery {recoveries} of {cfg.max_recoveries})")
+            snapshots.clear()
+            run.log(f"rolled back to the {'in-memory state' if use_snap else 'checkpoint'} of step {trainer.step} "
+                    f"with the learning rates halved (recovery {recoveries} of {cfg.max_recoveries})")
             continue
         s = trainer.step
         if s % cfg.log_every == 0 or s == cfg.steps:
@@ -157,9 +176,12 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         if s % cfg.report_every == 0 or s == cfg.steps:
             control.report(Progress("train", s, cfg.steps, f"training {cfg.method}", losses,
                                     _preview(out, batch, trainer.model.texture.texture)))
+        if s % SNAPSHOT_EVERY == 0 and monitor.healthy:
+            snapshots.append((copy.deepcopy(trainer.state_dict()), recoveries))
         if time.monotonic() - last_ckpt > cfg.checkpoint_minutes * 60 and monitor.healthy:
             t_session = save()
             last_ckpt = t_session
+            ckpt = (trainer.step, recoveries)
     t_session = save()
     run.log(f"main stage done at step {trainer.step}: " + ", ".join(f"{k} {v:.4f}" for k, v in losses.items()))
 

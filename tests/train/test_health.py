@@ -11,8 +11,9 @@ from morf.train.run_dir import RunDir
 
 
 def _cfg(**kw):
+    kw = {"steps": 8, "checkpoint_minutes": 0.0, **kw}  # default: a checkpoint after every step
     return preset("tiny", "stylepeople", resolution=32, batch_size=2, texture_size=32, inpaint_steps=0,
-                  steps=8, checkpoint_minutes=0.0, device="cpu", **kw)  # checkpoint after every step
+                  device="cpu", **kw)
 
 
 def _texture(cfg):
@@ -78,3 +79,20 @@ def test_repeated_collapse_stops_with_the_checkpoint_kept(frames_factory, tmp_pa
     run = RunDir(tmp_path / "run")
     assert run.load_checkpoint()["step"] == 4 and not run.is_done
     assert all(torch.isfinite(v).all() for v in run.load_checkpoint()["model"].values() if v.is_floating_point())
+
+
+def test_collapse_before_any_checkpoint_rolls_back_to_a_snapshot(frames_factory, tmp_path, monkeypatch):
+    """Short runs write no checkpoint before the end: a collapse rolls back to the older of the
+    two latest in-memory snapshots, and a second one halves the rates again."""
+    import morf.train.loop as loop
+
+    monkeypatch.setattr(loop, "SNAPSHOT_EVERY", 2)
+    frames = frames_factory()
+    cfg = _cfg(checkpoint_minutes=1e6, steps=12)
+    _collapse_at(monkeypatch, {7, 12})  # update calls: 1-6 = steps 1-6, 7 collapses; after it call n = step + 1
+    res = train_avatar(frames, tmp_path / "run", cfg, _texture(cfg))
+    log = (RunDir(res.run_dir).root / "train.log").read_text()
+    assert "rolled back to the in-memory state of step 4" in log  # snapshots 4 and 6 were held
+    assert "recovery 2 of 2" in log and res.step == 12
+    lrs = [g["lr"] for g in RunDir(res.run_dir).load_checkpoint()["opt"]["param_groups"]]
+    assert all(abs(lr - 0.25 * base) < 1e-12 for lr, base in zip(lrs, [cfg.lr_texture, cfg.lr_renderer]))
