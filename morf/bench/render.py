@@ -1,7 +1,8 @@
 """``morf bench render --out DIR [--avatar DIR]``: live playback speed at 640x640, end to end.
 
 End to end = pose in, composited image out: numpy bone matrices -> GL neural rasterization ->
-read-back -> layout -> int8 renderer (onnxruntime, 2 threads, no spinning) -> composite.
+read-back (already the renderer's channels-last input) -> int8 renderer + composite (one
+onnxruntime graph, 2 threads, no spinning; the compositing's share comes from its profiler).
 Without ``--avatar`` it builds synthetic avatars (spectral texture + random-init renderers of
 several sizes; speed does not depend on training). Building needs torch; every measurement runs
 in a fresh process that never imports torch (their thread pools would interfere).
@@ -44,7 +45,7 @@ def _motion(n: int, num_bones: int, seed: int = 0) -> tuple[np.ndarray, np.ndarr
 
 def time_player(p, rot, tr, cams, frames: int, steps: dict | None = None) -> tuple[float, float]:
     """Seconds per frame over frames 5.. of a motion (the first 5 are warm-up, played by the caller),
-    and the median milliseconds of the renderer alone on one rasterization. ``steps`` collects the
+    and the median milliseconds of the renderer graph alone (network + compositing) on one rasterization. ``steps`` collects the
     player's per-step timings when given."""
     t0 = time.perf_counter()
     for i in range(5, len(rot)):
@@ -57,7 +58,7 @@ def time_player(p, rot, tr, cams, frames: int, steps: dict | None = None) -> tup
     rt = []
     for _ in range(max(10, frames // 3)):
         t1 = time.perf_counter()
-        p.renderer(x)
+        p.shade(x)  # the renderer graph: network + compositing
         rt.append((time.perf_counter() - t1) * 1e3)
     return seq, float(np.median(rt))
 
@@ -80,13 +81,13 @@ def measure(avatar_dir: str, size: int, frames: int) -> dict:
         piped = (time.perf_counter() - t0) / frames
         out["breakdown_ms"] = {k: float(np.median(v)) for k, v in steps.items()}
         out["renderer_only_ms"] = renderer_ms
+        out["peak_rss_mb"] = _peak_rss_mb()  # before the profiling session and the fp32 comparison below
         share = composite_share(p, p.rasterize(rot[0], tr[0], cams[0]))
         if share is not None:  # the renderer graph also composites: split its time by the profile
             bd = out["breakdown_ms"]
             bd["composite_ms"] = bd["renderer_ms"] * share
             bd["renderer_ms"] -= bd["composite_ms"]
             out["composite_share_of_graph"] = share
-    out["peak_rss_mb"] = _peak_rss_mb()  # before the fp32 comparison below
     out.update(frame_ms=seq * 1e3, fps_end_to_end=1.0 / seq, frame_ms_pipelined=piped * 1e3,
                fps_pipelined=1.0 / piped)
     with Player(avatar_dir, size=size, background=(255, 255, 255), precision="fp32") as p32:
