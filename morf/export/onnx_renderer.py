@@ -57,6 +57,36 @@ def colour_range(renderer, inputs, mask_threshold: float = 0.02) -> tuple[float,
     return lo, hi
 
 
+def widen_input(renderer, channels: int):
+    """A copy of a UNetRenderer that reads ``channels`` input channels, the extra ones with zero
+    weights (the same function of the first ``cfg.in_channels``). Small presets train on the
+    first 4 or 8 texture channels while the GL rasterization always carries 16: reading them all
+    keeps the uint8 input folded into the first convolutions, where a channel Slice left a float
+    Mul + Slice on the full-resolution input (channels 4 and 8 played slower than 16)."""
+    import copy
+    import dataclasses
+
+    import torch
+
+    cfg = getattr(renderer, "cfg", None)
+    if cfg is None or not hasattr(renderer, "stem") or cfg.in_channels >= channels:
+        return renderer
+    wide = copy.deepcopy(renderer)
+    extra = channels - cfg.in_channels
+
+    def pad(conv: torch.nn.Conv2d, at: int) -> None:
+        w = conv.weight.data
+        z = torch.zeros(w.shape[0], extra, *w.shape[2:], dtype=w.dtype)
+        conv.weight = torch.nn.Parameter(torch.cat([w[:, :at], z, w[:, at:]], dim=1))
+        conv.in_channels += extra
+
+    pad(wide.stem[0], cfg.in_channels)
+    if cfg.stem > 1:  # the full-resolution head reads cat(h, x): x's channels come last
+        pad(wide.head[0], wide.head[0].in_channels)
+    wide.cfg = dataclasses.replace(cfg, in_channels=channels)
+    return wide
+
+
 def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int],
                         colours: tuple[float, float] | None = None) -> tuple[onnx.ModelProto, str | None]:
     """Export ``renderer(x * 127 * scales)`` with output RGB + sigmoid(mask) and fold the scale.
@@ -120,7 +150,7 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
 def export_fp32(renderer, scales: np.ndarray, path: str | os.PathLike, layout: str = "nchw",
                 sample_hw: tuple[int, int] = (128, 128)) -> None:
     """Write the fp32 renderer with a uint8 input (see module docstring)."""
-    model = uint8_input(_export_float_graph(renderer, scales, sample_hw)[0], FLOAT_INPUT, layout)
+    model = uint8_input(_export_float_graph(widen_input(renderer, len(scales)), scales, sample_hw)[0], FLOAT_INPUT, layout)
     append_composite(model)
     onnx.checker.check_model(model)
     _save(model, path)
@@ -156,6 +186,7 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
 
     from morf.export.equalize import dequantized_inputs, equalize_renderer
 
+    renderer = widen_input(renderer, len(scales))
     calibration = list(calibration)
     cfg = getattr(renderer, "cfg", None)
     used = int(getattr(cfg, "in_channels", len(scales)))

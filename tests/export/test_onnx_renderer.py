@@ -1,5 +1,7 @@
 """ONNX renderers: fp32 graph against torch (tight), int8 against fp32 (PSNR bound), uint8 input."""
 
+import warnings
+
 import numpy as np
 import onnx
 import onnxruntime as ort
@@ -98,7 +100,12 @@ def test_small_renderer_reads_first_channels(tmp_path):
     torch.manual_seed(1)
     r = UNetRenderer(RendererConfig(in_channels=8, width=8, depth=2, stem=2, skip_hidden=8)).eval()
     rasters, scales = _rasters(1, seed=3)
-    export_fp32(r, scales, tmp_path / "r.onnx")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the input scale must fold: no float Mul + Slice on the input
+        export_fp32(r, scales, tmp_path / "r.onnx")
+    g = onnx.load(tmp_path / "r.onnx").graph
+    deq = next(n for n in g.node if n.op_type == "DequantizeLinear" and n.input[0] == "raster")
+    assert {n.op_type for n in g.node if deq.output[0] in n.input} == {"Conv"}  # folded: convs read it directly
     x = rasters[0]
     with torch.no_grad():
         y = r(torch.from_numpy((x[:, :8].astype(np.float32) - 128) * scales[None, :8, None, None]))
