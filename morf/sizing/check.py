@@ -3,7 +3,8 @@
 For each synthetic scene (plain clothing, high-frequency print, loose garment) the automatic
 choice is made from the capture, trained and measured beside the sweep's sizing points
 (renderer, texture resolution, channels). It passes on a scene when no sweep point is at least
-as fast and more than ``SizingRule.quality_margin_db`` better on the person's PSNR
+as fast and more than ``SizingRule.quality_margin_db`` better on the person's PSNR, or as good and
+more than ``SizingRule.fps_margin_frac`` faster (the fps measurement's noise)
 (:func:`morf.sizing.front.near_front`). Writes ``OUT/auto_check.json`` and ``OUT/auto_check.md``;
 each scene's sweep is in ``OUT/<scene>/`` (resumable like any sweep).
 """
@@ -44,7 +45,8 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER)
         i = next(k for k, p in enumerate(pts) if p["name"] == "auto")
         vals = [[p.get(QUALITY), p.get("fps")] for p in pts]
         vals = [[float("nan") if v is None else v for v in pair] for pair in vals]
-        ok = near_front(vals, i, (rule.quality_margin_db, 0.0))
+        fps_margin = rule.fps_margin_frac * vals[i][1] if vals[i][1] == vals[i][1] else 0.0  # NaN-safe
+        ok = near_front(vals, i, (rule.quality_margin_db, fps_margin))
         best = max((p[QUALITY] for p in pts if p.get(QUALITY) is not None), default=None)
         a = pts[i]
         rows.append({"scene": scene, "texture_size": cfg.texture_size, "texture_channels": cfg.texture_channels,
@@ -58,7 +60,8 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER)
                "rule": rule.__dict__, "scenes": details, "table": rows, "distinct_choices": distinct,
                "all_near_front": all(r["near_front"] for r in rows), "machine": machine_info()}
     md = ("# Automatic size choice against the sweep\n\n"
-          f"near_front: no sweep point is as fast and more than {rule.quality_margin_db} dB better "
+          f"near_front: no sweep point is as fast and more than {rule.quality_margin_db} dB better, or as good "
+          f"and more than {rule.fps_margin_frac:.0%} faster "
           f"({QUALITY}).\n\n" + markdown_table(rows, list(rows[0])) if rows else "")
     md += "".join(f"\n## {s}\n\n" + "\n".join(f"- {r}" for r in d["reasons"]) + "\n" for s, d in details.items())
     write_results(out, "auto_check", summary, md)

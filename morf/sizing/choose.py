@@ -8,10 +8,11 @@ The rule (thresholds in :class:`SizingRule`, calibration in docs/benchmarks.md):
    is about 1.16 person heights), capped by the height in the capture (upsampling adds nothing).
    Detailed clothing needs about one texel per pixel; plain clothing is band-limited and keeps
    its look at half that. S = the smallest power of two >= density * h / 0.82, in [64, 1024].
-2. Channels: 16 for detailed clothing, 8 for medium, 4 for plain (never above the base preset).
-3. Renderer: one step down the preset's ladder for plain, tight clothing; one step up when much
-   of the person lies outside the fitted body (loose garments, hair), which the renderer must
-   draw without the mesh; else the preset's renderer.
+2. Channels: 16 for detailed and medium clothing, 8 for plain (never above the base preset).
+3. Renderer: the preset's. The rule can step down the preset's ladder for plain, tight clothing
+   and up when much of the person lies outside the fitted body (``SizingRule`` steps), but on the
+   quick sweep (docs/benchmarks.md) a smaller renderer cost 1.6-3.7 dB and a larger one gained
+   nothing on plain, print and loose scenes, so both steps are 0.
 
 Frame count and motion range do not change the sizes (they decide what can be learned at all);
 they are reported so a user sees why a capture may disappoint.
@@ -43,10 +44,16 @@ class SizingRule:
     density_high: float = 1.0  # texels per training pixel for detailed clothing
     density_mid: float = 0.7  # ... for medium detail
     density_low: float = 0.5  # ... for plain clothing
-    excess_high: float = 0.2  # share of the mask outside the fitted body that calls for a larger renderer
+    excess_high: float = 0.2  # share of the mask outside the fitted body that counts as loose garments
+    channels_by_detail: tuple[int, int, int] = (8, 16, 16)  # plain, medium, detailed (4 plain / 8 medium cost 1.3 dB)
+    plain_renderer_step: int = 0  # ladder steps for plain, tight clothing (-1 = one smaller; b8 cost 1.6 dB)
+    loose_renderer_step: int = 0  # ... for loose garments (+1 = one larger; b24 gained nothing, 30 % slower)
     min_texture: int = 64
     max_texture: int = 1024
     quality_margin_db: float = 0.5  # "near the best": within this much person-PSNR of the best on the sweep
+    # ... and within this share of its fps: one sweep measured the same model at 25.3 and 25.8 fps
+    # and graphs of equal cost at 20.6-27.2 fps (20 frames each on a shared VM)
+    fps_margin_frac: float = 0.2
 
 
 def _pow2_at_least(x: float, lo: int, hi: int) -> int:
@@ -73,25 +80,28 @@ def choose_from_features(f: CaptureFeatures, base: TrainConfig, base_preset: str
     reasons.append(f"clothing detail {f.detail:.3f} (fine-band RMS; {rule.detail_low} / {rule.detail_high} "
                    f"split plain / medium / detailed): {level} -> {density} texels per pixel -> "
                    f"texture {size}x{size}")
-    channels = {"high": 16, "mid": 8, "low": 4}[level]
+    channels = dict(zip(("low", "mid", "high"), rule.channels_by_detail))[level]
     channels = min(channels, base.texture_channels)
     reasons.append(f"{level} detail -> {channels} texture channels (base preset: {base.texture_channels})")
     ladder = LADDERS.get(base_preset)
     rfields = {k: v for k, v in dataclasses.asdict(base.renderer).items() if k != "in_channels"}
     if ladder:
-        step = 1
+        mid = 1  # the middle of a ladder is the preset's own renderer
         excess = f.silhouette_excess
         if excess is not None and excess >= rule.excess_high:
-            step = 2
+            step = rule.loose_renderer_step
             why = f"{excess:.0%} of the person lies outside the fitted body (>= {rule.excess_high:.0%}: loose garments)"
         elif level == "low" and (excess is None or excess < rule.excess_high):
-            step = 0
+            step = rule.plain_renderer_step
             why = "plain clothing that follows the body"
         else:
+            step = 0
             why = "neither plain nor loose" + (f" ({excess:.0%} of the person outside the fitted body)"
                                                if excess is not None else "")
-        rfields = renderer_fields(ladder[step])
-        reasons.append(f"renderer {ladder[step]}: {why}")
+        name = ladder[min(max(mid + step, 0), len(ladder) - 1)]
+        rfields = renderer_fields(name)
+        reasons.append(f"renderer {name}: {why}" + ("" if step else " (the preset's renderer: other sizes did not "
+                                                                    "pay on the calibration sweep)"))
     else:
         reasons.append(f"renderer of the {base_preset!r} preset kept (no smaller/larger ladder for it)")
     if f.frames < 60:

@@ -96,7 +96,7 @@ PRESETS: dict[str, SweepPreset] = {
     # 128 px (100 steps gave person PSNRs of 9 dB: no quality signal).
     "quick": SweepPreset(
         "quick", ("default", {"frames": 32, "size": 192, "holdout_frames": 8, "detector": "none"}),
-        ("cpu", {"resolution": 128, "batch_size": 2, "steps": 600, "inpaint_steps": 20, "inpaint_views": 4}), 640, 20,
+        ("cpu", {"resolution": 128, "batch_size": 2, "steps": 600, "inpaint_steps": 20, "inpaint_views": 4}), 640, 60,
         _axis_points(("stem2_b8", "stem2_b24", "stem4_b24"), (128, 512), (4, 8), (64, 192), (200, 1500))),
     # By hand, many hours on 2 cores: the full synthetic capture and the "cpu" training preset.
     "default": SweepPreset(

@@ -49,7 +49,7 @@ def test_auto_picks_larger_texture_for_detailed_clothing(tmp_path):
     cfg_fine, why_fine = choose_train_config(FakeProject(tmp_path, "print"), "cpu")
     assert cfg_fine.texture_size > cfg_plain.texture_size
     assert cfg_fine.texture_channels > cfg_plain.texture_channels
-    assert cfg_fine.renderer.width > cfg_plain.renderer.width  # plain, tight clothing: one step down
+    assert cfg_fine.renderer.width == cfg_plain.renderer.width == 16  # calibrated: the preset's renderer
     assert cfg_plain.renderer.in_channels == cfg_plain.texture_channels
     assert cfg_fine.preset == "auto" and any("texture" in r for r in why_fine) and why_plain
 
@@ -63,7 +63,10 @@ def test_rule_follows_person_height_and_looseness():
     big_cfg, _ = choose_from_features(f, base, "cpu")
     small_cfg, _ = choose_from_features(small, base, "cpu")
     loose_cfg, reasons = choose_from_features(loose, base, "cpu")
+    stepping = SizingRule(plain_renderer_step=-1, loose_renderer_step=1)
+    loose_step, _ = choose_from_features(loose, base, "cpu", stepping)
     # 256 px training crop -> about 221 px of person -> 221 / 0.82 = 269 texels -> 512 at density 1
     assert big_cfg.texture_size == 512 and small_cfg.texture_size == 128
-    assert loose_cfg.renderer.width > big_cfg.renderer.width and any("loose" in r for r in reasons)
+    assert loose_cfg.renderer.width == big_cfg.renderer.width and any("loose" in r for r in reasons)
+    assert loose_step.renderer.width > big_cfg.renderer.width  # the ladder still works when asked
     assert SizingRule().quality_margin_db > 0
