@@ -90,8 +90,8 @@ class UNetRenderer(nn.Module):
         """The final convolution: 3 linear RGB channels and the mask logit."""
         return self.head if self.cfg.stem == 1 else self.head[-1]
 
-    def features(self, x: torch.Tensor) -> torch.Tensor:
-        """Everything before :attr:`last` (the exporter splits that convolution per output)."""
+    def trunk(self, x: torch.Tensor) -> torch.Tensor:
+        """The U-Net from the stem to its last decoder level (at 1/stem of the input size)."""
         h = self.enc0(self.stem(x))
         skips = [h]
         for layer in self.down:
@@ -100,6 +100,11 @@ class UNetRenderer(nn.Module):
         for layer in self.up:
             h = F.interpolate(h, scale_factor=2.0, mode="bilinear", align_corners=False)
             h = layer(torch.cat([h, skips.pop()], dim=1))
+        return h
+
+    def features(self, x: torch.Tensor) -> torch.Tensor:
+        """Everything before :attr:`last` (the exporter splits that convolution per output)."""
+        h = self.trunk(x)
         if self.cfg.stem == 1:
             return h
         # head[0] is a 1x1 conv on cat(upsample(h), x). A 1x1 conv commutes with bilinear

@@ -114,7 +114,7 @@ def composite_share(player, raster, runs: int = 10) -> float | None:
         s = ort.InferenceSession(str(player.avatar.renderer_path(player.precision)), opts,
                                  providers=["CPUExecutionProvider"])
         for _ in range(runs):
-            s.run(["image"], {player.renderer.input_name: raster, "background": player._background})
+            s.run(["image"], {player.renderer.input_name: raster, "background": player.background_planes})
         events = json.loads(Path(s.end_profiling()).read_text())
     total = comp = 0.0
     for e in events:

@@ -66,6 +66,11 @@ class Player:
             raise InputError(str(e)) from None
         self._background_value = value
 
+    @property
+    def background_planes(self) -> np.ndarray:
+        """The background as the renderer graph's ``background`` input."""
+        return self._background
+
     def _new_input(self) -> np.ndarray:
         """A buffer for one renderer input in the avatar's layout."""
         n, s = NUM_CHANNELS, self.size
