@@ -72,10 +72,8 @@ class Player:
         return self._background
 
     def _new_input(self) -> np.ndarray:
-        """A buffer for one renderer input in the avatar's layout."""
-        n, s = NUM_CHANNELS, self.size
-        shape = {"nhwc": (1, s, s, n), "nchw": (1, n, s, s), "planes": (n // 4, s, s, 4)}[self.avatar.input_layout]
-        return np.empty(shape, np.uint8)
+        """A buffer for one renderer input in the avatar's layout (``to_layout`` knows the shapes)."""
+        return np.empty_like(to_layout(self._hwc, self.avatar.input_layout))
 
     # ---- the stages ------------------------------------------------------------------------
     def _camera(self, camera):
