@@ -42,6 +42,17 @@ def test_monitor_is_quiet_before_the_mask_is_learned_and_on_noise():
     assert CollapseMonitor().update({"l1": 0.1}) is None  # no mask loss (no Dice): nothing to judge
 
 
+def test_monitor_reports_a_mask_that_never_formed():
+    m = CollapseMonitor()
+    out = _feed(m, [0.9] * 10 + [1.0] * 300)  # the discriminator won before the mask was learned
+    first = next(i for i, r in enumerate(out) if r)
+    assert first >= m.grace - 1 and "never formed" in out[first]
+    m = CollapseMonitor()
+    assert not any(_feed(m, [0.9] * 150 + [0.6] * 300))  # slow but forming: not flagged
+    m = CollapseMonitor()
+    assert not any(_feed(m, [1.0] * 150))  # within the grace period (short runs, the tiny preset)
+
+
 def _collapse_at(monkeypatch, steps):
     """Make the monitor report a collapse on the given step numbers (as counted by update calls)."""
     calls = {"n": 0}
