@@ -54,9 +54,12 @@ class CollapseMonitor:
 
     @property
     def healthy(self) -> bool:
-        """False while the running Dice is far above the best it reached (a collapse may be starting)."""
-        if self.mean is None or self.best >= self.learned:
+        """False while the running Dice is far above the best it reached (a collapse may be starting),
+        or while there is no mask at all (a state not worth returning to)."""
+        if self.mean is None:
             return True
+        if self.best >= self.learned:
+            return self.mean <= self.never_formed
         return self.mean <= 2.0 * self.best + 0.05
 
     def reset(self) -> None:

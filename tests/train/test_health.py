@@ -47,6 +47,7 @@ def test_monitor_reports_a_mask_that_never_formed():
     out = _feed(m, [0.9] * 10 + [1.0] * 300)  # the discriminator won before the mask was learned
     first = next(i for i, r in enumerate(out) if r)
     assert first >= m.grace - 1 and "never formed" in out[first]
+    assert not m.healthy  # a state without a mask is no rollback target
     m = CollapseMonitor()
     assert not any(_feed(m, [0.9] * 150 + [0.6] * 300))  # slow but forming: not flagged
     m = CollapseMonitor()
