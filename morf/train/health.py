@@ -10,6 +10,14 @@ above ``collapsed`` after it had once been below ``learned``, or when the mask n
 same failure before the mask was ever learned: seen in a 3000-step cpu-preset run with a 128^2
 texture, Dice 1.0 from step 160 to the end, and in one 400-step stability run). ``healthy`` says whether the
 current state may be saved as a checkpoint (it is not while the Dice is far above its best).
+
+Why a mask never forms: the renderer's mask starts flat (p = 0.12 everywhere) and forms in a jump
+around step 20; with the discriminator's feature matching and GAN terms on from step 0, that jump
+can overshoot to a mask logit far below zero everywhere, where the sigmoid's gradient vanishes
+and neither Dice nor anything else brings it back (same run, same data up to step 17, 128^2
+texture dies at step 21, 256^2 forms). Rolling back does not help (there is no earlier state with
+a mask); the training loop restarts from step 0 with the adversarial terms held off until the
+mask has formed (``formed``), which in that run formed the mask by step 47 (Dice 0.02 at step 190).
 """
 
 from __future__ import annotations
@@ -35,6 +43,12 @@ class CollapseMonitor:
         self.mean: float | None = None
         self.best = math.inf
         self.steps = 0
+        self.kind: str | None = None  # of the last reported failure: "collapsed" | "never_formed"
+
+    @property
+    def formed(self) -> bool:
+        """Whether the mask has been learned (the running Dice was once below ``learned``)."""
+        return self.best < self.learned
 
     def update(self, losses: dict[str, float]) -> str | None:
         """Feed one step's losses; returns a reason when the run has collapsed, else None."""
@@ -45,9 +59,11 @@ class CollapseMonitor:
         self.best = min(self.best, self.mean)
         self.steps += 1
         if self.best < self.learned and self.mean > self.collapsed:
+            self.kind = "collapsed"
             return (f"the mask collapsed (Dice {self.mean:.3f}, was {self.best:.3f}): the renderer now draws "
                     "no person")
         if self.best >= self.learned and self.steps >= self.grace and self.mean > self.never_formed:
+            self.kind = "never_formed"
             return (f"the mask never formed (Dice {self.mean:.3f} after {self.steps} steps): the renderer "
                     "draws no person")
         return None

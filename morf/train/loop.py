@@ -92,8 +92,9 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         shape, camera: stored with the avatar for export; notes: extra lines for the log.
     Raises:
         TrainingDiverged: NaN/inf or a collapsed mask (``health.py``) that rolling back to the last
-            checkpoint with halved learning rates (``cfg.max_recoveries`` times) did not cure; the
-            last good checkpoint is kept.
+            checkpoint with halved learning rates (``cfg.max_recoveries`` times) did not cure, or a
+            mask that did not form even after a restart with the adversarial terms held; the last
+            good checkpoint is kept.
         StopRequested: the user stopped; a checkpoint of the current step was written first.
     """
     control = control or StageControl()
@@ -137,6 +138,9 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
     # saw it is not restored.
     snapshots: deque = deque(maxlen=2)
     ckpt = (trainer.step if run.has_checkpoint else None, 0)  # (step, recoveries) of the disk checkpoint
+    # A mask that never formed has no earlier state worth returning to: such a run restarts once
+    # from its initial state with the adversarial terms held until the mask forms (health.py).
+    initial = copy.deepcopy(trainer.state_dict()) if trainer.step == 0 and not trainer.hold_adversarial else None
     while trainer.step < cfg.steps:
         if control.stop_requested:
             t_session = save()
@@ -151,6 +155,18 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         except TrainingDiverged as e:
             kept = f"; the last good checkpoint ({run.checkpoint_path}) is kept" if run.has_checkpoint else ""
             run.log(f"diverged: {e}")
+            if monitor.kind == "never_formed" and initial is not None:
+                spent = trainer.elapsed_s + time.monotonic() - t_session
+                trainer.load_state_dict(initial)
+                initial = None
+                trainer.hold_adversarial = True
+                trainer.elapsed_s, t_session = spent, time.monotonic()
+                monitor = CollapseMonitor()
+                snapshots.clear()
+                t_session = save()  # the step-0 restart replaces any checkpoint of the failed attempt
+                ckpt = (trainer.step, recoveries)
+                run.log("restarted from step 0 with the adversarial terms off until the mask forms")
+                continue
             snap = snapshots[0] if snapshots else None
             use_snap = snap is not None and (ckpt[0] is None or snap[0]["step"] >= ckpt[0])
             if recoveries >= cfg.max_recoveries or not (use_snap or run.has_checkpoint):
@@ -171,6 +187,9 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
                     f"with the learning rates halved (recovery {recoveries} of {cfg.max_recoveries})")
             continue
         s = trainer.step
+        if trainer.hold_adversarial and monitor.formed:
+            trainer.hold_adversarial = False
+            run.log(f"the mask formed at step {s}: adversarial terms on")
         if s % cfg.log_every == 0 or s == cfg.steps:
             run.append_metrics({"step": s, "time_s": trainer.elapsed_s + time.monotonic() - t_session, **losses})
         if s % cfg.report_every == 0 or s == cfg.steps:

@@ -71,11 +71,14 @@ class Trainer:
         self.perceptual = perceptual.to(self.device) if perceptual is not None else None
         self.step = 0
         self.elapsed_s = 0.0  # training wall time over all sessions of this run
+        # Adversarial terms (GAN, feature matching, discriminator updates) held off until the mask
+        # has formed: set by the training loop when restarting a run whose mask never formed.
+        self.hold_adversarial = False
 
     # ---- state ----------------------------------------------------------------------------
     def state_dict(self) -> dict:
-        d = {"step": self.step, "elapsed_s": self.elapsed_s, "model": self.model.state_dict(),
-             "opt": self.opt.state_dict()}
+        d = {"step": self.step, "elapsed_s": self.elapsed_s, "hold_adversarial": self.hold_adversarial,
+             "model": self.model.state_dict(), "opt": self.opt.state_dict()}
         if self.disc is not None:
             d["disc"] = self.disc.state_dict()
             d["opt_d"] = self.opt_d.state_dict()
@@ -89,6 +92,7 @@ class Trainer:
             self.opt_d.load_state_dict(d["opt_d"])
         self.step = int(d["step"])
         self.elapsed_s = float(d.get("elapsed_s", 0.0))
+        self.hold_adversarial = bool(d.get("hold_adversarial", False))
 
     def scale_learning_rates(self, factor: float) -> None:
         """Multiply every optimizer's learning rates (kept in the optimizer state, so in checkpoints)."""
@@ -111,7 +115,7 @@ class Trainer:
         """One optimisation step. Raises :class:`TrainingDiverged` on NaN/inf (nothing is updated then)."""
         cfg = self.cfg
         batch = self.next_batch()
-        gan_on = self.disc is not None and self.step >= cfg.gan_start
+        gan_on = self.disc is not None and self.step >= cfg.gan_start and not self.hold_adversarial
         self.model.train()
         out = render_batch(self.model, batch, cfg.bf16)
         losses = generator_losses(cfg, out, batch, self.disc, self.perceptual, gan_on)

@@ -108,3 +108,67 @@ def test_collapse_before_any_checkpoint_rolls_back_to_a_snapshot(frames_factory,
     assert "recovery 2 of 2" in log and res.step == 12
     lrs = [g["lr"] for g in RunDir(res.run_dir).load_checkpoint()["opt"]["param_groups"]]
     assert all(abs(lr - 0.25 * base) < 1e-12 for lr, base in zip(lrs, [cfg.lr_texture, cfg.lr_renderer]))
+
+
+def test_a_mask_that_never_formed_restarts_with_the_adversarial_terms_held(frames_factory, tmp_path, monkeypatch):
+    """The first attempt's mask never forms (Dice 1 while the adversarial terms are on): the run
+    restarts from step 0 without them, switches them on once the mask formed, and finishes."""
+    import json
+
+    from morf.train.trainer import Trainer
+
+    monkeypatch.setattr(CollapseMonitor, "__init__", _short_grace(CollapseMonitor.__init__))
+    real = Trainer.train_step
+    held = []
+
+    def train_step(self):
+        hold = self.hold_adversarial
+        values, out, batch = real(self)
+        held.append(hold)
+        if not hold and not any(held):  # the first attempt: the discriminator killed the mask
+            values["dice"] = 1.0
+        elif hold:
+            assert "gan" not in values and "disc" not in values
+            values["dice"] = 0.0  # forms at once
+        return values, out, batch
+
+    monkeypatch.setattr(Trainer, "train_step", train_step)
+    cfg = _cfg(checkpoint_minutes=1e6, steps=10, log_every=1)
+    res = train_avatar(frames_factory(), tmp_path / "run", cfg, _texture(cfg))
+    run = RunDir(res.run_dir)
+    log = (run.root / "train.log").read_text()
+    assert "never formed" in log and "restarted from step 0" in log and "the mask formed at step 1" in log
+    assert res.step == 10 and run.is_done
+    assert held == [False] * 4 + [True] + [False] * 9  # 4 failed steps, 1 held, 9 with the GAN
+    assert not run.load_checkpoint()["hold_adversarial"]
+    rows = [json.loads(line) for line in (run.root / "metrics.jsonl").read_text().splitlines()]
+    assert "gan" in rows[-1]
+    lrs = [g["lr"] for g in run.load_checkpoint()["opt"]["param_groups"]]  # a restart, not a rollback
+    assert all(abs(lr - base) < 1e-12 for lr, base in zip(lrs, [cfg.lr_texture, cfg.lr_renderer]))
+
+
+def test_a_mask_that_does_not_form_after_the_restart_stops_the_run(frames_factory, tmp_path, monkeypatch):
+    from morf.train.trainer import Trainer
+
+    monkeypatch.setattr(CollapseMonitor, "__init__", _short_grace(CollapseMonitor.__init__))
+    real = Trainer.train_step
+
+    def train_step(self):
+        values, out, batch = real(self)
+        values["dice"] = 1.0
+        return values, out, batch
+
+    monkeypatch.setattr(Trainer, "train_step", train_step)
+    cfg = _cfg(checkpoint_minutes=1e6, steps=30)
+    with pytest.raises(TrainingDiverged, match="never formed"):
+        train_avatar(frames_factory(), tmp_path / "run", cfg, _texture(cfg))
+    log = (tmp_path / "run" / "train.log").read_text()
+    assert log.count("restarted from step 0") == 1
+
+
+def _short_grace(init):
+    def short(self, *a, **k):
+        init(self, *a, **k)
+        self.grace = 4
+
+    return short
