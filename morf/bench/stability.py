@@ -16,9 +16,14 @@ a clean capture (no sliding, tight clothes, exact keypoints):
 For morf, stylepeople and anr: hold-out PSNR / SSIM (image and person) and temporal flicker per
 level, and whether training diverged (TrainingDiverged or NaN metrics). A method *breaks down* at
 the first level where its person-PSNR falls more than ``BREAKDOWN_DB`` below its level-0 value,
-or where it diverges. Writes ``DIR/stability.json``, ``DIR/stability.md``,
+or where it diverges. ``--repeats N`` trains every (series, level, method) N times with seeds
+0..N-1: a level's metrics are then the means over the repeats that did not diverge (with the
+person-PSNR's min and max), it counts as diverged when any repeat did, and the breakdown
+threshold grows to twice the measured run-to-run spread (pooled standard deviation of the
+repeats) when that is larger than ``BREAKDOWN_DB``. Writes ``DIR/stability.json``, ``DIR/stability.md``,
 ``DIR/stability_psnr.png`` and ``DIR/stability_temporal.png``; every (series, level, method)
-result is kept in ``DIR/points/`` and reused on a re-run.
+result is kept in ``DIR/points/`` (``<series>-<level index>-<method>[-seed<r>].json``) and reused
+on a re-run.
 """
 
 from __future__ import annotations
@@ -69,6 +74,8 @@ def add_arguments(p) -> None:
     p.add_argument("--preset", choices=tuple(PRESETS), default="default", help="tiny: CI (seconds per point)")
     p.add_argument("--series", default=",".join(SERIES), help="comma-separated subset of: " + ", ".join(SERIES))
     p.add_argument("--methods", default=",".join(METHODS), help="comma-separated subset of: " + ", ".join(METHODS))
+    p.add_argument("--repeats", type=int, default=1,
+                   help="trainings per point with seeds 0..N-1 (means, spread, and a noise-aware breakdown)")
 
 
 # ---- captures and training inputs per (series, level) ---------------------------------------
@@ -157,19 +164,45 @@ def sp_frames(sp: StabilityPreset) -> int:
 
 
 # ---- the benchmark ----------------------------------------------------------------------------
-def breaks_down_at(levels: list, rows: list[dict]) -> object:
-    """First level whose person-PSNR is more than BREAKDOWN_DB below level 0's, or that diverged."""
+METRICS = ("psnr", "ssim", "psnr_person", "ssim_person", "temporal", "train_minutes")
+
+
+def combine_repeats(runs: list[dict]) -> dict:
+    """One level's row from its repeats: metric means over the runs that did not diverge, the
+    person-PSNR's min / max / sample standard deviation, ``diverged`` when any run diverged."""
+    ok = [r for r in runs if not r.get("diverged") and r.get("psnr_person") is not None]
+    row = {k: v for k, v in runs[0].items() if k not in METRICS and k not in ("run", "error", "steps")}
+    for k in METRICS:
+        vals = [r[k] for r in ok if r.get(k) is not None]
+        row[k] = float(np.mean(vals)) if vals else None
+    person = [r["psnr_person"] for r in ok]
+    row.update(repeats=len(runs), diverged_runs=len(runs) - len(ok), diverged=len(ok) < len(runs),
+               psnr_person_min=min(person) if person else None, psnr_person_max=max(person) if person else None,
+               psnr_person_std=float(np.std(person, ddof=1)) if len(person) > 1 else None,
+               runs=[r.get("run") for r in runs])
+    return row
+
+
+def breakdown_threshold(rows: list[dict]) -> float:
+    """BREAKDOWN_DB, or twice the pooled run-to-run standard deviation of the person-PSNR over the
+    levels that were repeated, whichever is larger."""
+    var = [r["psnr_person_std"] ** 2 for r in rows if r.get("psnr_person_std") is not None]
+    return max(BREAKDOWN_DB, 2.0 * float(np.sqrt(np.mean(var)))) if var else BREAKDOWN_DB
+
+
+def breaks_down_at(levels: list, rows: list[dict], threshold: float = BREAKDOWN_DB) -> object:
+    """First level whose person-PSNR is more than ``threshold`` dB below level 0's, or that diverged."""
     ref = rows[0].get("psnr_person") if rows else None
     for lv, r in zip(levels, rows):
         if r.get("diverged") or r.get("psnr_person") is None:
             return lv
-        if ref is not None and r["psnr_person"] < ref - BREAKDOWN_DB:
+        if ref is not None and r["psnr_person"] < ref - threshold:
             return lv
     return None
 
 
 def run_stability(out, preset: str = "default", series: list[str] | None = None, methods: list[str] | None = None,
-                  model=None) -> dict:
+                  model=None, repeats: int = 1) -> dict:
     """Run (or resume) the stress series; writes JSON, Markdown and charts; returns the result."""
     from morf.bench.common import machine_info, markdown_table, write_results
     from morf.errors import InputError
@@ -185,6 +218,8 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
     bad = [s for s in series if s not in SERIES] + [m for m in methods if m not in METHODS]
     if bad:
         raise InputError(f"unknown series or methods: {', '.join(bad)}")
+    if repeats < 1:
+        raise InputError("--repeats must be at least 1")
     if model is None:
         from morf.body import load_body_model
 
@@ -195,36 +230,52 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
         per_method = {m: [] for m in methods}
         for i, level in enumerate(levels):
             for m in methods:
-                path = out / "points" / f"{s}-{i}-{m}.json"
-                if path.is_file():
-                    row = json.loads(path.read_text())
-                else:
-                    project, fits_source, stem = prepare(s, i, level, out, sp, model)
-                    cfg = train_preset(sp.train[0], m, **sp.train[1])
-                    print(f"{s} level {level} ({i + 1}/{len(levels)}): {m}")
-                    row = {"series": s, "level": level, "method": m,
-                           **train_and_evaluate(project, cfg, f"{stem}-{m}", model, fits_source)}
-                    atomic_write_json(path, row)
+                runs = []
+                for r in range(repeats):
+                    tag = f"-seed{r}" if r else ""
+                    path = out / "points" / f"{s}-{i}-{m}{tag}.json"
+                    if path.is_file():
+                        row = json.loads(path.read_text())
+                    else:
+                        project, fits_source, stem = prepare(s, i, level, out, sp, model)
+                        cfg = train_preset(sp.train[0], m, **sp.train[1]).replace(seed=r)
+                        print(f"{s} level {level} ({i + 1}/{len(levels)}): {m}" + (f", seed {r}" if repeats > 1 else ""))
+                        row = {"series": s, "level": level, "method": m, "seed": r,
+                               **train_and_evaluate(project, cfg, f"{stem}-{m}{tag}", model, fits_source)}
+                        atomic_write_json(path, row)
+                    runs.append(row)
+                row = combine_repeats(runs) if repeats > 1 else runs[0]
                 per_method[m].append(row)
                 md_rows.append({"series": s, "level": level, "method": m, **row})
-        result_series[s] = {"label": LABELS[s], "levels": levels, "methods": per_method,
-                            "breaks_down_at": {m: breaks_down_at(levels, per_method[m]) for m in methods}}
+        thresholds = {m: breakdown_threshold(per_method[m]) for m in methods}
+        result_series[s] = {"label": LABELS[s], "levels": levels, "methods": per_method, "threshold_db": thresholds,
+                            "breaks_down_at": {m: breaks_down_at(levels, per_method[m], thresholds[m])
+                                               for m in methods}}
     if (out / "captures" / "clean" / "review.json").is_file():
         _set_hidden_turn(out / "captures" / "clean", 0)  # leave the clean capture with every frame used
-    result = {"benchmark": "stability", "preset": preset, "methods": methods, "series": result_series,
-              "breakdown_rule": f"person-PSNR more than {BREAKDOWN_DB} dB below the method's level-0 value, "
-                                "or training diverged (TrainingDiverged / NaN)",
+    rule = (f"person-PSNR more than {BREAKDOWN_DB} dB below the method's level-0 value, "
+            "or training diverged (TrainingDiverged / NaN)")
+    if repeats > 1:
+        rule = (f"mean person-PSNR over {repeats} seeds more than max({BREAKDOWN_DB} dB, twice the pooled "
+                "run-to-run standard deviation) below the method's level-0 mean, or a training diverged")
+    result = {"benchmark": "stability", "preset": preset, "methods": methods, "repeats": repeats,
+              "series": result_series, "breakdown_rule": rule,
               "train": {"preset": sp.train[0], **sp.train[1]}, "machine": machine_info()}
     result["charts"] = [
         str(series_chart(result_series, "psnr_person", out / "stability_psnr.png",
                          title=f"Hold-out PSNR on the person as nuisances grow ({preset})", ylabel="PSNR person (dB)")),
         str(series_chart(result_series, "temporal", out / "stability_temporal.png",
                          title=f"Temporal flicker as nuisances grow ({preset}; lower is better)", ylabel="flicker"))]
-    brk = [{"series": s, **{m: v["breaks_down_at"][m] for m in methods}} for s, v in result_series.items()]
+    brk = [{"series": s, **{m: v["breaks_down_at"][m] for m in methods},
+            **{f"{m} threshold dB": v["threshold_db"][m] for m in methods}} for s, v in result_series.items()]
+    cols = ["series", "level", "method", "psnr_person", "ssim_person", "psnr", "temporal", "diverged", "train_minutes"]
+    if repeats > 1:
+        cols[4:4] = ["psnr_person_min", "psnr_person_max", "psnr_person_std"]
+        cols.insert(-1, "diverged_runs")
     md = (f"# Stability under nuisances ({preset})\n\nBreaks down = {result['breakdown_rule']}; "
-          "n/a = never within the levels tried.\n\n" + markdown_table(brk, ["series", *methods])
-          + "\n" + markdown_table(md_rows, ["series", "level", "method", "psnr_person", "ssim_person", "psnr",
-                                            "temporal", "diverged", "train_minutes"]))
+          "n/a = never within the levels tried.\n\n"
+          + markdown_table(brk, ["series", *methods] + ([f"{m} threshold dB" for m in methods] if repeats > 1 else []))
+          + "\n" + markdown_table(md_rows, cols))
     path = write_results(out, "stability", result, md)
     print(f"wrote {path}")
     return result
@@ -232,5 +283,5 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
 
 def run(args) -> int:
     split = lambda s: [x.strip() for x in s.split(",") if x.strip()]  # noqa: E731
-    run_stability(Path(args.out), args.preset, split(args.series), split(args.methods))
+    run_stability(Path(args.out), args.preset, split(args.series), split(args.methods), repeats=args.repeats)
     return 0

@@ -62,8 +62,9 @@ def series_chart(series: dict[str, dict], metric: str, path: Path, *, title: str
 
     Args:
         series: {series name: {"levels": [..], "label": str, "methods": {method: [row per level]}}},
-            each row a dict holding ``metric`` and ``diverged``; diverged levels are drawn as crosses
-            at the bottom of the panel.
+            each row a dict holding ``metric`` and ``diverged`` (and, for repeated trainings,
+            ``<metric>_min`` / ``_max``, drawn as a bar); diverged levels are drawn as crosses at the
+            bottom of the panel.
     """
     plt = _pyplot()
     names = list(series)
@@ -77,6 +78,10 @@ def series_chart(series: dict[str, dict], metric: str, path: Path, *, title: str
         for method, rows_ in s["methods"].items():
             v = np.array([r.get(metric) if r.get(metric) is not None else np.nan for r in rows_], float)
             ax.plot(lv[:len(v)], v, "o-", c=colours.get(method), label=method, ms=4)
+            lo = np.array([r.get(f"{metric}_min", np.nan) for r in rows_], float)
+            hi = np.array([r.get(f"{metric}_max", np.nan) for r in rows_], float)
+            if np.isfinite(lo).any():  # repeated trainings: their range
+                ax.vlines(lv[:len(v)], lo, hi, colors=colours.get(method), alpha=0.5, lw=2)
             div = np.array([bool(r.get("diverged")) for r in rows_])
             if div.any():
                 ax.plot(lv[:len(v)][div], np.full(div.sum(), np.nanmin(v) if np.isfinite(v).any() else 0), "x",
