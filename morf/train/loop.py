@@ -141,6 +141,16 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
     # A mask that never formed has no earlier state worth returning to: such a run restarts once
     # from its initial state with the adversarial terms held until the mask forms (health.py).
     initial = copy.deepcopy(trainer.state_dict()) if trainer.step == 0 and not trainer.hold_adversarial else None
+
+    def restore(state: dict, t_session: float) -> float:
+        """Load an earlier state, keeping the wall time spent (the lost steps took time too);
+        returns the new session start."""
+        spent = trainer.elapsed_s + time.monotonic() - t_session
+        trainer.load_state_dict(state)
+        trainer.elapsed_s = spent
+        snapshots.clear()
+        return time.monotonic()
+
     while trainer.step < cfg.steps:
         if control.stop_requested:
             t_session = save()
@@ -156,13 +166,8 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
             kept = f"; the last good checkpoint ({run.checkpoint_path}) is kept" if run.has_checkpoint else ""
             run.log(f"diverged: {e}")
             if monitor.kind == "never_formed" and initial is not None:
-                spent = trainer.elapsed_s + time.monotonic() - t_session
-                trainer.load_state_dict(initial)
-                initial = None
-                trainer.hold_adversarial = True
-                trainer.elapsed_s, t_session = spent, time.monotonic()
-                monitor = CollapseMonitor()
-                snapshots.clear()
+                t_session = restore(initial, t_session)
+                trainer.hold_adversarial, initial, monitor = True, None, CollapseMonitor()
                 t_session = save()  # the step-0 restart replaces any checkpoint of the failed attempt
                 ckpt = (trainer.step, recoveries)
                 run.log("restarted from step 0 with the adversarial terms off until the mask forms")
@@ -172,17 +177,10 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
             if recoveries >= cfg.max_recoveries or not (use_snap or run.has_checkpoint):
                 raise TrainingDiverged(f"{e}{kept}") from None
             recoveries += 1
-            spent = trainer.elapsed_s + time.monotonic() - t_session  # the lost steps took time too
-            if use_snap:
-                trainer.load_state_dict(snap[0])
-                taken = snap[1]
-            else:
-                trainer.load_state_dict(run.load_checkpoint(map_location=trainer.device))
-                taken = ckpt[1]
-            trainer.elapsed_s, t_session = spent, time.monotonic()
+            state, taken = snap if use_snap else (run.load_checkpoint(map_location=trainer.device), ckpt[1])
+            t_session = restore(state, t_session)
             trainer.scale_learning_rates(0.5 ** (recoveries - taken))  # halved once per recovery
             monitor.reset()
-            snapshots.clear()
             run.log(f"rolled back to the {'in-memory state' if use_snap else 'checkpoint'} of step {trainer.step} "
                     f"with the learning rates halved (recovery {recoveries} of {cfg.max_recoveries})")
             continue
