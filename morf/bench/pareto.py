@@ -81,19 +81,22 @@ def run_point(project, sweep, point, model, out: Path, cfg=None) -> tuple[dict, 
     ``OUT/points/<name>.json`` (same config, same fps size) without any work."""
     from morf.io import atomic_write_json
     from morf.sizing.evaluate import speed_of_run, train_and_evaluate
-    from morf.sizing.sweep import resolve, train_key
+    from morf.sizing.sweep import SweepPoint, resolve, train_key
 
     cfg = cfg or resolve(sweep, point)
     key = f"{train_key(cfg)}-{point.precision}-{sweep.fps_size}"
+    # quality is scored at the base point's training resolution, so the resolution axis compares
+    # like with like (results saved before this field was kept were scored at their own resolution)
+    eval_res = resolve(sweep, SweepPoint("base", "base")).resolution
     path = out / "points" / f"{point.name}.json"
     if path.is_file():
         old = json.loads(path.read_text())
-        if old.get("key") == key:
+        if old.get("key") == key and old.get("eval_resolution", old["config"]["resolution"]) == eval_res:
             return old, True
     t0 = time.time()
     row = {"name": point.name, "axis": point.axis, "method": cfg.method, "precision": point.precision, "key": key,
            "config": _summary(cfg)}
-    row.update(train_and_evaluate(project, cfg, f"pareto-{train_key(cfg)}", model))
+    row.update(train_and_evaluate(project, cfg, f"pareto-{train_key(cfg)}", model, eval_resolution=eval_res))
     row.update(fps=None, frame_ms=None, renderer_ms=None, int8_psnr_vs_fp32_db=None)
     if not row["diverged"]:
         row.update(speed_of_run(row["run"], out / "work", sweep.fps_size, sweep.fps_frames, point.precision, model))

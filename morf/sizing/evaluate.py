@@ -17,22 +17,29 @@ from pathlib import Path
 from morf.errors import InputError, TrainingDiverged
 
 
-def holdout_quality(project, run_dir, model) -> dict:
+def holdout_quality(project, run_dir, model, resolution: int | None = None) -> dict:
     """PSNR / SSIM (image and person) and temporal flicker of a finished run on the project's
-    synthetic hold-out sequence (the same evaluation as ``morf bench quality``)."""
+    synthetic hold-out sequence (the same evaluation as ``morf bench quality``), rendered and
+    scored at ``resolution`` px (default: the run's training resolution; runs trained at
+    different resolutions are only comparable at one common resolution)."""
     from morf.avatar.trained import load_trained_avatar
     from morf.train.data import build_holdout_frames
     from morf.train.project_run import evaluate_frames
 
     avatar = load_trained_avatar(run_dir)
-    holdout = build_holdout_frames(project, model, avatar.camera, avatar.shape.numpy())
+    working = avatar.camera
+    if resolution is not None and resolution != working.width:
+        working = working.scaled(resolution / working.width)
+    holdout = build_holdout_frames(project, model, working, avatar.shape.numpy())
     if holdout is None:
         raise InputError(f"{project.root} has no hold-out sequence (a synthetic capture is needed)")
     return evaluate_frames(avatar, holdout)
 
 
-def train_and_evaluate(project, cfg, run_name: str, model, fits_source: str = "ground-truth") -> dict:
-    """Train (or resume, or reuse) ``PROJECT/runs/<run_name>`` and evaluate it.
+def train_and_evaluate(project, cfg, run_name: str, model, fits_source: str = "ground-truth",
+                       eval_resolution: int | None = None) -> dict:
+    """Train (or resume, or reuse) ``PROJECT/runs/<run_name>`` and evaluate it (at
+    ``eval_resolution`` px, default the training resolution; see :func:`holdout_quality`).
 
     Returns the hold-out metrics plus ``train_minutes``, ``steps``, ``params`` and ``diverged``
     (True when training raised TrainingDiverged or a metric came out NaN; metrics are then None).
@@ -46,11 +53,11 @@ def train_and_evaluate(project, cfg, run_name: str, model, fits_source: str = "g
     except TrainingDiverged as e:
         return {"diverged": True, "error": str(e), "params": params, "psnr": None, "ssim": None,
                 "psnr_person": None, "ssim_person": None, "temporal": None, "train_minutes": None, "steps": None}
-    m = holdout_quality(project, res.run_dir, model)
+    m = holdout_quality(project, res.run_dir, model, eval_resolution)
     bad = any(v is None or (isinstance(v, float) and not math.isfinite(v))
               for k, v in m.items() if k in ("psnr", "psnr_person", "ssim"))
     m.update(diverged=bool(bad), params=params, train_minutes=res.train_minutes, steps=res.step,
-             run=str(res.run_dir))
+             run=str(res.run_dir), eval_resolution=eval_resolution or cfg.resolution)
     return m
 
 

@@ -36,3 +36,24 @@ def test_tiny_sweep_writes_results_and_resumes(tmp_path, body_model, gl):
     again = run_sweep(out, "tiny", axes=["texture_size", "precision"], model=body_model)
     assert again["reused"] == names
     assert {p.name: p.stat().st_mtime_ns for p in (out / "points").iterdir()} == stamps
+
+
+@pytest.mark.gl
+def test_a_resolution_point_is_scored_at_the_base_resolution(tmp_path, body_model, gl):
+    from morf.capture.project import CaptureProject
+    from morf.sizing.evaluate import holdout_quality
+    from morf.sizing.sweep import PRESETS, SweepPoint, resolve
+
+    sweep = PRESETS["tiny"]
+    point = SweepPoint("resolution-32", "resolution", {"resolution": 32})
+    out = tmp_path / "pareto"
+    data = run_sweep(out, "tiny", axes=["resolution"], model=body_model, extra=[(point, resolve(sweep, point))])
+    rows = {p["name"]: p for p in data["points"]}
+    base_res = resolve(sweep, SweepPoint("base", "base")).resolution
+    assert rows["resolution-32"]["config"]["resolution"] == 32 != base_res
+    assert rows["resolution-32"]["eval_resolution"] == rows["base"]["eval_resolution"] == base_res
+    project = CaptureProject.open(data["project"])
+    at_base = holdout_quality(project, rows["resolution-32"]["run"], body_model, base_res)
+    at_own = holdout_quality(project, rows["resolution-32"]["run"], body_model)
+    assert at_base["psnr"] == pytest.approx(rows["resolution-32"]["psnr"])
+    assert at_base["psnr"] != pytest.approx(at_own["psnr"])
