@@ -44,6 +44,8 @@ def add_arguments(p) -> None:
                    help="comma-separated point names (e.g. base,renderer-stem4_b32; default: all on --axes)")
     p.add_argument("--auto-check", action="store_true",
                    help="check --preset auto on the plain, print and loose scenes instead of one sweep")
+    p.add_argument("--scenes", default="plain,print,loose",
+                   help="--auto-check: comma-separated scenes (one scene when --project is given)")
 
 
 def make_capture(out: Path, sweep, scene: str, model, project_path: str | None = None):
@@ -188,9 +190,13 @@ def run(args) -> int:
     if args.auto_check:
         from morf.sizing.check import auto_check
 
-        auto_check(Path(args.out), args.preset)
+    split = lambda s: [a.strip() for a in s.split(",") if a.strip()] if s else None  # noqa: E731
+    points = split(args.points)
+    if args.auto_check:
+        from morf.sizing.check import auto_check
+
+        auto_check(Path(args.out), args.preset, scenes=split(args.scenes), project_path=args.project, points=points)
         return 0
-    axes = [a.strip() for a in args.axes.split(",") if a.strip()] if args.axes else None
-    points = [a.strip() for a in args.points.split(",") if a.strip()] if args.points else None
+    axes = split(args.axes)
     run_sweep(Path(args.out), args.preset, args.scene, args.project, axes, points=points)
     return 0

@@ -17,8 +17,20 @@ SIZING_AXES = ["renderer", "texture_size", "texture_channels"]
 SCENE_ORDER = ("plain", "print", "loose")
 
 
-def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER) -> dict:
-    """Run the check on ``scenes``; returns the summary written to ``OUT/auto_check.json``."""
+def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER, project_path: str | None = None,
+               points: list[str] | None = None) -> dict:
+    """Run the check on ``scenes``; returns the summary written to ``OUT/auto_check.json``.
+
+    ``project_path``: an existing synthetic capture to use instead of making one (one scene only);
+    ``points``: only these sweep points beside the automatic choice (names as in ``--points``).
+    """
+    from morf.errors import InputError
+
+    unknown = [s for s in scenes if s not in SCENE_ORDER]
+    if unknown:
+        raise InputError(f"unknown scenes {unknown}; choose from {', '.join(SCENE_ORDER)}")
+    if project_path is not None and len(scenes) != 1:
+        raise InputError("--project with --auto-check needs exactly one scene (--scenes)")
     from morf.bench.common import machine_info, markdown_table, write_results
     from morf.bench.pareto import QUALITY, make_capture, run_sweep
     from morf.sizing.choose import SizingRule, choose_train_config
@@ -34,13 +46,14 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER)
         model = load_body_model("anny")
     rows, details = [], {}
     for scene in scenes:
-        project = make_capture(out / scene, sweep, scene, model)
+        project = make_capture(out / scene, sweep, scene, model, project_path)
         name, overrides = sweep.train
         cfg, reasons = choose_train_config(project, name, model=model, rule=rule, **overrides)
         # Same training as an identical sweep point (the preset name is only a label).
         cfg = cfg.replace(preset=sweep.train[0])
         auto = SweepPoint("auto", "auto")
-        res = run_sweep(out / scene, preset, scene, axes=SIZING_AXES, model=model, extra=[(auto, cfg)])
+        res = run_sweep(out / scene, preset, scene, project_path, axes=SIZING_AXES, model=model, extra=[(auto, cfg)],
+                        points=points)
         pts = res["points"]
         i = next(k for k, p in enumerate(pts) if p["name"] == "auto")
         vals = [[p.get(QUALITY), p.get("fps")] for p in pts]

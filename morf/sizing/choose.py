@@ -6,8 +6,9 @@ The rule (thresholds in :class:`SizingRule`, calibration in docs/benchmarks.md):
    height, so a person ``h`` pixels tall in the training images sees ``0.82 * S / h`` texels per
    pixel at atlas size ``S``. ``h`` is the person's height at the training resolution (the crop
    is about 1.16 person heights), capped by the height in the capture (upsampling adds nothing).
-   Detailed clothing needs about one texel per pixel; plain clothing is band-limited and keeps
-   its look at half that. S = the smallest power of two >= density * h / 0.82, in [64, 1024].
+   Detailed clothing kept its quality at about half a texel per pixel on the default sweep (the
+   U-Net renderer adds detail back); plain clothing is band-limited and is given less. S = the
+   smallest power of two >= density * h / 0.82, in [64, 1024].
 2. Channels: 16 for detailed and medium clothing, 8 for plain (never above the base preset).
 3. Renderer: the preset's. The rule can step down the preset's ladder for plain, tight clothing
    and up when much of the person lies outside the fitted body (``SizingRule`` steps), but on the
@@ -41,9 +42,11 @@ class SizingRule:
 
     detail_high: float = 0.04  # fine-band RMS at or above this: detailed clothing
     detail_low: float = 0.02  # below this: plain clothing
-    density_high: float = 1.0  # texels per training pixel for detailed clothing
-    density_mid: float = 0.7  # ... for medium detail
-    density_low: float = 0.5  # ... for plain clothing
+    # texels per training pixel for detailed clothing: on the default sweep (print scene, 221 px of
+    # person at 256 px) 0.47, 0.95 and 1.9 texels per pixel (128^2, 256^2, 512^2) scored within 0.1 dB
+    density_high: float = 0.45
+    density_mid: float = 0.32  # ... for medium detail (scaled with density_high; not measured)
+    density_low: float = 0.22  # ... for plain clothing (likewise)
     excess_high: float = 0.2  # share of the mask outside the fitted body that counts as loose garments
     channels_by_detail: tuple[int, int, int] = (8, 16, 16)  # plain, medium, detailed (4 plain / 8 medium cost 1.3 dB)
     plain_renderer_step: int = 0  # ladder steps for plain, tight clothing (-1 = one smaller; b8 cost 1.6 dB)

@@ -20,7 +20,8 @@ class FakeProject:
         self.fits_dir = root / "fits"
         self.ground_truth_dir = root / "ground_truth"
         y, x = np.mgrid[0:size, 0:size]
-        self.mask = (abs(x - size / 2) < 20) & (y > 14) & (y < 114)  # a person 99 px tall
+        k = size / 128
+        self.mask = (abs(x - size / 2) < 20 * k) & (y > 14 * k) & (y < 114 * k)  # a person 99 px tall at 128 px
         body = np.full((size, size, 3), 140, np.uint8)
         if pattern == "print":
             body = np.where((((x // 2) + (y // 2)) % 2)[..., None] == 1, 230, 40).astype(np.uint8) * np.ones(3, np.uint8)
@@ -45,8 +46,9 @@ def test_image_features_detail_and_height(tmp_path):
 
 
 def test_auto_picks_larger_texture_for_detailed_clothing(tmp_path):
-    cfg_plain, why_plain = choose_train_config(FakeProject(tmp_path, "plain"), "cpu")
-    cfg_fine, why_fine = choose_train_config(FakeProject(tmp_path, "print"), "cpu")
+    # a person 199 px tall: 0.45 * 199 / 0.82 -> 128^2 when detailed, 0.22 * 199 / 0.82 -> 64^2 when plain
+    cfg_plain, why_plain = choose_train_config(FakeProject(tmp_path, "plain", size=256), "cpu")
+    cfg_fine, why_fine = choose_train_config(FakeProject(tmp_path, "print", size=256), "cpu")
     assert cfg_fine.texture_size > cfg_plain.texture_size
     assert cfg_fine.texture_channels > cfg_plain.texture_channels
     assert cfg_fine.renderer.width == cfg_plain.renderer.width == 16  # calibrated: the preset's renderer
@@ -65,8 +67,11 @@ def test_rule_follows_person_height_and_looseness():
     loose_cfg, reasons = choose_from_features(loose, base, "cpu")
     stepping = SizingRule(plain_renderer_step=-1, loose_renderer_step=1)
     loose_step, _ = choose_from_features(loose, base, "cpu", stepping)
-    # 256 px training crop -> about 221 px of person -> 221 / 0.82 = 269 texels -> 512 at density 1
-    assert big_cfg.texture_size == 512 and small_cfg.texture_size == 128
+    # 256 px training crop -> about 221 px of person -> 0.45 * 221 / 0.82 = 121 texels -> 128;
+    # 60 px -> 33 texels -> the smallest texture, 64
+    assert big_cfg.texture_size == 128 and small_cfg.texture_size == 64
+    denser, _ = choose_from_features(f, base, "cpu", SizingRule(density_high=1.0))
+    assert denser.texture_size == 512
     assert loose_cfg.renderer.width == big_cfg.renderer.width and any("loose" in r for r in reasons)
     assert loose_step.renderer.width > big_cfg.renderer.width  # the ladder still works when asked
     assert SizingRule().quality_margin_db > 0

@@ -1,0 +1,40 @@
+"""``morf bench pareto --auto-check`` on the tiny preset: the automatic choice measured beside the
+sizing points, per scene, and the single-scene form on an existing capture."""
+
+import json
+
+import pytest
+
+from morf.errors import InputError
+from morf.sizing.check import auto_check
+
+
+@pytest.mark.gl
+def test_tiny_auto_check(tmp_path, body_model, gl):
+    out = tmp_path / "auto"
+    res = auto_check(out, "tiny", body_model, scenes=("plain", "print"))
+    data = json.loads((out / "auto_check.json").read_text())
+    assert [r["scene"] for r in data["table"]] == ["plain", "print"] == [r["scene"] for r in res["table"]]
+    for row in data["table"]:
+        assert isinstance(row["near_front"], bool) and row["psnr_person"] is not None and row["fps"] > 0
+        assert row["best_psnr_person"] >= row["psnr_person"]
+    for scene in ("plain", "print"):
+        names = [p["name"] for p in json.loads((out / scene / "pareto.json").read_text())["points"]]
+        assert names[0] == "base" and names[-1] == "auto" and "texture-32" in names
+        assert data["scenes"][scene]["reasons"]
+    assert "## plain" in (out / "auto_check.md").read_text()
+
+    # one scene on an existing capture, a subset of the points: the same auto choice, reused results
+    again = auto_check(tmp_path / "auto2", "tiny", body_model, scenes=("print",),
+                       project_path=str(out / "print" / "capture-print"), points=["texture-32"])
+    names = [p["name"] for p in json.loads((tmp_path / "auto2" / "print" / "pareto.json").read_text())["points"]]
+    assert names == ["base", "texture-32", "auto"]
+    assert again["table"][0]["texture_size"] == data["table"][1]["texture_size"]
+    assert again["scenes"]["print"]["point"]["run"] == data["scenes"]["print"]["point"]["run"]
+
+
+def test_auto_check_rejects_bad_scene_lists(tmp_path):
+    with pytest.raises(InputError, match="unknown scenes"):
+        auto_check(tmp_path, "tiny", scenes=("stripes",))
+    with pytest.raises(InputError, match="exactly one scene"):
+        auto_check(tmp_path, "tiny", scenes=("plain", "print"), project_path=str(tmp_path))
