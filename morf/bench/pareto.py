@@ -187,9 +187,6 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
 
 
 def run(args) -> int:
-    if args.auto_check:
-        from morf.sizing.check import auto_check
-
     split = lambda s: [a.strip() for a in s.split(",") if a.strip()] if s else None  # noqa: E731
     points = split(args.points)
     if args.auto_check:
