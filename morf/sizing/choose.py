@@ -8,7 +8,7 @@ The rule (thresholds in :class:`SizingRule`, calibration in docs/benchmarks.md):
    is about 1.16 person heights), capped by the height in the capture (upsampling adds nothing).
    Detailed clothing kept its quality at about half a texel per pixel on the default sweep (the
    U-Net renderer adds detail back); plain clothing is band-limited and is given less. S = the
-   smallest power of two >= density * h / 0.82, in [64, 1024].
+   smallest power of two >= density * h / 0.82, in [128, 1024].
 2. Channels: 16 for detailed and medium clothing, 8 for plain (never above the base preset).
 3. Renderer: the preset's. The rule can step down the preset's ladder for plain, tight clothing
    and up when much of the person lies outside the fitted body (``SizingRule`` steps), but on the
@@ -51,7 +51,9 @@ class SizingRule:
     channels_by_detail: tuple[int, int, int] = (8, 16, 16)  # plain, medium, detailed (4 plain / 8 medium cost 1.3 dB)
     plain_renderer_step: int = 0  # ladder steps for plain, tight clothing (-1 = one smaller; b8 cost 1.6 dB)
     loose_renderer_step: int = 0  # ... for loose garments (+1 = one larger; b24 gained nothing, 30 % slower)
-    min_texture: int = 64
+    # below 128^2 the atlas islands are a few texels wide and bleed into each other: on the quick
+    # sweep 64^2 cost 1.5-6.4 dB on all three scenes
+    min_texture: int = 128
     max_texture: int = 1024
     quality_margin_db: float = 0.5  # "near the best": within this much person-PSNR of the best on the sweep
     # ... and within this share of its fps: one sweep measured the same model at 25.3 and 25.8 fps

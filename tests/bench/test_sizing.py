@@ -46,11 +46,17 @@ def test_image_features_detail_and_height(tmp_path):
 
 
 def test_auto_picks_larger_texture_for_detailed_clothing(tmp_path):
-    # a person 199 px tall: 0.45 * 199 / 0.82 -> 128^2 when detailed, 0.22 * 199 / 0.82 -> 64^2 when plain
-    cfg_plain, why_plain = choose_train_config(FakeProject(tmp_path, "plain", size=256), "cpu")
-    cfg_fine, why_fine = choose_train_config(FakeProject(tmp_path, "print", size=256), "cpu")
-    assert cfg_fine.texture_size > cfg_plain.texture_size
+    # a person 398 px tall, capped at the 221 px the 256 px training crop holds: 0.45 * 221 / 0.82
+    # -> 128^2 when detailed; 0.22 * 221 / 0.82 -> the 128^2 minimum when plain
+    cfg_plain, why_plain = choose_train_config(FakeProject(tmp_path, "plain", size=512), "cpu")
+    cfg_fine, why_fine = choose_train_config(FakeProject(tmp_path, "print", size=512), "cpu")
+    assert cfg_fine.texture_size >= cfg_plain.texture_size
     assert cfg_fine.texture_channels > cfg_plain.texture_channels
+    fine_dense, _ = choose_train_config(FakeProject(tmp_path, "print", size=512), "cpu",
+                                        rule=SizingRule(density_high=1.0, density_low=0.5))
+    plain_dense, _ = choose_train_config(FakeProject(tmp_path, "plain", size=512), "cpu",
+                                         rule=SizingRule(density_high=1.0, density_low=0.5))
+    assert fine_dense.texture_size > plain_dense.texture_size
     assert cfg_fine.renderer.width == cfg_plain.renderer.width == 16  # calibrated: the preset's renderer
     assert cfg_plain.renderer.in_channels == cfg_plain.texture_channels
     assert cfg_fine.preset == "auto" and any("texture" in r for r in why_fine) and why_plain
@@ -68,10 +74,11 @@ def test_rule_follows_person_height_and_looseness():
     stepping = SizingRule(plain_renderer_step=-1, loose_renderer_step=1)
     loose_step, _ = choose_from_features(loose, base, "cpu", stepping)
     # 256 px training crop -> about 221 px of person -> 0.45 * 221 / 0.82 = 121 texels -> 128;
-    # 60 px -> 33 texels -> the smallest texture, 64
-    assert big_cfg.texture_size == 128 and small_cfg.texture_size == 64
+    # 60 px -> 33 texels -> the smallest texture the rule allows
+    assert big_cfg.texture_size == 128 and small_cfg.texture_size == SizingRule().min_texture
     denser, _ = choose_from_features(f, base, "cpu", SizingRule(density_high=1.0))
     assert denser.texture_size == 512
+    assert choose_from_features(small, base, "cpu", SizingRule(min_texture=64))[0].texture_size == 64
     assert loose_cfg.renderer.width == big_cfg.renderer.width and any("loose" in r for r in reasons)
     assert loose_step.renderer.width > big_cfg.renderer.width  # the ladder still works when asked
     assert SizingRule().quality_margin_db > 0
