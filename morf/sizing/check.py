@@ -24,18 +24,18 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
     ``project_path``: an existing synthetic capture to use instead of making one (one scene only);
     ``points``: only these sweep points beside the automatic choice (names as in ``--points``).
     """
+    from morf.bench.common import machine_info, markdown_table, write_results
+    from morf.bench.pareto import QUALITY, make_capture, run_sweep
     from morf.errors import InputError
+    from morf.sizing.choose import SizingRule, choose_train_config
+    from morf.sizing.front import near_front
+    from morf.sizing.sweep import PRESETS, SweepPoint
 
     unknown = [s for s in scenes if s not in SCENE_ORDER]
     if unknown:
         raise InputError(f"unknown scenes {unknown}; choose from {', '.join(SCENE_ORDER)}")
     if project_path is not None and len(scenes) != 1:
         raise InputError("--project with --auto-check needs exactly one scene (--scenes)")
-    from morf.bench.common import machine_info, markdown_table, write_results
-    from morf.bench.pareto import QUALITY, make_capture, run_sweep
-    from morf.sizing.choose import SizingRule, choose_train_config
-    from morf.sizing.front import near_front
-    from morf.sizing.sweep import PRESETS, SweepPoint
 
     out = Path(out)
     sweep = PRESETS[preset]
