@@ -80,6 +80,7 @@ class CollapseMonitor:
 
     def reset(self) -> None:
         """After rolling back to a checkpoint: start the running mean (and the grace period) again;
-        the best is kept."""
+        the best is kept, the last failure's kind is cleared."""
         self.mean = None
         self.steps = 0
+        self.kind = None
