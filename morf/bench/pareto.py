@@ -36,7 +36,9 @@ def add_arguments(p) -> None:
     p.add_argument("--out", required=True, help="folder for pareto.json, pareto.md, charts and per-point results")
     p.add_argument("--preset", choices=("tiny", "quick", "default"), default="default",
                    help="sweep size: tiny (CI, seconds), quick (about an hour), default (many hours)")
-    p.add_argument("--project", default=None, help="an existing synthetic capture (default: make one in OUT)")
+    p.add_argument("--project", default=None,
+                   help="an existing synthetic capture (default: make one in OUT); with --auto-check, "
+                        "scene=PATH[,scene=PATH...] names one per scene")
     p.add_argument("--scene", choices=("print", "plain", "loose"), default="print",
                    help="synthetic scene when a capture is made")
     p.add_argument("--axes", default=None, help="comma-separated subset of the sweep's knobs (default: all)")
@@ -45,7 +47,7 @@ def add_arguments(p) -> None:
     p.add_argument("--auto-check", action="store_true",
                    help="check --preset auto on the plain, print and loose scenes instead of one sweep")
     p.add_argument("--scenes", default="plain,print,loose",
-                   help="--auto-check: comma-separated scenes (one scene when --project is given)")
+                   help="--auto-check: comma-separated scenes")
 
 
 def make_capture(out: Path, sweep, scene: str, model, project_path: str | None = None):

@@ -17,12 +17,39 @@ SIZING_AXES = ["renderer", "texture_size", "texture_channels"]
 SCENE_ORDER = ("plain", "print", "loose")
 
 
-def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER, project_path: str | None = None,
-               points: list[str] | None = None) -> dict:
+def scene_projects(scenes, project_path: str | dict | None) -> dict[str, str | None]:
+    """Each scene's existing capture (None: made in ``OUT/<scene>``).
+
+    ``project_path`` is a path (exactly one scene), ``{scene: path}``, or its command-line form
+    ``scene=PATH[,scene=PATH...]``; scenes not named get a capture of their own.
+    """
+    from morf.errors import InputError
+
+    if project_path is None:
+        return {s: None for s in scenes}
+    if isinstance(project_path, str) and "=" not in project_path:
+        if len(scenes) != 1:
+            raise InputError("--project PATH with --auto-check needs exactly one scene (--scenes), "
+                             "or name the scene: --project print=PATH")
+        return {scenes[0]: project_path}
+    if isinstance(project_path, str):
+        pairs = [kv.split("=", 1) for kv in project_path.split(",") if kv.strip()]
+        if any(len(kv) != 2 or not kv[1].strip() for kv in pairs):
+            raise InputError(f"--project {project_path!r}: expected scene=PATH[,scene=PATH...]")
+        project_path = {k.strip(): v.strip() for k, v in pairs}
+    extra = sorted(set(project_path) - set(scenes))
+    if extra:
+        raise InputError(f"--project names scenes {extra} that are not checked (--scenes {','.join(scenes)})")
+    return {s: project_path.get(s) for s in scenes}
+
+
+def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
+               project_path: str | dict | None = None, points: list[str] | None = None) -> dict:
     """Run the check on ``scenes``; returns the summary written to ``OUT/auto_check.json``.
 
-    ``project_path``: an existing synthetic capture to use instead of making one (one scene only);
-    ``points``: only these sweep points beside the automatic choice (names as in ``--points``).
+    ``project_path``: existing synthetic captures to use instead of making them
+    (see :func:`scene_projects`); ``points``: only these sweep points beside the automatic choice
+    (names as in ``--points``).
     """
     from morf.bench.common import machine_info, markdown_table, write_results
     from morf.bench.pareto import QUALITY, make_capture, run_sweep
@@ -34,8 +61,7 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
     unknown = [s for s in scenes if s not in SCENE_ORDER]
     if unknown:
         raise InputError(f"unknown scenes {unknown}; choose from {', '.join(SCENE_ORDER)}")
-    if project_path is not None and len(scenes) != 1:
-        raise InputError("--project with --auto-check needs exactly one scene (--scenes)")
+    projects = scene_projects(list(scenes), project_path)
 
     out = Path(out)
     sweep = PRESETS[preset]
@@ -46,13 +72,13 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
         model = load_body_model("anny")
     rows, details = [], {}
     for scene in scenes:
-        project = make_capture(out / scene, sweep, scene, model, project_path)
+        project = make_capture(out / scene, sweep, scene, model, projects[scene])
         name, overrides = sweep.train
         cfg, reasons = choose_train_config(project, name, model=model, rule=rule, **overrides)
         # Same training as an identical sweep point (the preset name is only a label).
         cfg = cfg.replace(preset=sweep.train[0])
         auto = SweepPoint("auto", "auto")
-        res = run_sweep(out / scene, preset, scene, project_path, axes=SIZING_AXES, model=model, extra=[(auto, cfg)],
+        res = run_sweep(out / scene, preset, scene, projects[scene], axes=SIZING_AXES, model=model, extra=[(auto, cfg)],
                         points=points)
         pts = res["points"]
         i = next(k for k, p in enumerate(pts) if p["name"] == "auto")

@@ -38,3 +38,17 @@ def test_auto_check_rejects_bad_scene_lists(tmp_path):
         auto_check(tmp_path, "tiny", scenes=("stripes",))
     with pytest.raises(InputError, match="exactly one scene"):
         auto_check(tmp_path, "tiny", scenes=("plain", "print"), project_path=str(tmp_path))
+
+
+def test_scene_projects_forms():
+    from morf.sizing.check import scene_projects
+
+    assert scene_projects(["plain", "print"], None) == {"plain": None, "print": None}
+    assert scene_projects(["print"], "/cap") == {"print": "/cap"}
+    assert scene_projects(["plain", "print", "loose"], "print=/cap, loose=/l") == \
+        {"plain": None, "print": "/cap", "loose": "/l"}
+    assert scene_projects(["plain", "print"], {"print": "/cap"}) == {"plain": None, "print": "/cap"}
+    with pytest.raises(InputError, match="not checked"):
+        scene_projects(["plain"], "print=/cap")
+    with pytest.raises(InputError, match="scene=PATH"):
+        scene_projects(["plain", "print"], "print=")
