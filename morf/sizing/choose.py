@@ -8,8 +8,10 @@ The rule (thresholds in :class:`SizingRule`, calibration in docs/benchmarks.md):
    is about 1.16 person heights), capped by the height in the capture (upsampling adds nothing).
    Detailed clothing kept its quality at about half a texel per pixel on the default sweep (the
    U-Net renderer adds detail back); plain clothing is band-limited and is given less. S = the
-   smallest power of two >= density * h / 0.82, in [128, 1024].
-2. Channels: 16 for detailed and medium clothing, 8 for plain (never above the base preset).
+   smallest power of two >= density * h / 0.82, in [64, 1024] for plain clothing and [128, 1024]
+   otherwise.
+2. Channels: 16 at every detail level (never above the base preset): at default size 8 channels
+   cost plain clothing 0.7 dB.
 3. Renderer: the preset's. The rule can step down the preset's ladder for plain, tight clothing
    and up when much of the person lies outside the fitted body (``SizingRule`` steps), but on the
    quick sweep (docs/benchmarks.md) a smaller renderer cost 1.6-3.7 dB and a larger one gained
@@ -48,12 +50,15 @@ class SizingRule:
     density_mid: float = 0.32  # ... for medium detail (scaled with density_high; not measured)
     density_low: float = 0.22  # ... for plain clothing (likewise)
     excess_high: float = 0.2  # share of the mask outside the fitted body that counts as loose garments
-    channels_by_detail: tuple[int, int, int] = (8, 16, 16)  # plain, medium, detailed (4 plain / 8 medium cost 1.3 dB)
+    # plain, medium, detailed: at default size 8 channels cost plain clothing 0.7 dB (22.33 against
+    # 23.00 dB) and 4 cost print 0.6 dB, so every level keeps 16
+    channels_by_detail: tuple[int, int, int] = (16, 16, 16)
     plain_renderer_step: int = 0  # ladder steps for plain, tight clothing (-1 = one smaller; b8 cost 1.6 dB)
     loose_renderer_step: int = 0  # ... for loose garments (+1 = one larger; b24 gained nothing, 30 % slower)
-    # below 128^2 the atlas islands are a few texels wide and bleed into each other: on the quick
-    # sweep 64^2 cost 1.5-6.4 dB on all three scenes
-    min_texture: int = 128
+    # smallest texture per detail level (plain, medium, detailed): below 128^2 the atlas islands are a
+    # few texels wide and bleed into each other; on the quick sweep 64^2 cost 1.5-6.4 dB on all three
+    # scenes, so only plain clothing may go to 64^2 (see docs/benchmarks.md for its default-size check)
+    min_texture_by_detail: tuple[int, int, int] = (64, 128, 128)
     max_texture: int = 1024
     quality_margin_db: float = 0.5  # "near the best": within this much person-PSNR of the best on the sweep
     # ... and within this share of its fps: one sweep measured the same model at 25.3 and 25.8 fps
@@ -79,7 +84,8 @@ def choose_from_features(f: CaptureFeatures, base: TrainConfig, base_preset: str
     level = "high" if f.detail >= rule.detail_high else "low" if f.detail < rule.detail_low else "mid"
     density = {"high": rule.density_high, "mid": rule.density_mid, "low": rule.density_low}[level]
     texels_per_side = ATLAS_UNITS_PER_METRE * BODY_HEIGHT_M  # atlas sides per body height
-    size = _pow2_at_least(density * h / texels_per_side, rule.min_texture, rule.max_texture)
+    floor = dict(zip(("low", "mid", "high"), rule.min_texture_by_detail))[level]
+    size = _pow2_at_least(density * h / texels_per_side, floor, rule.max_texture)
     reasons.append(f"person {f.person_height_px:.0f} px tall in the capture, about {h_train:.0f} px at the "
                    f"{base.resolution} px training resolution -> {h:.0f} px to cover")
     reasons.append(f"clothing detail {f.detail:.3f} (fine-band RMS; {rule.detail_low} / {rule.detail_high} "

@@ -47,11 +47,11 @@ def test_image_features_detail_and_height(tmp_path):
 
 def test_auto_picks_larger_texture_for_detailed_clothing(tmp_path):
     # a person 398 px tall, capped at the 221 px the 256 px training crop holds: 0.45 * 221 / 0.82
-    # -> 128^2 when detailed; 0.22 * 221 / 0.82 -> the 128^2 minimum when plain
+    # -> 128^2 when detailed; 0.22 * 221 / 0.82 = 59 -> 64^2 when plain
     cfg_plain, why_plain = choose_train_config(FakeProject(tmp_path, "plain", size=512), "cpu")
     cfg_fine, why_fine = choose_train_config(FakeProject(tmp_path, "print", size=512), "cpu")
-    assert cfg_fine.texture_size >= cfg_plain.texture_size
-    assert cfg_fine.texture_channels > cfg_plain.texture_channels
+    assert (cfg_fine.texture_size, cfg_plain.texture_size) == (128, 64)
+    assert cfg_fine.texture_channels == cfg_plain.texture_channels == 16
     fine_dense, _ = choose_train_config(FakeProject(tmp_path, "print", size=512), "cpu",
                                         rule=SizingRule(density_high=1.0, density_low=0.5))
     plain_dense, _ = choose_train_config(FakeProject(tmp_path, "plain", size=512), "cpu",
@@ -75,10 +75,14 @@ def test_rule_follows_person_height_and_looseness():
     loose_step, _ = choose_from_features(loose, base, "cpu", stepping)
     # 256 px training crop -> about 221 px of person -> 0.45 * 221 / 0.82 = 121 texels -> 128;
     # 60 px -> 33 texels -> the smallest texture the rule allows
-    assert big_cfg.texture_size == 128 and small_cfg.texture_size == SizingRule().min_texture
+    assert big_cfg.texture_size == 128 and small_cfg.texture_size == SizingRule().min_texture_by_detail[2]
     denser, _ = choose_from_features(f, base, "cpu", SizingRule(density_high=1.0))
     assert denser.texture_size == 512
-    assert choose_from_features(small, base, "cpu", SizingRule(min_texture=64))[0].texture_size == 64
+    assert choose_from_features(small, base, "cpu", SizingRule(min_texture_by_detail=(64, 64, 64)))[0].texture_size == 64
     assert loose_cfg.renderer.width == big_cfg.renderer.width and any("loose" in r for r in reasons)
     assert loose_step.renderer.width > big_cfg.renderer.width  # the ladder still works when asked
     assert SizingRule().quality_margin_db > 0
+    plain = CaptureFeatures(**{**f.to_dict(), "detail": 0.01})
+    assert choose_from_features(plain, base, "cpu")[0].texture_size == 64  # plain clothing's own floor
+    assert choose_from_features(plain, base, "cpu", SizingRule(channels_by_detail=(8, 16, 16)))[0] \
+        .texture_channels == 8
