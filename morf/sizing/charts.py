@@ -35,9 +35,9 @@ def front_chart(points: list[dict], x: str, y: str, front: np.ndarray, path: Pat
     ax.scatter(xs[front], ys[front], c="tab:red", s=45, label="Pareto front", zorder=3)
     order = np.argsort(xs[front])
     ax.plot(xs[front][order], ys[front][order], c="tab:red", lw=1, alpha=0.7, drawstyle="steps-mid")
-    for p, xv, yv, k in zip(points, xs, ys, ok):
-        if k:
-            ax.annotate(p["name"], (xv, yv), fontsize=7, xytext=(3, 3), textcoords="offset points")
+    for (p, xv, yv), dy in zip([(p, xv, yv) for p, xv, yv, k in zip(points, xs, ys, ok) if k],
+                               _label_offsets(xs[ok], ys[ok])):
+        ax.annotate(p["name"], (xv, yv), fontsize=7, xytext=(3, dy), textcoords="offset points")
     if target_x is not None:
         ax.axvline(target_x, c="tab:blue", ls="--", lw=1)
         ax.text(target_x, ax.get_ylim()[0], " " + target_label, color="tab:blue", fontsize=8, rotation=90,
@@ -101,3 +101,19 @@ def series_chart(series: dict[str, dict], metric: str, path: Path, *, title: str
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def _label_offsets(xs, ys, near: float = 0.06, step: float = 9.0) -> list[float]:
+    """Vertical label offsets in points: a label whose point lies within ``near`` (share of the
+    axis ranges) of earlier labelled points is moved down a line per such neighbour."""
+    xs, ys = np.asarray(xs, float), np.asarray(ys, float)
+    if not len(xs):
+        return []
+    nx = (xs - xs.min()) / max(np.ptp(xs), 1e-12)
+    ny = (ys - ys.min()) / max(np.ptp(ys), 1e-12)
+    out = []
+    for i in range(len(xs)):
+        crowd = int(np.sum(np.hypot(nx[:i] - nx[i], ny[:i] - ny[i]) < near))
+        out.append(3.0 - step * crowd)
+    return out
+

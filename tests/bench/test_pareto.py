@@ -57,3 +57,12 @@ def test_a_resolution_point_is_scored_at_the_base_resolution(tmp_path, body_mode
     at_own = holdout_quality(project, rows["resolution-32"]["run"], body_model)
     assert at_base["psnr"] == pytest.approx(rows["resolution-32"]["psnr"])
     assert at_base["psnr"] != pytest.approx(at_own["psnr"])
+
+
+def test_crowded_chart_labels_move_apart():
+    from morf.sizing.charts import _label_offsets
+
+    # the second and fourth points sit on top of earlier ones: each moves down one line per neighbour
+    off = _label_offsets([20.0, 20.05, 30.0, 20.02], [18.0, 18.01, 17.0, 18.0])
+    assert off[0] == off[2] == 3.0 and off[1] == 3.0 - 9.0 and off[3] == 3.0 - 18.0
+    assert _label_offsets([], []) == []
