@@ -116,4 +116,3 @@ def _label_offsets(xs, ys, near: float = 0.06, step: float = 9.0) -> list[float]
         crowd = int(np.sum(np.hypot(nx[:i] - nx[i], ny[:i] - ny[i]) < near))
         out.append(3.0 - step * crowd)
     return out
-
