@@ -82,16 +82,16 @@ def choose_from_features(f: CaptureFeatures, base: TrainConfig, base_preset: str
     h_train = base.resolution / CROP_MARGIN
     h = min(f.person_height_px, h_train)
     level = "high" if f.detail >= rule.detail_high else "low" if f.detail < rule.detail_low else "mid"
-    density = {"high": rule.density_high, "mid": rule.density_mid, "low": rule.density_low}[level]
+    k = ("low", "mid", "high").index(level)  # index into the per-level tuples of the rule
+    density = (rule.density_low, rule.density_mid, rule.density_high)[k]
     texels_per_side = ATLAS_UNITS_PER_METRE * BODY_HEIGHT_M  # atlas sides per body height
-    floor = dict(zip(("low", "mid", "high"), rule.min_texture_by_detail))[level]
-    size = _pow2_at_least(density * h / texels_per_side, floor, rule.max_texture)
+    size = _pow2_at_least(density * h / texels_per_side, rule.min_texture_by_detail[k], rule.max_texture)
     reasons.append(f"person {f.person_height_px:.0f} px tall in the capture, about {h_train:.0f} px at the "
                    f"{base.resolution} px training resolution -> {h:.0f} px to cover")
     reasons.append(f"clothing detail {f.detail:.3f} (fine-band RMS; {rule.detail_low} / {rule.detail_high} "
                    f"split plain / medium / detailed): {level} -> {density} texels per pixel -> "
                    f"texture {size}x{size}")
-    channels = dict(zip(("low", "mid", "high"), rule.channels_by_detail))[level]
+    channels = rule.channels_by_detail[k]
     channels = min(channels, base.texture_channels)
     reasons.append(f"{level} detail -> {channels} texture channels (base preset: {base.texture_channels})")
     ladder = LADDERS.get(base_preset)
