@@ -13,7 +13,8 @@ and channels, training resolution and steps, warp on/off, int8 vs fp32) is train
 Writes ``DIR/pareto.json`` ``{"points": [...], "front_fps": [...], "front_train": [...], ...}``,
 ``DIR/pareto.md`` and charts ``DIR/pareto_fps.png``, ``DIR/pareto_train.png``. Resumable: each
 point's result is saved in ``DIR/points/<name>.json`` as it finishes and reused on a re-run (its
-training run also resumes). ``--auto-check`` runs the automatic size choice on three scenes
+training run also resumes); ``--points`` names what to measure, and points measured earlier in
+``DIR`` on the same capture stay in the results. ``--auto-check`` runs the automatic size choice on three scenes
 instead (see :mod:`morf.sizing.check`).
 """
 
@@ -43,7 +44,8 @@ def add_arguments(p) -> None:
                    help="synthetic scene when a capture is made")
     p.add_argument("--axes", default=None, help="comma-separated subset of the sweep's knobs (default: all)")
     p.add_argument("--points", default=None,
-                   help="comma-separated point names (e.g. base,renderer-stem4_b32; default: all on --axes)")
+                   help="comma-separated points to measure (e.g. renderer-stem4_b32; default: all on --axes); "
+                        "points measured earlier in --out on the same capture are kept")
     p.add_argument("--auto-check", action="store_true",
                    help="check --preset auto on the plain, print and loose scenes instead of one sweep")
     p.add_argument("--scenes", default="plain,print,loose",
@@ -85,18 +87,14 @@ def run_point(project, sweep, point, model, out: Path, cfg=None) -> tuple[dict, 
     ``OUT/points/<name>.json`` (same config, same fps size) without any work."""
     from morf.io import atomic_write_json
     from morf.sizing.evaluate import speed_of_run, train_and_evaluate
-    from morf.sizing.sweep import SweepPoint, resolve, train_key
+    from morf.sizing.sweep import resolve, train_key
 
     cfg = cfg or resolve(sweep, point)
-    key = f"{train_key(cfg)}-{point.precision}-{sweep.fps_size}"
-    # quality is scored at the base point's training resolution, so the resolution axis compares
-    # like with like (results saved before this field was kept were scored at their own resolution)
-    eval_res = resolve(sweep, SweepPoint("base", "base")).resolution
+    old = saved_point(out, sweep, point, project, cfg)
+    if old is not None:
+        return old, True
+    key, eval_res = _identity(sweep, point, cfg)
     path = out / "points" / f"{point.name}.json"
-    if path.is_file():
-        old = json.loads(path.read_text())
-        if old.get("key") == key and old.get("eval_resolution", old["config"]["resolution"]) == eval_res:
-            return old, True
     t0 = time.time()
     row = {"name": point.name, "axis": point.axis, "method": cfg.method, "precision": point.precision, "key": key,
            "config": _summary(cfg)}
@@ -136,13 +134,43 @@ def charts(rows: list[dict], front: dict, out: Path, fps_size: int, title: str) 
     return [str(a), str(b)]
 
 
+def _identity(sweep, point, cfg) -> tuple[str, int]:
+    """(key, scoring resolution) a saved point must match: its training config, precision and fps
+    size; quality is scored at the base point's training resolution, so the resolution axis compares
+    like with like."""
+    from morf.sizing.sweep import SweepPoint, resolve, train_key
+
+    return (f"{train_key(cfg)}-{point.precision}-{sweep.fps_size}",
+            resolve(sweep, SweepPoint("base", "base")).resolution)
+
+
+def saved_point(out: Path, sweep, point, project, cfg=None) -> dict | None:
+    """``OUT/points/<name>.json`` when it holds this point's config (same training, fps size and
+    scoring resolution) trained on ``project``; else None."""
+    from morf.sizing.sweep import resolve
+
+    key, eval_res = _identity(sweep, point, cfg or resolve(sweep, point))
+    path = out / "points" / f"{point.name}.json"
+    if not path.is_file():
+        return None
+    old = json.loads(path.read_text())
+    # results saved before eval_resolution was kept were scored at their own resolution
+    same_capture = Path(old.get("run", "")).resolve().is_relative_to(Path(project.root).resolve())
+    if old.get("key") == key and old.get("eval_resolution", old["config"]["resolution"]) == eval_res and same_capture:
+        return old
+    return None
+
+
 def run_sweep(out, preset: str = "default", scene: str = "print", project_path: str | None = None,
               axes: list[str] | None = None, model=None, extra: list | None = None,
-              points: list[str] | None = None) -> dict:
+              points: list[str] | None = None, project=None) -> dict:
     """Run (or resume) one sweep and write its JSON, Markdown and charts; returns the result.
 
-    ``extra``: (SweepPoint, TrainConfig) pairs measured beside the sweep's own points (the
-    automatic choice in ``--auto-check``).
+    ``points`` names the points to measure (all of ``axes`` when None); the other points of
+    ``axes`` already measured in ``OUT`` on the same capture join the result as saved, so a sweep
+    grows point by point. ``extra``: (SweepPoint, TrainConfig) pairs measured beside the sweep's
+    own points (the automatic choice in ``--auto-check``). ``project``: the opened capture, when
+    the caller has it (else made or opened from ``project_path``).
     """
     from morf.bench.common import machine_info, markdown_table, write_results
     from morf.sizing.sweep import PRESETS, select
@@ -153,8 +181,11 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
         from morf.body import load_body_model
 
         model = load_body_model("anny")
-    project = make_capture(out, sweep, scene, model, project_path)
-    todo = [(p, None) for p in select(sweep, axes, points)] + list(extra or [])
+    if project is None:
+        project = make_capture(out, sweep, scene, model, project_path)
+    named = select(sweep, axes, points)
+    todo = [(p, None) for p in select(sweep, axes) if p in named or saved_point(out, sweep, p, project)]
+    todo += list(extra or [])
     rows, reused = [], []
     for i, (point, cfg) in enumerate(todo):
         print(f"[{i + 1}/{len(todo)}] {point.name}")

@@ -78,8 +78,8 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
         # Same training as an identical sweep point (the preset name is only a label).
         cfg = cfg.replace(preset=sweep.train[0])
         auto = SweepPoint("auto", "auto")
-        res = run_sweep(out / scene, preset, scene, projects[scene], axes=SIZING_AXES, model=model, extra=[(auto, cfg)],
-                        points=points)
+        res = run_sweep(out / scene, preset, scene, axes=SIZING_AXES, model=model, extra=[(auto, cfg)],
+                        points=points, project=project)
         pts = res["points"]
         i = next(k for k, p in enumerate(pts) if p["name"] == "auto")
         vals = [[p.get(QUALITY), p.get("fps")] for p in pts]

@@ -37,6 +37,15 @@ def test_tiny_sweep_writes_results_and_resumes(tmp_path, body_model, gl):
     assert again["reused"] == names
     assert {p.name: p.stat().st_mtime_ns for p in (out / "points").iterdir()} == stamps
 
+    # naming one point keeps the others measured on this capture, and only those
+    grown = run_sweep(out, "tiny", axes=["texture_size", "precision"], points=["fp32"], model=body_model)
+    assert [p["name"] for p in grown["points"]] == names and grown["reused"] == names
+    moved = json.loads((out / "points" / "texture-32.json").read_text())
+    moved["run"] = str(tmp_path / "another-capture" / "runs" / "x")
+    (out / "points" / "texture-32.json").write_text(json.dumps(moved))
+    alone = run_sweep(out, "tiny", axes=["texture_size", "precision"], points=["fp32"], model=body_model)
+    assert [p["name"] for p in alone["points"]] == ["base", "fp32"]
+
 
 @pytest.mark.gl
 def test_a_resolution_point_is_scored_at_the_base_resolution(tmp_path, body_model, gl):
