@@ -13,9 +13,9 @@ The rule (thresholds in :class:`SizingRule`, calibration in docs/benchmarks.md):
 2. Channels: 16 at every detail level (never above the base preset): at default size 8 channels
    cost plain clothing 0.7 dB.
 3. Renderer: the preset's. The rule can step down the preset's ladder for plain, tight clothing
-   and up when much of the person lies outside the fitted body (``SizingRule`` steps), but on the
-   quick sweep (docs/benchmarks.md) a smaller renderer cost 1.6-3.7 dB and a larger one gained
-   nothing on plain, print and loose scenes, so both steps are 0.
+   and up when much of the person lies outside the fitted body (``SizingRule`` steps), but at
+   default size (docs/benchmarks.md) the ladder's smaller renderer cost 1.0-3.6 dB on plain, print
+   and loose scenes and the larger one lost 1.5 dB on the loose scene, so both steps are 0.
 
 Frame count and motion range do not change the sizes (they decide what can be learned at all);
 they are reported so a user sees why a capture may disappoint.
@@ -53,8 +53,8 @@ class SizingRule:
     # plain, medium, detailed: at default size 8 channels cost plain clothing 0.7 dB (22.33 against
     # 23.00 dB) and 4 cost print 0.6 dB, so every level keeps 16
     channels_by_detail: tuple[int, int, int] = (16, 16, 16)
-    plain_renderer_step: int = 0  # ladder steps for plain, tight clothing (-1 = one smaller; b8 cost 1.6 dB)
-    loose_renderer_step: int = 0  # ... for loose garments (+1 = one larger; b24 gained nothing, 30 % slower)
+    plain_renderer_step: int = 0  # ladder steps for plain, tight clothing (-1 = one smaller: b8 cost 3.6 dB)
+    loose_renderer_step: int = 0  # ... for loose garments (+1 = b24 cost 1.5 dB, 38 % slower; -1 = b8 cost 1.0 dB)
     # smallest texture per detail level (plain, medium, detailed): below 128^2 the atlas islands are a
     # few texels wide and bleed into each other; on the quick sweep 64^2 cost 1.5-6.4 dB on all three
     # scenes, so only plain clothing may go to 64^2 (see docs/benchmarks.md for its default-size check)
@@ -82,16 +82,16 @@ def choose_from_features(f: CaptureFeatures, base: TrainConfig, base_preset: str
     h_train = base.resolution / CROP_MARGIN
     h = min(f.person_height_px, h_train)
     level = "high" if f.detail >= rule.detail_high else "low" if f.detail < rule.detail_low else "mid"
-    k = ("low", "mid", "high").index(level)  # index into the per-level tuples of the rule
-    density = (rule.density_low, rule.density_mid, rule.density_high)[k]
+    li = ("low", "mid", "high").index(level)  # index into the per-level tuples of the rule
+    density = (rule.density_low, rule.density_mid, rule.density_high)[li]
     texels_per_side = ATLAS_UNITS_PER_METRE * BODY_HEIGHT_M  # atlas sides per body height
-    size = _pow2_at_least(density * h / texels_per_side, rule.min_texture_by_detail[k], rule.max_texture)
+    size = _pow2_at_least(density * h / texels_per_side, rule.min_texture_by_detail[li], rule.max_texture)
     reasons.append(f"person {f.person_height_px:.0f} px tall in the capture, about {h_train:.0f} px at the "
                    f"{base.resolution} px training resolution -> {h:.0f} px to cover")
     reasons.append(f"clothing detail {f.detail:.3f} (fine-band RMS; {rule.detail_low} / {rule.detail_high} "
                    f"split plain / medium / detailed): {level} -> {density} texels per pixel -> "
                    f"texture {size}x{size}")
-    channels = rule.channels_by_detail[k]
+    channels = rule.channels_by_detail[li]
     channels = min(channels, base.texture_channels)
     reasons.append(f"{level} detail -> {channels} texture channels (base preset: {base.texture_channels})")
     ladder = LADDERS.get(base_preset)
