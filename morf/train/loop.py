@@ -92,7 +92,7 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         shape, camera: stored with the avatar for export; notes: extra lines for the log.
     Raises:
         TrainingDiverged: NaN/inf or a collapsed mask (``health.py``) that rolling back to the last
-            checkpoint with halved learning rates (``cfg.max_recoveries`` times) did not cure, or a
+            snapshot, checkpoint or (before the first snapshot) the initial state with halved learning rates (``cfg.max_recoveries`` times) did not cure, or a
             mask that did not form even after a restart with the adversarial terms held; the last
             good checkpoint is kept.
         StopRequested: the user stopped; a checkpoint of the current step was written first.
@@ -173,6 +173,8 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
                 run.log("restarted from step 0 with the adversarial terms off until the mask forms")
                 continue
             snap = snapshots[0] if snapshots else None
+            if snap is None and not run.has_checkpoint and initial is not None:
+                snap = (initial, 0)  # collapsed before the first snapshot: start again from step 0
             use_snap = snap is not None and (ckpt[0] is None or snap[0]["step"] >= ckpt[0])
             if recoveries >= cfg.max_recoveries or not (use_snap or run.has_checkpoint):
                 raise TrainingDiverged(f"{e}{kept}") from None

@@ -110,6 +110,19 @@ def test_collapse_before_any_checkpoint_rolls_back_to_a_snapshot(frames_factory,
     assert all(abs(lr - 0.25 * base) < 1e-12 for lr, base in zip(lrs, [cfg.lr_texture, cfg.lr_renderer]))
 
 
+def test_collapse_before_the_first_snapshot_starts_again_from_step_0(frames_factory, tmp_path, monkeypatch):
+    """A wide renderer can collapse within the first hundred steps, before any snapshot or
+    checkpoint: the run goes back to its initial state with halved learning rates."""
+    cfg = _cfg(checkpoint_minutes=1e6, steps=8)
+    _collapse_at(monkeypatch, {3})
+    res = train_avatar(frames_factory(), tmp_path / "run", cfg, _texture(cfg))
+    log = (RunDir(res.run_dir).root / "train.log").read_text()
+    assert "rolled back to the in-memory state of step 0" in log and "recovery 1 of" in log
+    assert res.step == 8 and RunDir(res.run_dir).is_done
+    lrs = [g["lr"] for g in RunDir(res.run_dir).load_checkpoint()["opt"]["param_groups"]]
+    assert all(abs(lr - 0.5 * base) < 1e-12 for lr, base in zip(lrs, [cfg.lr_texture, cfg.lr_renderer]))
+
+
 def test_a_mask_that_never_formed_restarts_with_the_adversarial_terms_held(frames_factory, tmp_path, monkeypatch):
     """The first attempt's mask never forms (Dice 1 while the adversarial terms are on): the run
     restarts from step 0 without them, switches them on once the mask formed, and finishes."""
