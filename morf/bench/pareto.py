@@ -154,11 +154,10 @@ def saved_point(out: Path, sweep, point, project, cfg=None) -> dict | None:
     if not path.is_file():
         return None
     old = json.loads(path.read_text())
-    # results saved before eval_resolution was kept were scored at their own resolution
     same_capture = Path(old.get("run", "")).resolve().is_relative_to(Path(project.root).resolve())
-    if old.get("key") == key and old.get("eval_resolution", old["config"]["resolution"]) == eval_res and same_capture:
-        return old
-    return None
+    # results saved before eval_resolution was kept were scored at their own resolution
+    scored_at = old.get("eval_resolution", old["config"]["resolution"])
+    return old if old.get("key") == key and scored_at == eval_res and same_capture else None
 
 
 def run_sweep(out, preset: str = "default", scene: str = "print", project_path: str | None = None,
