@@ -91,10 +91,10 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         feature matching is used, and the log says so); inpaint: pseudo views for the fine-tune or None;
         shape, camera: stored with the avatar for export; notes: extra lines for the log.
     Raises:
-        TrainingDiverged: NaN/inf or a collapsed mask (``health.py``) that rolling back to the last
-            snapshot, checkpoint or (before the first snapshot) the initial state with halved learning rates (``cfg.max_recoveries`` times) did not cure, or a
-            mask that did not form even after a restart with the adversarial terms held; the last
-            good checkpoint is kept.
+        TrainingDiverged: NaN/inf or a collapsed mask (``health.py``) that rolling back with halved
+            learning rates (``cfg.max_recoveries`` times; to the last snapshot or checkpoint, or to
+            the initial state before the first snapshot) did not cure, or a mask that did not form
+            even after a restart with the adversarial terms held; the last good checkpoint is kept.
         StopRequested: the user stopped; a checkpoint of the current step was written first.
     """
     control = control or StageControl()
