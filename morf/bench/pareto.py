@@ -118,16 +118,34 @@ def fronts(rows: list[dict]) -> dict[str, np.ndarray]:
     return {"fps": pareto_front(none(fps), (True, True)), "train": pareto_front(none(train), (True, False))}
 
 
-def charts(rows: list[dict], front: dict, out: Path, fps_size: int, title: str) -> list[str]:
+def seed_spread(rows: list[dict]) -> dict | None:
+    """The base point's quality over the seeds the sweep trained it with (the base and the seed
+    axis's points that did not diverge): {"points", QUALITY, "range_db", "std_db"}; None without
+    seed points."""
+    from morf.sizing.sweep import NOISE_AXES
+
+    runs = [r for r in rows if (r["axis"] == "base" or r["axis"] in NOISE_AXES) and r.get(QUALITY) is not None]
+    if not any(r["axis"] in NOISE_AXES for r in runs) or len(runs) < 2:
+        return None
+    q = np.array([r[QUALITY] for r in runs], float)
+    return {"points": [r["name"] for r in runs], QUALITY: q.tolist(), "range_db": float(np.ptp(q)),
+            "std_db": float(q.std(ddof=1))}
+
+
+def charts(rows: list[dict], front: dict, out: Path, fps_size: int, title: str,
+           noise: dict | None = None) -> list[str]:
     from morf.sizing.charts import front_chart
 
     paper = fps_size == 640
-    a = front_chart(rows, "fps", QUALITY, front["fps"], out / "pareto_fps.png",
+    base = next((r for r in rows if r["axis"] == "base"), None)
+    spread = lambda x: (base[x], min(noise[QUALITY]), max(noise[QUALITY])) if noise and base else None  # noqa: E731
+    a = front_chart(rows, "fps", QUALITY, front["fps"], out / "pareto_fps.png", spread=spread("fps"),
                     title=f"{title}: quality vs live fps", xlabel=f"fps at {fps_size}x{fps_size}, end to end, this CPU",
                     ylabel="hold-out PSNR on the person (dB)", target_x=30.0 if paper else None,
                     target_label="paper: 30 fps @640, Snapdragon 888", note=PAPER_NOTE if paper else
                     f"Measured at {fps_size}x{fps_size} (not the paper's 640x640): no paper reference applies.")
     b = front_chart(rows, "train_minutes", QUALITY, front["train"], out / "pareto_train.png",
+                    spread=spread("train_minutes"),
                     title=f"{title}: quality vs training time", xlabel="training minutes (this CPU)",
                     ylabel="hold-out PSNR on the person (dB)", log_x=True,
                     note="The paper gives no comparable training time.")
@@ -172,7 +190,7 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
     the caller has it (else made or opened from ``project_path``).
     """
     from morf.bench.common import machine_info, markdown_table, write_results
-    from morf.sizing.sweep import PRESETS, select
+    from morf.sizing.sweep import NOISE_AXES, PRESETS, select
 
     out = Path(out)
     sweep = PRESETS[preset]
@@ -195,24 +213,32 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
         print(f"  {QUALITY} {row.get(QUALITY)}, fps {row.get('fps')}, train {row.get('train_minutes')} min"
               + (" (saved result)" if was else ""))
     shutil.rmtree(out / "work", ignore_errors=True)  # exports made only to time playback
-    front = fronts(rows)
-    for r, f1, f2 in zip(rows, front["fps"], front["train"]):
+    sized = [r for r in rows if r["axis"] not in NOISE_AXES]  # the seed points re-measure the base
+    front = fronts(sized)
+    for r in rows:
+        r["on_front_fps"] = r["on_front_train"] = False
+    for r, f1, f2 in zip(sized, front["fps"], front["train"]):
         r["on_front_fps"], r["on_front_train"] = bool(f1), bool(f2)
+    noise = seed_spread(rows)
     result = {"benchmark": "pareto", "preset": preset, "scene": scene, "project": str(project.root),
               "quality_metric": QUALITY, "fps_size": sweep.fps_size, "fps_precision_default": "int8",
               "points": rows, "front_fps": [r["name"] for r in rows if r["on_front_fps"]],
-              "front_train": [r["name"] for r in rows if r["on_front_train"]], "reused": reused,
+              "front_train": [r["name"] for r in rows if r["on_front_train"]], "seed_spread": noise, "reused": reused,
               "paper_reference": {"fps": 30, "size": 640, "device": "Snapdragon 888", "params_m": 14.4, "ssim": 0.899,
                                   "lpips": 0.0623, "tlpips": 0.00466, "comparable": ["fps"], "note": PAPER_NOTE},
               "machine": machine_info()}
-    result["charts"] = charts(rows, front, out, sweep.fps_size, f"{preset} sweep, {scene} scene")
+    result["charts"] = charts(sized, front, out, sweep.fps_size, f"{preset} sweep, {scene} scene", noise)
     table = [{**r, "params_M": r["params"] / 1e6, "front": ("fps " if r["on_front_fps"] else "")
               + ("train" if r["on_front_train"] else "")} for r in rows]
     md = (f"# Speed against accuracy ({preset} sweep, {scene} scene)\n\n"
           + markdown_table(table, ["name", "params_M", "psnr_person", "ssim_person", "psnr", "temporal", "fps",
                                    "renderer_ms", "train_minutes", "front"])
           + f"\nfps at {sweep.fps_size}x{sweep.fps_size} end to end (int8 unless the point is fp32); "
-            f"PSNR in dB on the hold-out sequence; temporal = flicker (lower is better).\n\n{PAPER_NOTE}\n")
+            f"PSNR in dB on the hold-out sequence; temporal = flicker (lower is better).\n\n"
+          + (f"The base point over {len(noise['points'])} seeds spans {noise['range_db']:.2f} dB of {QUALITY} "
+             f"(std {noise['std_db']:.2f} dB): differences smaller than that are within training noise; "
+             "the seed points stay off the fronts.\n\n" if noise else "")
+          + f"{PAPER_NOTE}\n")
     path = write_results(out, "pareto", result, md)
     print(f"wrote {path}")
     return result

@@ -18,13 +18,14 @@ def _pyplot():
 
 def front_chart(points: list[dict], x: str, y: str, front: np.ndarray, path: Path, *, title: str, xlabel: str,
                 ylabel: str, log_x: bool = False, target_x: float | None = None, target_label: str = "",
-                note: str = "") -> Path:
+                note: str = "", spread: tuple[float, float, float] | None = None) -> Path:
     """Scatter of ``points[i][x]`` against ``points[i][y]`` with the Pareto front drawn as a step line.
 
     Args:
         front: (N,) bool, points on the front (from :func:`morf.sizing.front.pareto_front`).
         target_x: draws a vertical line there (e.g. the paper's 30 fps), labelled ``target_label``.
         note: a footnote under the axes (what is comparable with the paper and what is not).
+        spread: (x, low, high): the base point's range over training seeds, drawn as a bar at x.
     """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 5.5), dpi=110)
@@ -38,6 +39,9 @@ def front_chart(points: list[dict], x: str, y: str, front: np.ndarray, path: Pat
     for (p, xv, yv), dy in zip([(p, xv, yv) for p, xv, yv, k in zip(points, xs, ys, ok) if k],
                                _label_offsets(xs[ok], ys[ok])):
         ax.annotate(p["name"], (xv, yv), fontsize=7, xytext=(3, dy), textcoords="offset points")
+    if spread is not None and all(v is not None and np.isfinite(v) for v in spread):
+        ax.vlines(spread[0], spread[1], spread[2], colors="tab:orange", lw=3, alpha=0.6, zorder=2,
+                  label="base over training seeds")
     if target_x is not None:
         ax.axvline(target_x, c="tab:blue", ls="--", lw=1)
         ax.text(target_x, ax.get_ylim()[0], " " + target_label, color="tab:blue", fontsize=8, rotation=90,

@@ -75,3 +75,31 @@ def test_crowded_chart_labels_move_apart():
     off = _label_offsets([20.0, 20.05, 30.0, 20.02], [18.0, 18.01, 17.0, 18.0])
     assert off[0] == off[2] == 3.0 and off[1] == 3.0 - 9.0 and off[3] == 3.0 - 18.0
     assert _label_offsets([], []) == []
+
+
+@pytest.mark.gl
+def test_seed_points_measure_the_noise_and_stay_off_the_fronts(tmp_path, body_model, gl):
+    out = tmp_path / "pareto"
+    data = run_sweep(out, "tiny", axes=["seed"], model=body_model)
+    rows = {p["name"]: p for p in data["points"]}
+    assert list(rows) == ["base", "seed-1"]
+    assert rows["seed-1"]["run"] != rows["base"]["run"]
+    assert not rows["seed-1"]["on_front_fps"] and not rows["seed-1"]["on_front_train"]
+    assert "seed-1" not in data["front_fps"] + data["front_train"] and data["front_fps"] == ["base"]
+    spread = data["seed_spread"]
+    q = [rows["base"]["psnr_person"], rows["seed-1"]["psnr_person"]]
+    assert spread["points"] == ["base", "seed-1"] and spread["psnr_person"] == q
+    assert spread["range_db"] == pytest.approx(abs(q[0] - q[1])) and spread["range_db"] > 0
+    assert "seeds spans" in (out / "pareto.md").read_text()
+
+
+def test_no_seed_spread_without_seed_points():
+    from morf.bench.pareto import seed_spread
+
+    rows = [{"name": "base", "axis": "base", "psnr_person": 20.0},
+            {"name": "texture-32", "axis": "texture_size", "psnr_person": 19.0}]
+    assert seed_spread(rows) is None
+    rows.append({"name": "seed-1", "axis": "seed", "psnr_person": 21.0})
+    rows.append({"name": "seed-2", "axis": "seed", "psnr_person": None})  # diverged: left out
+    s = seed_spread(rows)
+    assert s["points"] == ["base", "seed-1"] and s["range_db"] == pytest.approx(1.0)
