@@ -9,11 +9,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 # torch is imported inside the projection functions only: the exported-avatar player uses this
 # camera without torch installed.
+if TYPE_CHECKING:
+    import torch
 
 
 @dataclass(frozen=True)
@@ -89,7 +92,7 @@ class PinholeCamera:
                              np.asarray(d.get("R", np.eye(3)), float), np.asarray(d.get("t", np.zeros(3)), float))
 
     # ---- projection (torch, differentiable) ----------------------------------------------
-    def world_to_camera(self, points: "torch.Tensor") -> "torch.Tensor":
+    def world_to_camera(self, points: torch.Tensor) -> torch.Tensor:
         """(..., 3) world points -> (..., 3) camera coordinates."""
         import torch
 
@@ -97,7 +100,7 @@ class PinholeCamera:
         t = torch.as_tensor(self.t, dtype=points.dtype, device=points.device)
         return points @ R.T + t
 
-    def project(self, points: "torch.Tensor") -> "torch.Tensor":
+    def project(self, points: torch.Tensor) -> torch.Tensor:
         """(..., 3) world points -> (..., 2) pixel coordinates (x right, y down)."""
         return project_points(self.world_to_camera(points), self.fx, self.fy, self.cx, self.cy)
 
@@ -125,7 +128,7 @@ class PinholeCamera:
         return V
 
 
-def project_points(xc: "torch.Tensor", fx: float, fy: float, cx: float, cy: float, eps: float = 1e-6) -> "torch.Tensor":
+def project_points(xc: torch.Tensor, fx: float, fy: float, cx: float, cy: float, eps: float = 1e-6) -> torch.Tensor:
     """Perspective projection of camera-space points (..., 3) to pixels (..., 2)."""
     import torch
 

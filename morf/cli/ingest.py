@@ -26,7 +26,7 @@ def add_parser(sub):
     p.add_argument("--focal", type=float, metavar="PX",
                    help="focal length in source pixels (default: EXIF when present, else 1.2 x the longest side)")
     p.add_argument("--frame-format", choices=("auto", "png", "jpg"), default="auto",
-                   help=f"frame image format (auto: PNG up to 300 frames, JPEG beyond)")
+                   help="frame image format (auto: PNG up to 300 frames, JPEG beyond)")
     p.add_argument("--force", action="store_true", help="replace a project that already has fits, runs or an avatar")
     return p
 

@@ -85,7 +85,7 @@ def _request(state: AppState, ui: UiContext, side: int) -> int | None:
 
 
 def _draw_render(state: AppState, ui: UiContext) -> None:
-    lr, live = ui.live_render, ui.live
+    lr = ui.live_render
     avail = imgui.get_content_region_avail()
     side = max(min(avail.x, avail.y - 48), 16)  # players render square images
     n = lr.size or int(min(side, RENDER_MAX))  # players with no fixed size render at the view's size
