@@ -7,11 +7,14 @@ The rule (thresholds in :class:`SizingRule`, calibration in docs/benchmarks.md):
    pixel at atlas size ``S``. ``h`` is the person's height at the training resolution (the crop
    is about 1.16 person heights), capped by the height in the capture (upsampling adds nothing).
    Detailed clothing kept its quality at about half a texel per pixel on the default sweep (the
-   U-Net renderer adds detail back); plain clothing is band-limited and is given less. S = the
-   smallest power of two >= density * h / 0.82, in [64, 1024] for plain clothing and [128, 1024]
-   otherwise.
-2. Channels: 16 at every detail level (never above the base preset): at default size 8 channels
-   cost plain clothing 0.7 dB.
+   U-Net renderer adds detail back); plain clothing is band-limited and is given less, and so are
+   loose garments (at least 20 % of the person mask outside the fitted body's silhouette): much of
+   such a garment lies off the body surface, where the renderer paints it from the silhouette. S =
+   the smallest power of two >= density * h / 0.82, in [64, 1024] for plain clothing and loose
+   garments and [128, 1024] otherwise.
+2. Channels by detail level (never above the base preset): 16 for plain clothing, 8 for medium and
+   detailed clothing. At default size 8 channels cost plain clothing 0.7 dB and the others at most
+   0.2 dB; 4 cost them 0.6-1.2 dB.
 3. Renderer: the preset's. The rule can step down the preset's ladder for plain, tight clothing
    and up when much of the person lies outside the fitted body (``SizingRule`` steps), but at
    default size (docs/benchmarks.md) the ladder's smaller renderer cost 1.0-3.6 dB on plain, print
@@ -50,9 +53,15 @@ class SizingRule:
     density_mid: float = 0.32  # ... for medium detail (scaled with density_high; not measured)
     density_low: float = 0.22  # ... for plain clothing (likewise)
     excess_high: float = 0.2  # share of the mask outside the fitted body that counts as loose garments
+    # loose garments: texels per pixel and smallest texture. Much of the garment lies off the body
+    # surface, where the renderer paints it from the silhouette, not from texels: on the default-size
+    # loose scene 64^2 (0.24 texels per pixel) was its best point (19.16 dB against 18.88 at 256^2)
+    density_loose: float = 0.22
+    min_texture_loose: int = 64
     # plain, medium, detailed: at default size 8 channels cost plain clothing 0.7 dB (22.33 against
-    # 23.00 dB) and 4 cost print 0.6 dB, so every level keeps 16
-    channels_by_detail: tuple[int, int, int] = (16, 16, 16)
+    # 23.00 dB), the loose scene (medium detail) 0.2 dB and print nothing (+0.2 dB); 4 cost print
+    # 0.6 dB and the loose scene 1.2 dB
+    channels_by_detail: tuple[int, int, int] = (16, 8, 8)
     plain_renderer_step: int = 0  # ladder steps for plain, tight clothing (-1 = one smaller: b8 cost 3.6 dB)
     loose_renderer_step: int = 0  # ... for loose garments (+1 = b24 cost 1.5 dB, 38 % slower; -1 = b8 cost 1.0 dB)
     # smallest texture per detail level (plain, medium, detailed): below 128^2 the atlas islands are a
@@ -83,14 +92,22 @@ def choose_from_features(f: CaptureFeatures, base: TrainConfig, base_preset: str
     h = min(f.person_height_px, h_train)
     level = "high" if f.detail >= rule.detail_high else "low" if f.detail < rule.detail_low else "mid"
     li = ("low", "mid", "high").index(level)  # index into the per-level tuples of the rule
-    density = (rule.density_low, rule.density_mid, rule.density_high)[li]
+    excess = f.silhouette_excess
+    loose = excess is not None and excess >= rule.excess_high
+    density, floor = ((rule.density_loose, rule.min_texture_loose) if loose else
+                      ((rule.density_low, rule.density_mid, rule.density_high)[li], rule.min_texture_by_detail[li]))
     texels_per_side = ATLAS_UNITS_PER_METRE * BODY_HEIGHT_M  # atlas sides per body height
-    size = _pow2_at_least(density * h / texels_per_side, rule.min_texture_by_detail[li], rule.max_texture)
+    size = _pow2_at_least(density * h / texels_per_side, floor, rule.max_texture)
     reasons.append(f"person {f.person_height_px:.0f} px tall in the capture, about {h_train:.0f} px at the "
                    f"{base.resolution} px training resolution -> {h:.0f} px to cover")
     reasons.append(f"clothing detail {f.detail:.3f} (fine-band RMS; {rule.detail_low} / {rule.detail_high} "
-                   f"split plain / medium / detailed): {level} -> {density} texels per pixel -> "
-                   f"texture {size}x{size}")
+                   f"split plain / medium / detailed): {level}")
+    if loose:
+        reasons.append(f"{excess:.0%} of the person lies outside the fitted body (>= {rule.excess_high:.0%}: "
+                       f"loose garments, painted by the renderer from the silhouette more than from texels) -> "
+                       f"{density} texels per pixel -> texture {size}x{size}")
+    else:
+        reasons.append(f"{level} detail -> {density} texels per pixel -> texture {size}x{size}")
     channels = rule.channels_by_detail[li]
     channels = min(channels, base.texture_channels)
     reasons.append(f"{level} detail -> {channels} texture channels (base preset: {base.texture_channels})")
@@ -98,11 +115,10 @@ def choose_from_features(f: CaptureFeatures, base: TrainConfig, base_preset: str
     rfields = {k: v for k, v in dataclasses.asdict(base.renderer).items() if k != "in_channels"}
     if ladder:
         mid = 1  # the middle of a ladder is the preset's own renderer
-        excess = f.silhouette_excess
-        if excess is not None and excess >= rule.excess_high:
+        if loose:
             step = rule.loose_renderer_step
-            why = f"{excess:.0%} of the person lies outside the fitted body (>= {rule.excess_high:.0%}: loose garments)"
-        elif level == "low" and (excess is None or excess < rule.excess_high):
+            why = "loose garments"
+        elif level == "low":
             step = rule.plain_renderer_step
             why = "plain clothing that follows the body"
         else:
