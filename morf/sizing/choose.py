@@ -12,9 +12,10 @@ The rule (thresholds in :class:`SizingRule`, calibration in docs/benchmarks.md):
    such a garment lies off the body surface, where the renderer paints it from the silhouette. S =
    the smallest power of two >= density * h / 0.82, in [64, 1024] for plain clothing and loose
    garments and [128, 1024] otherwise.
-2. Channels by detail level (never above the base preset): 16 for plain clothing, 8 for medium and
-   detailed clothing. At default size 8 channels cost plain clothing 0.7 dB and the others at most
-   0.2 dB; 4 cost them 0.6-1.2 dB.
+2. Channels (never above the base preset): 16 for clothing that follows the body, 8 for loose
+   garments. At default size 8 channels alone cost plain clothing 0.7 dB and print nothing, but
+   with the smaller texture the rule gives them they cost 1.3-1.5 dB (128^2 x 8 on both scenes);
+   the loose scene kept its quality at 64^2 x 8.
 3. Renderer: the preset's. The rule can step down the preset's ladder for plain, tight clothing
    and up when much of the person lies outside the fitted body (``SizingRule`` steps), but at
    default size (docs/benchmarks.md) the ladder's smaller renderer cost 1.0-3.6 dB on plain, print
@@ -58,10 +59,12 @@ class SizingRule:
     # loose scene 64^2 (0.24 texels per pixel) was its best point (19.16 dB against 18.88 at 256^2)
     density_loose: float = 0.22
     min_texture_loose: int = 64
-    # plain, medium, detailed: at default size 8 channels cost plain clothing 0.7 dB (22.33 against
-    # 23.00 dB), the loose scene (medium detail) 0.2 dB and print nothing (+0.2 dB); 4 cost print
-    # 0.6 dB and the loose scene 1.2 dB
-    channels_by_detail: tuple[int, int, int] = (16, 8, 8)
+    # channels for tight clothing at each detail level (plain, medium, detailed) and for loose garments.
+    # At default size 8 channels alone cost plain clothing 0.7 dB (22.33 against 23.00 dB) and print
+    # nothing (+0.2 dB), but with the rule's smaller textures 128^2 x 8 cost plain 1.5 dB and print
+    # 1.3 dB, where 64^2 x 8 on the loose scene scored 1.2 dB over its base (256^2 x 16)
+    channels_by_detail: tuple[int, int, int] = (16, 16, 16)
+    channels_loose: int = 8
     plain_renderer_step: int = 0  # ladder steps for plain, tight clothing (-1 = one smaller: b8 cost 3.6 dB)
     loose_renderer_step: int = 0  # ... for loose garments (+1 = b24 cost 1.5 dB, 38 % slower; -1 = b8 cost 1.0 dB)
     # smallest texture per detail level (plain, medium, detailed): below 128^2 the atlas islands are a
@@ -108,9 +111,9 @@ def choose_from_features(f: CaptureFeatures, base: TrainConfig, base_preset: str
                        f"{density} texels per pixel -> texture {size}x{size}")
     else:
         reasons.append(f"{level} detail -> {density} texels per pixel -> texture {size}x{size}")
-    channels = rule.channels_by_detail[li]
-    channels = min(channels, base.texture_channels)
-    reasons.append(f"{level} detail -> {channels} texture channels (base preset: {base.texture_channels})")
+    channels = min(rule.channels_loose if loose else rule.channels_by_detail[li], base.texture_channels)
+    reasons.append(f"{'loose garments' if loose else level + ' detail'} -> {channels} texture channels "
+                   f"(base preset: {base.texture_channels})")
     ladder = LADDERS.get(base_preset)
     rfields = {k: v for k, v in dataclasses.asdict(base.renderer).items() if k != "in_channels"}
     if ladder:
