@@ -69,7 +69,8 @@ class SizingRule:
     loose_renderer_step: int = 0  # ... for loose garments (+1 = b24 cost 1.5 dB, 38 % slower; -1 = b8 cost 1.0 dB)
     # smallest texture per detail level (plain, medium, detailed): below 128^2 the atlas islands are a
     # few texels wide and bleed into each other; on the quick sweep 64^2 cost 1.5-6.4 dB on all three
-    # scenes, so only plain clothing may go to 64^2 (see docs/benchmarks.md for its default-size check)
+    # scenes and at default size 1.2 dB on the print, so only plain clothing may go to 64^2 (and loose
+    # garments, min_texture_loose; see docs/benchmarks.md for their default-size checks)
     min_texture_by_detail: tuple[int, int, int] = (64, 128, 128)
     max_texture: int = 1024
     quality_margin_db: float = 0.5  # "near the best": within this much person-PSNR of the best on the sweep
