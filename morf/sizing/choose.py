@@ -6,16 +6,18 @@ The rule (thresholds in :class:`SizingRule`, calibration in docs/benchmarks.md):
    height, so a person ``h`` pixels tall in the training images sees ``0.82 * S / h`` texels per
    pixel at atlas size ``S``. ``h`` is the person's height at the training resolution (the crop
    is about 1.16 person heights), capped by the height in the capture (upsampling adds nothing).
-   Detailed clothing kept its quality at about half a texel per pixel on the default sweep (the
-   U-Net renderer adds detail back); plain clothing is band-limited and is given less, and so are
-   loose garments (at least 20 % of the person mask outside the fitted body's silhouette): much of
+   Detailed clothing gets about one texel per pixel: at half a texel per pixel (128^2) the
+   default-size print scored 0.05 dB over its base in one run and 0.95 dB under it in another,
+   and 64^2 cost it 1.2 dB. Plain clothing is band-limited and is given less, and so are loose
+   garments (at least 20 % of the person mask outside the fitted body's silhouette): much of
    such a garment lies off the body surface, where the renderer paints it from the silhouette. S =
    the smallest power of two >= density * h / 0.82, in [64, 1024] for plain clothing and loose
    garments and [128, 1024] otherwise.
-2. Channels (never above the base preset): 16 for clothing that follows the body, 8 for loose
-   garments. At default size 8 channels alone cost plain clothing 0.7 dB and print nothing, but
-   with the smaller texture the rule gives them they cost 1.3-1.5 dB (128^2 x 8 on both scenes);
-   the loose scene kept its quality at 64^2 x 8.
+2. Channels (never above the base preset): 16 for plain and medium clothing that follows the
+   body, 8 for detailed clothing and loose garments. At default size 8 channels cost plain
+   clothing 0.7 dB, and with a 128^2 texture they cost plain and print 1.3-1.5 dB; at 256^2 they
+   cost the print nothing (+0.2 and +0.1 dB in two runs), and the loose scene kept its quality at
+   64^2 x 8.
 3. Renderer: the preset's. The rule can step down the preset's ladder for plain, tight clothing
    and up when much of the person lies outside the fitted body (``SizingRule`` steps), but at
    default size (docs/benchmarks.md) the ladder's smaller renderer cost 1.0-3.6 dB on plain, print
@@ -48,11 +50,12 @@ class SizingRule:
 
     detail_high: float = 0.04  # fine-band RMS at or above this: detailed clothing
     detail_low: float = 0.02  # below this: plain clothing
-    # texels per training pixel for detailed clothing: on the default sweep (print scene, 221 px of
-    # person at 256 px) 0.47, 0.95 and 1.9 texels per pixel (128^2, 256^2, 512^2) scored within 0.1 dB
-    density_high: float = 0.45
-    density_mid: float = 0.32  # ... for medium detail (scaled with density_high; not measured)
-    density_low: float = 0.22  # ... for plain clothing (likewise)
+    # texels per training pixel for detailed clothing: on the default-size print scene (221 px of
+    # person at 256 px) 0.95 texels per pixel (256^2) held its quality in two runs, 0.47 (128^2) in one
+    # of two (+0.05 and -0.95 dB against the base), 0.24 (64^2) lost 1.2 dB
+    density_high: float = 0.9
+    density_mid: float = 0.32  # ... for medium detail (not measured)
+    density_low: float = 0.22  # ... for plain clothing (64^2 held its quality at default size)
     excess_high: float = 0.2  # share of the mask outside the fitted body that counts as loose garments
     # loose garments: texels per pixel and smallest texture. Much of the garment lies off the body
     # surface, where the renderer paints it from the silhouette, not from texels: on the default-size
@@ -60,10 +63,10 @@ class SizingRule:
     density_loose: float = 0.22
     min_texture_loose: int = 64
     # channels for tight clothing at each detail level (plain, medium, detailed) and for loose garments.
-    # At default size 8 channels alone cost plain clothing 0.7 dB (22.33 against 23.00 dB) and print
-    # nothing (+0.2 dB), but with the rule's smaller textures 128^2 x 8 cost plain 1.5 dB and print
-    # 1.3 dB, where 64^2 x 8 on the loose scene scored 1.2 dB over its base (256^2 x 16)
-    channels_by_detail: tuple[int, int, int] = (16, 16, 16)
+    # At default size 8 channels cost plain clothing 0.7 dB (22.33 against 23.00 dB) and with 128^2
+    # textures plain 1.5 dB and print 1.3 dB; at 256^2 the print lost nothing (+0.2, +0.1 dB in two
+    # runs), and 64^2 x 8 on the loose scene scored 1.2 dB over its base (256^2 x 16)
+    channels_by_detail: tuple[int, int, int] = (16, 16, 8)
     channels_loose: int = 8
     plain_renderer_step: int = 0  # ladder steps for plain, tight clothing (-1 = one smaller: b8 cost 3.6 dB)
     loose_renderer_step: int = 0  # ... for loose garments (+1 = b24 cost 1.5 dB, 38 % slower; -1 = b8 cost 1.0 dB)

@@ -46,13 +46,13 @@ def test_image_features_detail_and_height(tmp_path):
 
 
 def test_auto_picks_larger_texture_for_detailed_clothing(tmp_path):
-    # a person 398 px tall, capped at the 221 px the 256 px training crop holds: 0.45 * 221 / 0.82
-    # -> 128^2 when detailed; 0.22 * 221 / 0.82 = 59 -> 64^2 when plain
+    # a person 398 px tall, capped at the 221 px the 256 px training crop holds: 0.9 * 221 / 0.82
+    # = 243 -> 256^2 when detailed; 0.22 * 221 / 0.82 = 59 -> 64^2 when plain
     cfg_plain, why_plain = choose_train_config(FakeProject(tmp_path, "plain", size=512), "cpu")
     cfg_fine, why_fine = choose_train_config(FakeProject(tmp_path, "print", size=512), "cpu")
-    assert (cfg_fine.texture_size, cfg_plain.texture_size) == (128, 64)
-    # calibrated at default size: 8 channels with the smaller texture cost tight clothing 1.3-1.5 dB
-    assert cfg_fine.texture_channels == cfg_plain.texture_channels == 16
+    assert (cfg_fine.texture_size, cfg_plain.texture_size) == (256, 64)
+    # calibrated at default size: 8 channels cost plain clothing 0.7 dB and the print nothing at 256^2
+    assert (cfg_fine.texture_channels, cfg_plain.texture_channels) == (8, 16)
     fine_dense, _ = choose_train_config(FakeProject(tmp_path, "print", size=512), "cpu",
                                         rule=SizingRule(density_high=1.0, density_low=0.5))
     plain_dense, _ = choose_train_config(FakeProject(tmp_path, "plain", size=512), "cpu",
@@ -74,16 +74,21 @@ def test_rule_follows_person_height_and_looseness():
     loose_cfg, reasons = choose_from_features(loose, base, "cpu")
     stepping = SizingRule(plain_renderer_step=-1, loose_renderer_step=1)
     loose_step, _ = choose_from_features(loose, base, "cpu", stepping)
-    # 256 px training crop -> about 221 px of person -> 0.45 * 221 / 0.82 = 121 texels -> 128;
-    # 60 px -> 33 texels -> the smallest texture the rule allows
-    assert big_cfg.texture_size == 128 and small_cfg.texture_size == SizingRule().min_texture_by_detail[2]
+    # 256 px training crop -> about 221 px of person -> 0.9 * 221 / 0.82 = 243 texels -> 256;
+    # 60 px -> 66 texels -> 128, the smallest texture the rule allows detailed clothing
+    assert big_cfg.texture_size == 256 and small_cfg.texture_size == SizingRule().min_texture_by_detail[2] == 128
     denser, _ = choose_from_features(f, base, "cpu", SizingRule(density_high=1.0))
     assert denser.texture_size == 512
-    assert choose_from_features(small, base, "cpu", SizingRule(min_texture_by_detail=(64, 64, 64)))[0].texture_size == 64
+    lower = SizingRule(density_high=0.45, min_texture_by_detail=(64, 64, 64))  # 0.45 * 60 / 0.82 = 33 texels
+    assert choose_from_features(small, base, "cpu", lower)[0].texture_size == 64
     assert loose_cfg.renderer.width == big_cfg.renderer.width and any("loose" in r for r in reasons)
     # loose garments get plain clothing's texel density (0.22 * 221 / 0.82 = 59 -> 64^2) and floor
     assert loose_cfg.texture_size == 64 < big_cfg.texture_size
-    assert (loose_cfg.texture_channels, big_cfg.texture_channels) == (8, 16)  # loose garments: 8 channels
+    medium = CaptureFeatures(**{**f.to_dict(), "detail": 0.03})
+    # loose garments: 8 channels, where tight clothing of the same (medium) detail keeps 16
+    loose_medium = CaptureFeatures(**{**medium.to_dict(), "silhouette_excess": 0.3})
+    assert [choose_from_features(c, base, "cpu")[0].texture_channels for c in (loose_medium, medium)] == [8, 16]
+    assert (loose_cfg.texture_channels, big_cfg.texture_channels) == (8, 8)  # detailed clothing: 8 too
     assert choose_from_features(loose, base, "cpu", SizingRule(channels_loose=16))[0].texture_channels == 16
     assert any("loose garments -> 8 texture channels" in r for r in reasons)
     assert choose_from_features(loose, base, "cpu", SizingRule(density_loose=0.45))[0].texture_size == 128
