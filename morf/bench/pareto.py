@@ -50,6 +50,8 @@ def add_arguments(p) -> None:
                    help="check --preset auto on the plain, print and loose scenes instead of one sweep")
     p.add_argument("--scenes", default="plain,print,loose",
                    help="--auto-check: comma-separated scenes")
+    p.add_argument("--seeds", type=int, default=1,
+                   help="--auto-check: train every point with this many seeds and judge on the means (default 1)")
 
 
 def make_capture(out: Path, sweep, scene: str, model, project_path: str | None = None):
@@ -247,10 +249,15 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
 def run(args) -> int:
     split = lambda s: [a.strip() for a in s.split(",") if a.strip()] if s else None  # noqa: E731
     points = split(args.points)
+    if args.seeds != 1 and not args.auto_check:
+        from morf.errors import InputError
+
+        raise InputError("--seeds is for --auto-check; a sweep retrains its base with other seeds on --axes seed")
     if args.auto_check:
         from morf.sizing.check import auto_check
 
-        auto_check(Path(args.out), args.preset, scenes=split(args.scenes), project_path=args.project, points=points)
+        auto_check(Path(args.out), args.preset, scenes=split(args.scenes), project_path=args.project, points=points,
+                   seeds=args.seeds)
         return 0
     axes = split(args.axes)
     run_sweep(Path(args.out), args.preset, args.scene, args.project, axes, points=points)

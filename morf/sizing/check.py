@@ -7,6 +7,10 @@ as fast and more than ``SizingRule.quality_margin_db`` better on the person's PS
 more than ``SizingRule.fps_margin_frac`` faster (the fps measurement's noise)
 (:func:`morf.sizing.front.near_front`). Writes ``OUT/auto_check.json`` and ``OUT/auto_check.md``;
 each scene's sweep is in ``OUT/<scene>/`` (resumable like any sweep).
+
+One training per point resolves about 1 dB at default size, coarser than the margin; with
+``seeds`` > 1 every point (the automatic choice included) is trained again with further seeds
+(``OUT/<scene>/points/<name>-seed<k>.json``) and the verdict compares the means.
 """
 
 from __future__ import annotations
@@ -43,13 +47,46 @@ def scene_projects(scenes, project_path: str | dict | None) -> dict[str, str | N
     return {s: project_path.get(s) for s in scenes}
 
 
+def repeat_points(out: Path, sweep, project, model, rows: list[dict], auto, auto_cfg, seeds: int) -> dict:
+    """Train each sized row again with ``seeds - 1`` further seeds; {name: [row, ...]} over all seeds
+    (the given row first). ``auto``/``auto_cfg``: the automatic choice's point and config."""
+    from morf.bench.pareto import run_point
+    from morf.sizing.sweep import NOISE_AXES, SweepPoint, resolve
+
+    known = {p.name: p for p in sweep.points}
+    runs = {}
+    for row in rows:
+        if row["axis"] in NOISE_AXES:
+            continue
+        point = auto if row["name"] == auto.name else known[row["name"]]
+        cfg0 = auto_cfg if point is auto else resolve(sweep, point)
+        runs[row["name"]] = [row]
+        for k in range(1, seeds):
+            seed = cfg0.seed + k
+            again = SweepPoint(f"{point.name}-seed{seed}", point.axis, {**point.change, "seed": seed},
+                               point.method, point.precision)
+            print(f"  {again.name}")
+            runs[row["name"]].append(run_point(project, sweep, again, model, out, cfg0.replace(seed=seed))[0])
+    return runs
+
+
+def mean_of_runs(runs: list[dict], key: str) -> float | None:
+    """Mean of ``key`` over the runs that have it (None when none has)."""
+    vals = [r[key] for r in runs if r.get(key) is not None]
+    return sum(vals) / len(vals) if vals else None
+
+
+def _runs_text(vals: list) -> str:
+    return " / ".join("diverged" if v is None else f"{v:.2f}" for v in vals)
+
+
 def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
-               project_path: str | dict | None = None, points: list[str] | None = None) -> dict:
+               project_path: str | dict | None = None, points: list[str] | None = None, seeds: int = 1) -> dict:
     """Run the check on ``scenes``; returns the summary written to ``OUT/auto_check.json``.
 
     ``project_path``: existing synthetic captures to use instead of making them
     (see :func:`scene_projects`); ``points``: only these sweep points beside the automatic choice
-    (names as in ``--points``).
+    (names as in ``--points``); ``seeds``: trainings per point, the verdict on their means.
     """
     from morf.bench.common import machine_info, markdown_table, write_results
     from morf.bench.pareto import QUALITY, make_capture, run_sweep
@@ -61,6 +98,8 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
     unknown = [s for s in scenes if s not in SCENE_ORDER]
     if unknown:
         raise InputError(f"unknown scenes {unknown}; choose from {', '.join(SCENE_ORDER)}")
+    if seeds < 1:
+        raise InputError(f"seeds must be at least 1, got {seeds}")
     projects = scene_projects(list(scenes), project_path)
 
     out = Path(out)
@@ -80,28 +119,35 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
         auto = SweepPoint("auto", "auto")
         res = run_sweep(out / scene, preset, scene, axes=SIZING_AXES, model=model, extra=[(auto, cfg)],
                         points=points, project=project)
-        pts = res["points"]
-        i = next(k for k, p in enumerate(pts) if p["name"] == "auto")
-        vals = [[p.get(QUALITY), p.get("fps")] for p in pts]
-        vals = [[float("nan") if v is None else v for v in pair] for pair in vals]
-        fps_margin = rule.fps_margin_frac * vals[i][1] if vals[i][1] == vals[i][1] else 0.0  # NaN-safe
-        ok = near_front(vals, i, (rule.quality_margin_db, fps_margin))
-        best = max((p[QUALITY] for p in pts if p.get(QUALITY) is not None), default=None)
-        a = pts[i]
+        runs = repeat_points(out / scene, sweep, project, model, res["points"], auto, cfg, seeds)
+        means = {n: [mean_of_runs(r, k) for k in (QUALITY, "fps")] for n, r in runs.items()}
+        q_auto, fps_auto = means["auto"]
+        vals = [[float("nan") if v is None else v for v in m] for m in means.values()]
+        fps_margin = rule.fps_margin_frac * fps_auto if fps_auto is not None else 0.0
+        ok = near_front(vals, list(means).index("auto"), (rule.quality_margin_db, fps_margin))
+        best = max((q for q, _ in means.values() if q is not None), default=None)
+        a = runs["auto"][0]
         rows.append({"scene": scene, "texture_size": cfg.texture_size, "texture_channels": cfg.texture_channels,
-                     "renderer_width": cfg.renderer.width, "params_M": a["params"] / 1e6, QUALITY: a.get(QUALITY),
-                     "best_" + QUALITY: best, "fps": a.get("fps"), "near_front": ok})
+                     "renderer_width": cfg.renderer.width, "params_M": a["params"] / 1e6, QUALITY: q_auto,
+                     "best_" + QUALITY: best, "fps": fps_auto, "near_front": ok})
         details[scene] = {"reasons": reasons, "config": a["config"], "point": a, "near_front": ok}
+        if seeds > 1:
+            details[scene]["means"] = {n: {QUALITY: q, "fps": f, QUALITY + "_runs": [r.get(QUALITY) for r in runs[n]]}
+                                       for n, (q, f) in means.items()}
         print(f"{scene}: texture {cfg.texture_size}, channels {cfg.texture_channels}, renderer width "
               f"{cfg.renderer.width}; near the front: {ok}")
     distinct = len({(r["texture_size"], r["texture_channels"], r["renderer_width"]) for r in rows})
-    summary = {"benchmark": "auto_check", "preset": preset, "margin_db": rule.quality_margin_db,
+    summary = {"benchmark": "auto_check", "preset": preset, "seeds": seeds, "margin_db": rule.quality_margin_db,
                "rule": rule.__dict__, "scenes": details, "table": rows, "distinct_choices": distinct,
                "all_near_front": all(r["near_front"] for r in rows), "machine": machine_info()}
+    over = f"; means over {seeds} seeds per point" if seeds > 1 else ""
     md = ("# Automatic size choice against the sweep\n\n"
           f"near_front: no sweep point is as fast and more than {rule.quality_margin_db} dB better, or as good "
-          f"and more than {rule.fps_margin_frac:.0%} faster "
-          f"({QUALITY}).\n\n" + markdown_table(rows, list(rows[0])) if rows else "")
-    md += "".join(f"\n## {s}\n\n" + "\n".join(f"- {r}" for r in d["reasons"]) + "\n" for s, d in details.items())
+          f"and more than {rule.fps_margin_frac:.0%} faster ({QUALITY}{over}).\n\n")
+    md += markdown_table(rows, list(rows[0])) if rows else ""
+    for scene, d in details.items():
+        md += f"\n## {scene}\n\n" + "\n".join(f"- {r}" for r in d["reasons"]) + "\n"
+        if "means" in d:
+            md += "\n" + "".join(f"- {n}: {_runs_text(m[QUALITY + '_runs'])} dB\n" for n, m in d["means"].items())
     write_results(out, "auto_check", summary, md)
     return summary

@@ -33,11 +33,33 @@ def test_tiny_auto_check(tmp_path, body_model, gl):
     assert again["scenes"]["print"]["point"]["run"] == data["scenes"]["print"]["point"]["run"]
 
 
+@pytest.mark.gl
+def test_auto_check_with_seeds_judges_means(tmp_path, body_model, gl):
+    out = tmp_path / "auto"
+    res = auto_check(out, "tiny", body_model, scenes=("print",), points=["texture-32"], seeds=2)
+    means = res["scenes"]["print"]["means"]
+    assert list(means) == ["base", "texture-32", "auto"]
+    saved = {p.stem for p in (out / "print" / "points").glob("*.json")}
+    assert {"base-seed1", "texture-32-seed1", "auto-seed1"} <= saved
+    runs = {n: json.loads((out / "print" / "points" / f"{n}.json").read_text())["run"] for n in ("base", "base-seed1")}
+    assert runs["base"] != runs["base-seed1"]  # a second training, not the first one read again
+    for m in means.values():
+        assert len(m["psnr_person_runs"]) == 2
+        assert m["psnr_person"] == pytest.approx(sum(m["psnr_person_runs"]) / 2)
+    row = res["table"][0]
+    assert row["psnr_person"] == means["auto"]["psnr_person"]
+    assert row["best_psnr_person"] == max(m["psnr_person"] for m in means.values())
+    assert json.loads((out / "auto_check.json").read_text())["seeds"] == 2
+    assert "means over 2 seeds" in (out / "auto_check.md").read_text()
+
+
 def test_auto_check_rejects_bad_scene_lists(tmp_path):
     with pytest.raises(InputError, match="unknown scenes"):
         auto_check(tmp_path, "tiny", scenes=("stripes",))
     with pytest.raises(InputError, match="exactly one scene"):
         auto_check(tmp_path, "tiny", scenes=("plain", "print"), project_path=str(tmp_path))
+    with pytest.raises(InputError, match="seeds must be at least 1"):
+        auto_check(tmp_path, "tiny", scenes=("print",), seeds=0)
 
 
 def test_scene_projects_forms():
@@ -52,3 +74,12 @@ def test_scene_projects_forms():
         scene_projects(["plain"], "print=/cap")
     with pytest.raises(InputError, match="scene=PATH"):
         scene_projects(["plain", "print"], "print=")
+
+
+def test_seeds_without_auto_check_is_one_line_error(tmp_path, capsys):
+    from morf.cli.main import main
+
+    rc = main(["bench", "pareto", "--out", str(tmp_path / "p"), "--preset", "tiny", "--seeds", "2"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--seeds is for --auto-check" in err[0]
+    assert not (tmp_path / "p").exists()
