@@ -6,18 +6,20 @@ The rule (thresholds in :class:`SizingRule`, calibration in docs/benchmarks.md):
    height, so a person ``h`` pixels tall in the training images sees ``0.82 * S / h`` texels per
    pixel at atlas size ``S``. ``h`` is the person's height at the training resolution (the crop
    is about 1.16 person heights), capped by the height in the capture (upsampling adds nothing).
-   Detailed clothing gets about one texel per pixel: at half a texel per pixel (128^2) the
-   default-size print scored 0.05 dB over its base in one run and 0.95 dB under it in another,
-   and 64^2 cost it 1.2 dB. Plain clothing is band-limited and is given less, and so are loose
-   garments (at least 20 % of the person mask outside the fitted body's silhouette): much of
-   such a garment lies off the body surface, where the renderer paints it from the silhouette. S =
+   Patterned clothing (medium or high detail: the fine-band colour energy at the training scale,
+   ``CaptureFeatures.detail``) gets about one texel per pixel: at half a texel per pixel (128^2)
+   the default-size print scored 0.05 dB over its base in one run and 0.95 dB under it in another,
+   64^2 cost it 1.2 dB, and a striped print of medium detail lost 2.6 dB at 128^2. Plain
+   clothing is band-limited and is given less, and so are loose garments (at least 20 % of the
+   person mask outside the fitted body's silhouette): much of such a garment lies off the body
+   surface, where the renderer paints it from the silhouette. S =
    the smallest power of two >= density * h / 0.82, in [64, 1024] for plain clothing and loose
    garments and [128, 1024] otherwise.
-2. Channels (never above the base preset): 16 for plain and medium clothing that follows the
-   body, 8 for detailed clothing and loose garments. At default size 8 channels cost plain
-   clothing 0.7 dB, and with a 128^2 texture they cost plain and print 1.3-1.5 dB; at 256^2 they
-   cost the print nothing (+0.2 and +0.1 dB in two runs), and the loose scene kept its quality at
-   64^2 x 8.
+2. Channels (never above the base preset): 16 for plain clothing that follows the body, 8 for
+   patterned clothing and loose garments. At default size 8 channels cost plain clothing 0.7 dB,
+   and with a 128^2 texture they cost plain and print 1.3-1.5 dB; at 256^2 they cost the prints
+   nothing (+0.2 and +0.1 dB in two runs, +1.2 dB on the striped print), and the loose scene kept
+   its quality at 64^2 x 8.
 3. Renderer: the preset's. The rule can step down the preset's ladder for plain, tight clothing
    and up when much of the person lies outside the fitted body (``SizingRule`` steps), but at
    default size (docs/benchmarks.md) the ladder's smaller renderer cost 1.0-3.6 dB on plain, print
@@ -48,13 +50,17 @@ CROP_MARGIN = 1.16  # training crop side / person height (morf.train.data.person
 class SizingRule:
     """Thresholds of the automatic size choice."""
 
-    detail_high: float = 0.04  # fine-band RMS at or above this: detailed clothing
-    detail_low: float = 0.02  # below this: plain clothing
+    # fine-band colour RMS at the training scale (CaptureFeatures.detail). Default-size captures measured:
+    # plain clothing 0.018 and 0.009, prints 0.057 and 0.030 (a colour stripe), loose garments 0.052 and 0.028
+    detail_high: float = 0.04  # at or above this: detailed clothing
+    detail_low: float = 0.023  # below this: plain clothing (between the busiest plain and the calmest print)
     # texels per training pixel for detailed clothing: on the default-size print scene (221 px of
     # person at 256 px) 0.95 texels per pixel (256^2) held its quality in two runs, 0.47 (128^2) in one
     # of two (+0.05 and -0.95 dB against the base), 0.24 (64^2) lost 1.2 dB
     density_high: float = 0.9
-    density_mid: float = 0.32  # ... for medium detail (not measured)
+    # ... for medium detail: the striped print (0.030) lost 2.6 dB at 128^2 (0.47 texels per pixel)
+    # against its base at 256^2, and 3.8 dB against 256^2 x 8, so medium detail is sized like detailed
+    density_mid: float = 0.9
     density_low: float = 0.22  # ... for plain clothing (64^2 held its quality at default size)
     excess_high: float = 0.2  # share of the mask outside the fitted body that counts as loose garments
     # loose garments: texels per pixel and smallest texture. Much of the garment lies off the body
@@ -65,8 +71,9 @@ class SizingRule:
     # channels for tight clothing at each detail level (plain, medium, detailed) and for loose garments.
     # At default size 8 channels cost plain clothing 0.7 dB (22.33 against 23.00 dB) and with 128^2
     # textures plain 1.5 dB and print 1.3 dB; at 256^2 the print lost nothing (+0.2, +0.1 dB in two
-    # runs), and 64^2 x 8 on the loose scene scored 1.2 dB over its base (256^2 x 16)
-    channels_by_detail: tuple[int, int, int] = (16, 16, 8)
+    # runs), and 64^2 x 8 on the loose scene scored 1.2 dB over its base (256^2 x 16); the striped
+    # print (medium) scored 25.05 dB at 256^2 x 8 against 23.87 at 256^2 x 16
+    channels_by_detail: tuple[int, int, int] = (16, 8, 8)
     channels_loose: int = 8
     plain_renderer_step: int = 0  # ladder steps for plain, tight clothing (-1 = one smaller: b8 cost 3.6 dB)
     loose_renderer_step: int = 0  # ... for loose garments (+1 = b24 cost 1.5 dB, 38 % slower; -1 = b8 cost 1.0 dB)
@@ -107,8 +114,8 @@ def choose_from_features(f: CaptureFeatures, base: TrainConfig, base_preset: str
     size = _pow2_at_least(density * h / texels_per_side, floor, rule.max_texture)
     reasons.append(f"person {f.person_height_px:.0f} px tall in the capture, about {h_train:.0f} px at the "
                    f"{base.resolution} px training resolution -> {h:.0f} px to cover")
-    reasons.append(f"clothing detail {f.detail:.3f} (fine-band RMS; {rule.detail_low} / {rule.detail_high} "
-                   f"split plain / medium / detailed): {level}")
+    reasons.append(f"clothing detail {f.detail:.3f} (fine-band colour RMS at the training scale; "
+                   f"{rule.detail_low} / {rule.detail_high} split plain / medium / detailed): {level}")
     if loose:
         reasons.append(f"{excess:.0%} of the person lies outside the fitted body (>= {rule.excess_high:.0%}: "
                        f"loose garments, painted by the renderer from the silhouette more than from texels) -> "
@@ -162,6 +169,6 @@ def choose_train_config(project, base_preset: str = "cpu", method: str = "morf",
     from morf.sizing.features import capture_features
 
     base = preset(base_preset, method, **overrides)
-    f = capture_features(project, model)
+    f = capture_features(project, model, person_px=base.resolution / CROP_MARGIN)
     cfg, reasons = choose_from_features(f, base, base_preset, rule)
     return cfg, [f"automatic size from the capture (base preset {base_preset!r})"] + reasons

@@ -2,7 +2,9 @@
 
 * person height in pixels (from the masks): how many image pixels the texture must feed;
 * texture detail: high-frequency energy of the frames inside the person (eroded mask, so the
-  silhouette edge does not count), a band-pass RMS in [0, 1] intensity units;
+  silhouette edge does not count), a band-pass RMS of the colour channels in [0, 1] units, measured
+  at the scale the person has in the training images (finer detail is lost to the training
+  resolution whatever the texture; colour patterns of even luminance count);
 * frame count and motion range of the fits (yaw covered, spread of the joint angles);
 * silhouette excess: share of the person mask the fitted body does not cover (loose garments,
   hair), which the renderer must draw without the mesh's help.
@@ -27,7 +29,8 @@ class CaptureFeatures:
         frames: training frames (after the user's and the filter's decisions);
         person_height_px: median person height in the capture's pixels;
         image_height_px: capture image height;
-        detail: median band-pass RMS inside the eroded person mask (fine band, sigma 1 px);
+        detail: median band-pass RMS (colour) inside the eroded person mask, fine band (sigma 1 px)
+            at the training scale;
         detail_coarse: the same for a coarser band (sigma 3 px), for the report;
         yaw_coverage_deg: degrees of body yaw the fits cover (360 = a full turn), None without fits;
         pose_spread_rad: mean over body bones of the std of their axis-angle, None without fits;
@@ -49,29 +52,36 @@ class CaptureFeatures:
         return dataclasses.asdict(self)
 
 
-def band_energy(gray: np.ndarray, mask: np.ndarray, sigma: float) -> float:
-    """RMS of ``gray - blur(gray, sigma) `` (gray in [0, 1]) over ``mask``'s interior, eroded by
-    about 3 sigma so the person's outline does not count as texture."""
+def band_energy(image: np.ndarray, mask: np.ndarray, sigma: float) -> float:
+    """RMS of ``image - blur(image, sigma)`` (values in [0, 1]; (H, W) or (H, W, C), RMS over the
+    channels too) over ``mask``'s interior, eroded by about 3 sigma so the person's outline does not
+    count as texture."""
     k = max(3, int(round(3 * sigma)) * 2 + 1)
     inner = cv2.erode(mask.astype(np.uint8), np.ones((k, k), np.uint8)) > 0
     if inner.sum() < 16:
         return float("nan")
-    hp = gray - cv2.GaussianBlur(gray, (0, 0), sigma)
-    return float(np.sqrt(np.mean(hp[inner] ** 2)))
+    hp = image - cv2.GaussianBlur(image, (0, 0), sigma)
+    return float(np.sqrt(np.mean(hp[inner].astype(np.float64) ** 2)))
 
 
-def image_features(frames: list[np.ndarray], masks: list[np.ndarray]) -> tuple[float, float, float]:
+def image_features(frames: list[np.ndarray], masks: list[np.ndarray],
+                   person_px: float | None = None) -> tuple[float, float, float]:
     """(person height px, fine detail, coarse detail) medians over (H, W, 3) uint8 frames and
-    (H, W) bool masks."""
+    (H, W) bool masks. ``person_px``: the person's height in the training images; a frame where the
+    person is taller is shrunk to it (area filter) before its detail is measured."""
     heights, fine, coarse = [], [], []
     for img, m in zip(frames, masks):
         rows = np.flatnonzero(m.any(1))
         if len(rows) == 0:
             continue
         heights.append(rows[-1] - rows[0] + 1)
-        gray = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY).astype(np.float32) / 255.0
-        fine.append(band_energy(gray, m, 1.0))
-        coarse.append(band_energy(gray, m, 3.0))
+        rgb = img.astype(np.float32) / 255.0
+        scale = min(1.0, person_px / heights[-1]) if person_px else 1.0
+        if scale < 1.0:
+            rgb = cv2.resize(rgb, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+            m = cv2.resize(m.astype(np.uint8), rgb.shape[1::-1], interpolation=cv2.INTER_NEAREST) > 0
+        fine.append(band_energy(rgb, m, 1.0))
+        coarse.append(band_energy(rgb, m, 3.0))
     if not heights:
         from morf.errors import ProjectError
 
@@ -115,13 +125,15 @@ def silhouette_excess(project, model, fits, ids: list[int]) -> float:
     return out / max(total, 1)
 
 
-def capture_features(project, model=None, samples: int = 12, fits_source: str = "auto") -> CaptureFeatures:
-    """Measure a capture (``samples`` frames spread over the training frames)."""
+def capture_features(project, model=None, samples: int = 12, fits_source: str = "auto",
+                     person_px: float | None = None) -> CaptureFeatures:
+    """Measure a capture (``samples`` frames spread over the training frames); ``person_px``: the
+    person's height in the training images, the scale detail is measured at (None: the capture's)."""
     ids_all = project.training_frames() or list(range(project.num_frames))
     ids = ids_all[:: max(1, len(ids_all) // samples)][:samples]
     frames = [project.load_frame(i) for i in ids]
     masks = [project.load_mask(i) for i in ids]
-    height, fine, coarse = image_features(frames, masks)
+    height, fine, coarse = image_features(frames, masks, person_px)
     yaw = spread = excess = None
     from morf.errors import ProjectError
     from morf.train.data import load_body_fits

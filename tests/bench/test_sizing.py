@@ -23,8 +23,13 @@ class FakeProject:
         k = size / 128
         self.mask = (abs(x - size / 2) < 20 * k) & (y > 14 * k) & (y < 114 * k)  # a person 99 px tall at 128 px
         body = np.full((size, size, 3), 140, np.uint8)
-        if pattern == "print":
-            body = np.where((((x // 2) + (y // 2)) % 2)[..., None] == 1, 230, 40).astype(np.uint8) * np.ones(3, np.uint8)
+        on = {"print": ((x // (2 * k)) + (y // (2 * k))) % 2,  # 2 px squares at 128 px, 8 at 512
+              "hairline": (x + y) % 2,  # 1 px squares at any size: finer than a 256 px training crop holds
+              "colour": (y // (4 * k)) % 2}.get(pattern)  # red / green stripes of equal luminance
+        if pattern in ("print", "hairline"):
+            body = np.where(on[..., None] == 1, 230, 40).astype(np.uint8) * np.ones(3, np.uint8)
+        elif pattern == "colour":
+            body = np.where(on[..., None] == 1, np.array([200, 60, 60], np.uint8), np.array([60, 131, 60], np.uint8))
         self.frame = np.where(self.mask[..., None], body, 90).astype(np.uint8)
 
     def training_frames(self):
@@ -43,6 +48,21 @@ def test_image_features_detail_and_height(tmp_path):
     _, d_fine, _ = image_features([fine.frame], [fine.mask])
     assert h == 99
     assert d_plain < 1e-3 < d_fine
+
+
+def test_detail_is_measured_at_the_training_scale_and_in_colour(tmp_path):
+    rule, person_px = SizingRule(), 256 / 1.16  # the cpu preset's 256 px crop holds about 221 px of person
+    hair = FakeProject(tmp_path, "hairline", size=512)  # 398 px of person, shrunk to 221 before measuring
+    assert image_features([hair.frame], [hair.mask])[1] > rule.detail_high  # busy at the capture's scale
+    assert image_features([hair.frame], [hair.mask], person_px)[1] < rule.detail_low  # gone at training scale
+    colour = FakeProject(tmp_path, "colour", size=512)
+    gray = (colour.frame.astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32))[..., None].repeat(3, 2)
+    assert image_features([gray.astype(np.uint8)], [colour.mask], person_px)[1] < rule.detail_low  # no luminance edge
+    assert image_features([colour.frame], [colour.mask], person_px)[1] >= rule.detail_low
+    cfg, why = choose_train_config(colour, "cpu")
+    assert (cfg.texture_size, cfg.texture_channels) == (256, 8)
+    assert any("training scale" in r for r in why)
+    assert choose_train_config(hair, "cpu")[0].texture_size == 64
 
 
 def test_auto_picks_larger_texture_for_detailed_clothing(tmp_path):
@@ -85,9 +105,13 @@ def test_rule_follows_person_height_and_looseness():
     # loose garments get plain clothing's texel density (0.22 * 221 / 0.82 = 59 -> 64^2) and floor
     assert loose_cfg.texture_size == 64 < big_cfg.texture_size
     medium = CaptureFeatures(**{**f.to_dict(), "detail": 0.03})
-    # loose garments: 8 channels, where tight clothing of the same (medium) detail keeps 16
+    # medium detail is sized like detailed clothing (the striped print), a loose garment of the same
+    # detail like plain clothing with 8 channels
     loose_medium = CaptureFeatures(**{**medium.to_dict(), "silhouette_excess": 0.3})
-    assert [choose_from_features(c, base, "cpu")[0].texture_channels for c in (loose_medium, medium)] == [8, 16]
+    assert [(c.texture_size, c.texture_channels) for c in (choose_from_features(m, base, "cpu")[0]
+                                                           for m in (loose_medium, medium))] == [(64, 8), (256, 8)]
+    assert choose_from_features(medium, base, "cpu", SizingRule(channels_by_detail=(16, 16, 8)))[0] \
+        .texture_channels == 16
     assert (loose_cfg.texture_channels, big_cfg.texture_channels) == (8, 8)  # detailed clothing: 8 too
     assert choose_from_features(loose, base, "cpu", SizingRule(channels_loose=16))[0].texture_channels == 16
     assert any("loose garments -> 8 texture channels" in r for r in reasons)
