@@ -2,9 +2,10 @@
 
 For each synthetic scene (plain clothing, high-frequency print, loose garment) the automatic
 choice is made from the capture, trained and measured beside the sweep's sizing points
-(renderer, texture resolution, channels). It passes on a scene when no sweep point is at least
-as fast and more than ``SizingRule.quality_margin_db`` better on the person's PSNR, or as good and
-more than ``SizingRule.fps_margin_frac`` faster (the fps measurement's noise)
+(renderer, texture resolution, channels). It passes on a scene when no sweep point is more than
+``SizingRule.quality_margin_db`` better on the person's PSNR while at most
+``SizingRule.fps_margin_frac`` slower (the fps measurement's noise) or faster, nor more than that
+share faster while at most the quality margin worse or better
 (:func:`morf.sizing.front.near_front`). Writes ``OUT/auto_check.json`` and ``OUT/auto_check.md``;
 each scene's sweep is in ``OUT/<scene>/`` (resumable like any sweep).
 
@@ -142,8 +143,9 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
                "all_near_front": all(r["near_front"] for r in rows), "machine": machine_info()}
     over = f"; means over {seeds} seeds per point" if seeds > 1 else ""
     md = ("# Automatic size choice against the sweep\n\n"
-          f"near_front: no sweep point is as fast and more than {rule.quality_margin_db} dB better, or as good "
-          f"and more than {rule.fps_margin_frac:.0%} faster ({QUALITY}{over}).\n\n")
+          f"near_front: no sweep point is more than {rule.quality_margin_db} dB better at most "
+          f"{rule.fps_margin_frac:.0%} slower, nor more than {rule.fps_margin_frac:.0%} faster at most "
+          f"{rule.quality_margin_db} dB worse ({QUALITY}{over}).\n\n")
     md += markdown_table(rows, list(rows[0])) if rows else ""
     for scene, d in details.items():
         md += f"\n## {scene}\n\n" + "\n".join(f"- {r}" for r in d["reasons"]) + "\n"

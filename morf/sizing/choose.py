@@ -74,6 +74,8 @@ class SizingRule:
     # runs), and 64^2 x 8 on the loose scene scored 1.2 dB over its base (256^2 x 16); the striped
     # print (medium) scored 25.05 dB at 256^2 x 8 against 23.87 at 256^2 x 16
     channels_by_detail: tuple[int, int, int] = (16, 8, 8)
+    # loose garments at 64^2: 8 channels against 16 scored +0.6 dB on one loose capture and -0.7 dB on
+    # another (single trainings; the means of the two agree within 0.1 dB)
     channels_loose: int = 8
     plain_renderer_step: int = 0  # ladder steps for plain, tight clothing (-1 = one smaller: b8 cost 3.6 dB)
     loose_renderer_step: int = 0  # ... for loose garments (+1 = b24 cost 1.5 dB, 38 % slower; -1 = b8 cost 1.0 dB)

@@ -30,7 +30,8 @@ def pareto_front(values, maximize=(True, True)) -> np.ndarray:
 
 def near_front(values, index: int, margin: tuple[float, ...], maximize=(True, True)) -> bool:
     """Whether point ``index`` is within ``margin`` of the front: no other point beats it by more
-    than ``margin`` on one objective while being at least as good on all the others.
+    than ``margin`` on one objective while being at least as good, within ``margin``, on all the
+    others (what the margin cannot tell apart counts as equal both ways).
 
     ``margin`` is per objective, in that objective's units (e.g. 0.5 dB of PSNR, 0 fps).
     """
@@ -43,6 +44,6 @@ def near_front(values, index: int, margin: tuple[float, ...], maximize=(True, Tr
     for j in range(len(v)):
         if j == index or not np.isfinite(v[j]).all():
             continue
-        if np.all(v[j] >= v[index]) and np.any(v[j] > v[index] + m):
+        if np.all(v[j] >= v[index] - m) and np.any(v[j] > v[index] + m):
             return False
     return True

@@ -26,3 +26,14 @@ def test_near_front_margin():
     assert near_front(pts, 1, (0.5, 0.0))  # 0.2 dB below an equally fast point: near
     assert not near_front(pts, 2, (0.5, 0.0))  # 2 dB below an equally fast point: not near
     assert near_front(pts, 3, (0.5, 0.0))  # best quality, slowest: on the front
+
+
+def test_near_front_counts_differences_inside_the_margin_as_equal():
+    pts = [[26.6, 23.9], [23.8, 24.7], [23.5, 40.0], [26.0, 30.0]]
+    # 2.8 dB under a point 3 % slower: near only when fps must match exactly
+    assert near_front(pts[:2], 1, (0.5, 0.0))
+    assert not near_front(pts[:2], 1, (0.5, 0.2 * 24.7))
+    # 0.3 dB under a point 62 % faster: beaten once 0.3 dB counts as equal quality
+    assert not near_front([[23.8, 24.7], [23.5, 40.0]], 0, (0.5, 0.2 * 24.7))
+    assert near_front([[23.8, 24.7], [23.5, 40.0]], 0, (0.0, 0.2 * 24.7))
+    assert near_front(pts, 3, (0.5, 0.2 * 30.0))  # 0.6 dB under the best, which is 20 % slower: near
