@@ -17,9 +17,9 @@ The rule (thresholds in :class:`SizingRule`, calibration in docs/benchmarks.md):
    garments and [128, 1024] otherwise.
 2. Channels (never above the base preset): 16 for plain clothing that follows the body, 8 for
    patterned clothing and loose garments. At default size 8 channels cost plain clothing 0.7 dB,
-   and with a 128^2 texture they cost plain and print 1.3-1.5 dB; at 256^2 they cost the prints
-   nothing (+0.2 and +0.1 dB in two runs, +1.2 dB on the striped print), and the loose scene kept
-   its quality at 64^2 x 8.
+   and with a 128^2 texture they cost plain and print 1.3-1.5 dB; at 256^2 they gained three
+   print captures 0.1-1.2 dB and cost a fourth 1.4 dB, and the loose scene kept its quality at
+   64^2 x 8.
 3. Renderer: the preset's. The rule can step down the preset's ladder for plain, tight clothing
    and up when much of the person lies outside the fitted body (``SizingRule`` steps), but at
    default size (docs/benchmarks.md) the ladder's smaller renderer cost 1.0-3.6 dB on plain, print
@@ -57,7 +57,7 @@ class SizingRule:
     """Thresholds of the automatic size choice."""
 
     # fine-band colour RMS at the training scale (CaptureFeatures.detail). Default-size captures measured:
-    # plain clothing 0.018 and 0.009, prints 0.057 and 0.030 (a colour stripe), loose garments 0.052 and 0.028
+    # plain clothing 0.017 and 0.009, prints 0.057 and 0.030 (a colour stripe), loose garments 0.052 and 0.028
     detail_high: float = 0.04  # at or above this: detailed clothing
     detail_low: float = 0.023  # below this: plain clothing (between the busiest plain and the calmest print)
     # texels per training pixel for detailed clothing: on the default-size print scene (221 px of
@@ -78,7 +78,8 @@ class SizingRule:
     # At default size 8 channels cost plain clothing 0.7 dB (22.33 against 23.00 dB) and with 128^2
     # textures plain 1.5 dB and print 1.3 dB; at 256^2 the print lost nothing (+0.2, +0.1 dB in two
     # runs), and 64^2 x 8 on the loose scene scored 1.2 dB over its base (256^2 x 16); the striped
-    # print (medium) scored 25.05 dB at 256^2 x 8 against 23.87 at 256^2 x 16
+    # print (medium) scored 25.05 dB at 256^2 x 8 against 23.87 at 256^2 x 16, a checked one (medium)
+    # 22.23 against 23.65
     channels_by_detail: tuple[int, int, int] = (16, 8, 8)
     # loose garments at 64^2: 8 channels against 16 scored +0.6 dB on one loose capture and -0.7 dB on
     # another (single trainings; the means of the two agree within 0.1 dB)
