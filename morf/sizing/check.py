@@ -49,16 +49,14 @@ def scene_projects(scenes, project_path: str | dict | None) -> dict[str, str | N
 
 
 def repeat_points(out: Path, sweep, project, model, rows: list[dict], auto, auto_cfg, seeds: int) -> dict:
-    """Train each sized row again with ``seeds - 1`` further seeds; {name: [row, ...]} over all seeds
+    """Train each row again with ``seeds - 1`` further seeds; {name: [row, ...]} over all seeds
     (the given row first). ``auto``/``auto_cfg``: the automatic choice's point and config."""
     from morf.bench.pareto import run_point
-    from morf.sizing.sweep import NOISE_AXES, SweepPoint, resolve
+    from morf.sizing.sweep import SweepPoint, resolve
 
     known = {p.name: p for p in sweep.points}
     runs = {}
-    for row in rows:
-        if row["axis"] in NOISE_AXES:
-            continue
+    for row in rows:  # the sizing axes' points and the automatic choice (no seed-axis points)
         point = auto if row["name"] == auto.name else known[row["name"]]
         cfg0 = auto_cfg if point is auto else resolve(sweep, point)
         runs[row["name"]] = [row]
