@@ -2,7 +2,8 @@
 
 On one synthetic capture (made in ``DIR/capture-<scene>`` unless ``--project`` names one), each
 point of the sweep (:mod:`morf.sizing.sweep`: renderer architecture, neural texture resolution
-and channels, training resolution and steps, warp on/off, int8 vs fp32) is trained and measured:
+and channels, training resolution, steps and learning-rate schedule, warp on/off, int8 vs fp32)
+is trained and measured:
 
 * hold-out quality: PSNR / SSIM over the image and over the person, temporal flicker (the
   evaluation of ``morf bench quality``); the fronts use ``psnr_person``;
@@ -51,7 +52,8 @@ def add_arguments(p) -> None:
     p.add_argument("--scenes", default="plain,print,loose",
                    help="--auto-check: comma-separated scenes")
     p.add_argument("--seeds", type=int, default=1,
-                   help="--auto-check: train every point with this many seeds and judge on the means (default 1)")
+                   help="train every point with this many seeds (base seed, +1, ...) and chart the means; "
+                        "with --auto-check judge on the means (default 1)")
 
 
 def make_capture(out: Path, sweep, scene: str, model, project_path: str | None = None):
@@ -107,6 +109,39 @@ def run_point(project, sweep, point, model, out: Path, cfg=None) -> tuple[dict, 
     row["seconds"] = time.time() - t0
     atomic_write_json(path, row)
     return row, False
+
+
+def repeat_points(out: Path, sweep, project, model, rows: list[dict], seeds: int,
+                  outside: dict | None = None) -> dict[str, list[dict]]:
+    """Train each row's point again with ``seeds - 1`` further seeds (saved as
+    ``OUT/points/<name>-seed<k>.json``); {name: [row, ...]} over all seeds, the given row first.
+    ``outside``: {name: (SweepPoint, TrainConfig)} of points that are not in the sweep (the
+    automatic choice)."""
+    from morf.sizing.sweep import SweepPoint, resolve
+
+    known = {p.name: (p, None) for p in sweep.points}
+    known.update(outside or {})
+    runs = {}
+    for row in rows:
+        point, cfg0 = known[row["name"]]
+        cfg0 = cfg0 or resolve(sweep, point)
+        runs[row["name"]] = [row]
+        for k in range(1, seeds):
+            seed = cfg0.seed + k
+            again = SweepPoint(f"{point.name}-seed{seed}", point.axis, {**point.change, "seed": seed},
+                               point.method, point.precision)
+            print(f"  {again.name}")
+            runs[row["name"]].append(run_point(project, sweep, again, model, out, cfg0.replace(seed=seed))[0])
+    return runs
+
+
+def mean_of_runs(runs: list[dict], key: str) -> float | None:
+    """Mean of ``key`` over the runs that have it (None when none has)."""
+    vals = [r[key] for r in runs if r.get(key) is not None]
+    return sum(vals) / len(vals) if vals else None
+
+
+SEED_KEYS = (QUALITY, "ssim_person", "psnr", "temporal", "fps", "train_minutes")  # averaged over seeds
 
 
 def fronts(rows: list[dict]) -> dict[str, np.ndarray]:
@@ -182,15 +217,22 @@ def saved_point(out: Path, sweep, point, project, cfg=None) -> dict | None:
 
 def run_sweep(out, preset: str = "default", scene: str = "print", project_path: str | None = None,
               axes: list[str] | None = None, model=None, extra: list | None = None,
-              points: list[str] | None = None, project=None) -> dict:
+              points: list[str] | None = None, project=None, seeds: int = 1) -> dict:
     """Run (or resume) one sweep and write its JSON, Markdown and charts; returns the result.
 
     ``points`` names the points to measure (all of ``axes`` when None); the other points of
     ``axes`` already measured in ``OUT`` on the same capture join the result as saved, so a sweep
     grows point by point. ``extra``: (SweepPoint, TrainConfig) pairs measured beside the sweep's
     own points (the automatic choice in ``--auto-check``). ``project``: the opened capture, when
-    the caller has it (else made or opened from ``project_path``).
+    the caller has it (else made or opened from ``project_path``). ``seeds`` > 1: every point
+    (seed-axis points aside) is trained that many times (:func:`repeat_points`); each row then
+    carries ``seed_runs`` and ``seed_means`` of :data:`SEED_KEYS`, and fronts, charts and table
+    use the means.
     """
+    from morf.errors import InputError
+
+    if seeds < 1:
+        raise InputError(f"seeds must be at least 1, got {seeds}")
     from morf.bench.common import machine_info, markdown_table, write_results
     from morf.sizing.sweep import NOISE_AXES, PRESETS, select
 
@@ -216,27 +258,45 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
               + (" (saved result)" if was else ""))
     shutil.rmtree(out / "work", ignore_errors=True)  # exports made only to time playback
     sized = [r for r in rows if r["axis"] not in NOISE_AXES]  # the seed points re-measure the base
-    front = fronts(sized)
+    if seeds > 1:
+        runs = repeat_points(out, sweep, project, model, sized, seeds, {p.name: (p, c) for p, c in extra or []})
+        for r in sized:
+            r["seed_runs"] = {k: [x.get(k) for x in runs[r["name"]]] for k in SEED_KEYS}
+            r["seed_means"] = {k: mean_of_runs(runs[r["name"]], k) for k in SEED_KEYS}
+    view = [{**r, **r["seed_means"]} if "seed_means" in r else r for r in sized]
+    front = fronts(view)
     for r in rows:
         r["on_front_fps"] = r["on_front_train"] = False
-    for r, f1, f2 in zip(sized, front["fps"], front["train"]):
-        r["on_front_fps"], r["on_front_train"] = bool(f1), bool(f2)
+    for r, v, f1, f2 in zip(sized, view, front["fps"], front["train"]):
+        r["on_front_fps"] = v["on_front_fps"] = bool(f1)
+        r["on_front_train"] = v["on_front_train"] = bool(f2)
     noise = seed_spread(rows)
     result = {"benchmark": "pareto", "preset": preset, "scene": scene, "project": str(project.root),
               "quality_metric": QUALITY, "fps_size": sweep.fps_size, "fps_precision_default": "int8",
               "points": rows, "front_fps": [r["name"] for r in rows if r["on_front_fps"]],
               "front_train": [r["name"] for r in rows if r["on_front_train"]], "seed_spread": noise, "reused": reused,
+              "seeds": seeds,
               "paper_reference": {"fps": 30, "size": 640, "device": "Snapdragon 888", "params_m": 14.4, "ssim": 0.899,
                                   "lpips": 0.0623, "tlpips": 0.00466, "comparable": ["fps"], "note": PAPER_NOTE},
               "machine": machine_info()}
-    result["charts"] = charts(sized, front, out, sweep.fps_size, f"{preset} sweep, {scene} scene", noise)
+    over = f", means over {seeds} seeds" if seeds > 1 else ""
+    result["charts"] = charts(view, front, out, sweep.fps_size, f"{preset} sweep, {scene} scene{over}", noise)
+    shown = view + [r for r in rows if r["axis"] in NOISE_AXES]
     table = [{**r, "params_M": r["params"] / 1e6, "front": ("fps " if r["on_front_fps"] else "")
-              + ("train" if r["on_front_train"] else "")} for r in rows]
-    md = (f"# Speed against accuracy ({preset} sweep, {scene} scene)\n\n"
-          + markdown_table(table, ["name", "params_M", "psnr_person", "ssim_person", "psnr", "temporal", "fps",
-                                   "renderer_ms", "train_minutes", "front"])
+              + ("train" if r["on_front_train"] else "")} for r in shown]
+    cols = ["name", "params_M", "psnr_person", "ssim_person", "psnr", "temporal", "fps", "renderer_ms",
+            "train_minutes", "front"]
+    if seeds > 1:
+        for t in table:
+            t[QUALITY + " runs"] = " / ".join("-" if v is None else f"{v:.2f}"
+                                              for v in t.get("seed_runs", {}).get(QUALITY, []))
+        cols.insert(3, QUALITY + " runs")
+    md = (f"# Speed against accuracy ({preset} sweep, {scene} scene{over})\n\n"
+          + markdown_table(table, cols)
           + f"\nfps at {sweep.fps_size}x{sweep.fps_size} end to end (int8 unless the point is fp32); "
-            f"PSNR in dB on the hold-out sequence; temporal = flicker (lower is better).\n\n"
+            f"PSNR in dB on the hold-out sequence; temporal = flicker (lower is better)"
+          + (f"; quality, fps and training minutes are means over {seeds} trainings with seeds "
+             "base, base + 1, ... (the seed axis's points are single trainings)" if seeds > 1 else "") + ".\n\n"
           + (f"The base point over {len(noise['points'])} seeds spans {noise['range_db']:.2f} dB of {QUALITY} "
              f"(std {noise['std_db']:.2f} dB): differences smaller than that are within training noise; "
              "the seed points stay off the fronts.\n\n" if noise else "")
@@ -249,10 +309,6 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
 def run(args) -> int:
     split = lambda s: [a.strip() for a in s.split(",") if a.strip()] if s else None  # noqa: E731
     points = split(args.points)
-    if args.seeds != 1 and not args.auto_check:
-        from morf.errors import InputError
-
-        raise InputError("--seeds is for --auto-check; a sweep retrains its base with other seeds on --axes seed")
     if args.auto_check:
         from morf.sizing.check import auto_check
 
@@ -260,5 +316,5 @@ def run(args) -> int:
                    seeds=args.seeds)
         return 0
     axes = split(args.axes)
-    run_sweep(Path(args.out), args.preset, args.scene, args.project, axes, points=points)
+    run_sweep(Path(args.out), args.preset, args.scene, args.project, axes, points=points, seeds=args.seeds)
     return 0

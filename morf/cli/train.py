@@ -24,6 +24,9 @@ def add_parser(sub):
     p.add_argument("--resolution", type=int, default=None, help="override the working image side (pixels)")
     p.add_argument("--crop", type=int, default=None, help="override the random crop side (0: whole image)")
     p.add_argument("--batch-size", type=int, default=None, help="override the batch size")
+    p.add_argument("--lr-decay-start", type=float, default=None, metavar="FRAC",
+                   help="from this fraction of the steps on, the learning rates follow a cosine down to a tenth "
+                        "(default 1: constant rates; docs/benchmarks.md has what it changed)")
     p.add_argument("--fits", choices=("auto", "fits", "ground-truth"), default="auto",
                    help="body fits to train on: fits/fits.npz, or a synthetic capture's ground truth")
     p.add_argument("--vgg", default=None, metavar="PATH",
@@ -45,7 +48,8 @@ def resolve_config(args, project=None):
 
     base = "gpu" if torch.cuda.is_available() else "cpu"
     overrides = {k: v for k, v in (("steps", args.steps), ("resolution", args.resolution), ("crop", args.crop),
-                                   ("batch_size", args.batch_size)) if v is not None}
+                                   ("batch_size", args.batch_size),
+                                   ("lr_decay_start", getattr(args, "lr_decay_start", None))) if v is not None}
     if getattr(args, "renderer", None):
         from morf.avatar.renderer import RendererConfig
         from morf.errors import InputError

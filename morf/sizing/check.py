@@ -48,33 +48,6 @@ def scene_projects(scenes, project_path: str | dict | None) -> dict[str, str | N
     return {s: project_path.get(s) for s in scenes}
 
 
-def repeat_points(out: Path, sweep, project, model, rows: list[dict], auto, auto_cfg, seeds: int) -> dict:
-    """Train each row again with ``seeds - 1`` further seeds; {name: [row, ...]} over all seeds
-    (the given row first). ``auto``/``auto_cfg``: the automatic choice's point and config."""
-    from morf.bench.pareto import run_point
-    from morf.sizing.sweep import SweepPoint, resolve
-
-    known = {p.name: p for p in sweep.points}
-    runs = {}
-    for row in rows:  # the sizing axes' points and the automatic choice (no seed-axis points)
-        point = auto if row["name"] == auto.name else known[row["name"]]
-        cfg0 = auto_cfg if point is auto else resolve(sweep, point)
-        runs[row["name"]] = [row]
-        for k in range(1, seeds):
-            seed = cfg0.seed + k
-            again = SweepPoint(f"{point.name}-seed{seed}", point.axis, {**point.change, "seed": seed},
-                               point.method, point.precision)
-            print(f"  {again.name}")
-            runs[row["name"]].append(run_point(project, sweep, again, model, out, cfg0.replace(seed=seed))[0])
-    return runs
-
-
-def mean_of_runs(runs: list[dict], key: str) -> float | None:
-    """Mean of ``key`` over the runs that have it (None when none has)."""
-    vals = [r[key] for r in runs if r.get(key) is not None]
-    return sum(vals) / len(vals) if vals else None
-
-
 def _runs_text(vals: list) -> str:
     return " / ".join("diverged" if v is None else f"{v:.2f}" for v in vals)
 
@@ -88,7 +61,7 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
     (names as in ``--points``); ``seeds``: trainings per point, the verdict on their means.
     """
     from morf.bench.common import machine_info, markdown_table, write_results
-    from morf.bench.pareto import QUALITY, make_capture, run_sweep
+    from morf.bench.pareto import QUALITY, make_capture, mean_of_runs, repeat_points, run_sweep
     from morf.errors import InputError
     from morf.sizing.choose import SizingRule, choose_train_config
     from morf.sizing.front import near_front
@@ -118,7 +91,7 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
         auto = SweepPoint("auto", "auto")
         res = run_sweep(out / scene, preset, scene, axes=SIZING_AXES, model=model, extra=[(auto, cfg)],
                         points=points, project=project)
-        runs = repeat_points(out / scene, sweep, project, model, res["points"], auto, cfg, seeds)
+        runs = repeat_points(out / scene, sweep, project, model, res["points"], seeds, {"auto": (auto, cfg)})
         means = {n: [mean_of_runs(r, k) for k in (QUALITY, "fps")] for n, r in runs.items()}
         q_auto, fps_auto = means["auto"]
         vals = [[float("nan") if v is None else v for v in m] for m in means.values()]

@@ -33,8 +33,8 @@ RENDERERS: dict[str, dict] = {
     "tiny_b16": dict(stem=2, width=16, depth=2, max_width=256, skip_hidden=8),
 }
 
-AXES = ("base", "renderer", "texture_size", "texture_channels", "resolution", "steps", "method", "precision", "seed",
-        "auto")
+AXES = ("base", "renderer", "texture_size", "texture_channels", "resolution", "steps", "schedule", "method",
+        "precision", "seed", "auto")
 # The seed axis retrains the base point with other random seeds: its spread is the noise a single
 # training per point carries. Those points measure the base again, so they stay off the fronts.
 NOISE_AXES = ("seed",)
@@ -84,6 +84,8 @@ def _axis_points(renderers, tex_sizes, channels, resolutions, steps, seeds=(1, 2
     pts += [SweepPoint(f"channels-{c}", "texture_channels", {"texture_channels": c}) for c in channels]
     pts += [SweepPoint(f"resolution-{r}", "resolution", {"resolution": r}) for r in resolutions]
     pts += [SweepPoint(f"steps-{s}", "steps", {"steps": s}) for s in steps]
+    pts += [SweepPoint("lr-decay-half", "schedule", {"lr_decay_start": 0.5}),  # cosine decay over the second half
+            SweepPoint("lr-cosine-all", "schedule", {"lr_decay_start": 0.0})]  # ... over the whole run
     pts += [SweepPoint("stylepeople", "method", method="stylepeople"),
             SweepPoint("fp32", "precision", precision="fp32")]
     pts += [SweepPoint(f"seed-{s}", "seed", {"seed": s}) for s in seeds]
@@ -104,7 +106,8 @@ PRESETS: dict[str, SweepPreset] = {
     "quick": SweepPreset(
         "quick", ("default", {"frames": 32, "size": 192, "holdout_frames": 8, "detector": "none"}),
         ("cpu", {"resolution": 128, "batch_size": 2, "steps": 600, "inpaint_steps": 20, "inpaint_views": 4}), 640, 60,
-        _axis_points(("stem2_b8", "stem2_b24", "stem4_b24"), (128, 512), (4, 8), (64, 192), (200, 1500))),
+        _axis_points(("stem2_b8", "stem2_b24", "stem4_b24"), (128, 512), (4, 8), (64, 192), (200, 1500),
+                     seeds=(1, 2, 3, 4))),
     # By hand, many hours on 2 cores: the full synthetic capture and the "cpu" training preset.
     "default": SweepPreset(
         "default", ("default", {"detector": "none"}), ("cpu", {}), 640, 60,
@@ -143,8 +146,14 @@ def resolve(sweep: SweepPreset, point: SweepPoint, **extra) -> TrainConfig:
 
 
 def train_key(cfg: TrainConfig) -> str:
-    """A short stable name for a training config (the run folder is ``pareto-<key>``)."""
-    return hashlib.sha1(json.dumps(cfg.to_dict(), sort_keys=True).encode()).hexdigest()[:10]
+    """A short stable name for a training config (the run folder is ``pareto-<key>``).
+
+    The decay fields are left out while the decay is off (they change nothing then), so runs
+    made before the schedule existed keep their names."""
+    d = cfg.to_dict()
+    if d["lr_decay_start"] >= 1.0:
+        del d["lr_decay_start"], d["lr_decay_floor"]
+    return hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:10]
 
 
 def select(sweep: SweepPreset, axes: list[str] | None, names: list[str] | None = None) -> list[SweepPoint]:

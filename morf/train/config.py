@@ -6,6 +6,7 @@ The resolved config is saved as ``runs/<name>/config.json`` and read back on res
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 
 from morf.avatar.renderer import RendererConfig
@@ -35,6 +36,11 @@ class TrainConfig:
     lr_warp: float = 5e-4  # Adam on W, E, F (1e-4 left offsets at ~0.1 texel after 400 cpu steps)
     lr_latent: float = 1e-3  # Adam on the per-frame latents
     lr_discriminator: float = 4e-4  # Adam on the discriminator
+    # Learning-rate decay: from this fraction of ``steps`` on, every learning rate (discriminator
+    # included) follows a half cosine down to ``lr_decay_floor`` of its value at the last step
+    # (1.0: constant rates to the end).
+    lr_decay_start: float = 1.0
+    lr_decay_floor: float = 0.1
     w_l1: float = 1.0  # L1 on premultiplied RGB
     w_perceptual: float = 1.0  # VGG-16 perceptual loss (when weights are available)
     w_feature_matching: float = 1.0  # discriminator feature matching (used when VGG weights are absent)
@@ -99,6 +105,16 @@ class TrainConfig:
             raise InputError("renderer input channels must equal texture channels")
         if self.batch_size < 1 or self.steps < 0:
             raise InputError("batch size must be >= 1 and steps >= 0")
+        if not (0.0 <= self.lr_decay_start <= 1.0 and 0.0 < self.lr_decay_floor <= 1.0):
+            raise InputError("lr_decay_start must lie in [0, 1] and lr_decay_floor in (0, 1]")
+
+    def lr_factor(self, step: int) -> float:
+        """The learning-rate multiplier of ``step`` under the decay schedule (1.0 before it starts)."""
+        start = self.lr_decay_start * self.steps
+        if step <= start or self.steps <= start:
+            return 1.0
+        t = min(1.0, (step - start) / (self.steps - start))
+        return self.lr_decay_floor + (1.0 - self.lr_decay_floor) * 0.5 * (1.0 + math.cos(math.pi * t))
 
 
 PRESETS: dict[str, TrainConfig] = {

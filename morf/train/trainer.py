@@ -68,6 +68,9 @@ class Trainer:
             self.model.renderer.to(memory_format=torch.channels_last)
             if self.disc is not None:
                 self.disc.to(memory_format=torch.channels_last)
+        for opt in self._optimizers():
+            for group in opt.param_groups:
+                group["base_lr"] = group["lr"]  # the rate the decay schedule scales (recoveries halve it)
         self.perceptual = perceptual.to(self.device) if perceptual is not None else None
         self.step = 0
         self.elapsed_s = 0.0  # training wall time over all sessions of this run
@@ -93,13 +96,25 @@ class Trainer:
         self.step = int(d["step"])
         self.elapsed_s = float(d.get("elapsed_s", 0.0))
         self.hold_adversarial = bool(d.get("hold_adversarial", False))
+        for opt in self._optimizers():
+            for group in opt.param_groups:
+                group.setdefault("base_lr", group["lr"])  # checkpoints from before the decay schedule
+
+    def _optimizers(self) -> list[torch.optim.Optimizer]:
+        return [o for o in (self.opt, getattr(self, "opt_d", None)) if o is not None]
 
     def scale_learning_rates(self, factor: float) -> None:
         """Multiply every optimizer's learning rates (kept in the optimizer state, so in checkpoints)."""
-        for opt in (self.opt, getattr(self, "opt_d", None)):
-            if opt is not None:
-                for group in opt.param_groups:
-                    group["lr"] *= factor
+        for opt in self._optimizers():
+            for group in opt.param_groups:
+                group["base_lr"] *= factor
+                group["lr"] *= factor
+
+    def _apply_schedule(self) -> None:
+        factor = self.cfg.lr_factor(self.step)
+        for opt in self._optimizers():
+            for group in opt.param_groups:
+                group["lr"] = group["base_lr"] * factor
 
     def parameters_finite(self) -> bool:
         return all(bool(torch.isfinite(p).all()) for p in self.model.parameters())
@@ -115,6 +130,7 @@ class Trainer:
         """One optimisation step. Raises :class:`TrainingDiverged` on NaN/inf (nothing is updated then)."""
         cfg = self.cfg
         batch = self.next_batch()
+        self._apply_schedule()
         gan_on = self.disc is not None and self.step >= cfg.gan_start and not self.hold_adversarial
         self.model.train()
         out = render_batch(self.model, batch, cfg.bf16)

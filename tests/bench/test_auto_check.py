@@ -74,12 +74,3 @@ def test_scene_projects_forms():
         scene_projects(["plain"], "print=/cap")
     with pytest.raises(InputError, match="scene=PATH"):
         scene_projects(["plain", "print"], "print=")
-
-
-def test_seeds_without_auto_check_is_one_line_error(tmp_path, capsys):
-    from morf.cli.main import main
-
-    rc = main(["bench", "pareto", "--out", str(tmp_path / "p"), "--preset", "tiny", "--seeds", "2"])
-    err = capsys.readouterr().err.strip().splitlines()
-    assert rc == 2 and len(err) == 1 and "--seeds is for --auto-check" in err[0]
-    assert not (tmp_path / "p").exists()

@@ -1,5 +1,6 @@
 """``morf bench pareto`` on the tiny preset: documented JSON keys, charts, and resumability."""
 
+import hashlib
 import json
 
 import pytest
@@ -103,3 +104,47 @@ def test_no_seed_spread_without_seed_points():
     rows.append({"name": "seed-2", "axis": "seed", "psnr_person": None})  # diverged: left out
     s = seed_spread(rows)
     assert s["points"] == ["base", "seed-1"] and s["range_db"] == pytest.approx(1.0)
+
+
+def test_schedule_points_and_run_names_of_constant_rate_configs():
+    from morf.sizing.sweep import PRESETS, SweepPoint, resolve, train_key
+
+    sweep = PRESETS["default"]
+    base = resolve(sweep, SweepPoint("base", "base"))
+    points = {p.name: p for p in sweep.points}
+    half = resolve(sweep, points["lr-decay-half"])
+    assert base.lr_decay_start == 1.0 and half.lr_decay_start == 0.5
+    assert resolve(sweep, points["lr-cosine-all"]).lr_decay_start == 0.0
+    assert len({train_key(base), train_key(half)}) == 2
+    # while the decay is off its fields leave the run name alone (runs made before it keep theirs),
+    # so the floor, which changes nothing then, does not rename the run either
+    assert train_key(base) == train_key(base.replace(lr_decay_floor=0.5))
+    before = {k: v for k, v in base.to_dict().items() if not k.startswith("lr_decay")}
+    assert train_key(base) == hashlib.sha1(json.dumps(before, sort_keys=True).encode()).hexdigest()[:10]
+    assert train_key(half) != train_key(half.replace(lr_decay_floor=0.5))
+
+
+@pytest.mark.gl
+def test_sweep_with_seeds_charts_the_means(tmp_path, body_model, gl):
+    out = tmp_path / "pareto"
+    res = run_sweep(out, "tiny", axes=["texture_size"], model=body_model, seeds=2)
+    assert res["seeds"] == 2 and [p["name"] for p in res["points"]] == ["base", "texture-32"]
+    saved = {p.stem for p in (out / "points").glob("*.json")}
+    assert saved == {"base", "texture-32", "base-seed1", "texture-32-seed1"}
+    again = json.loads((out / "points" / "base-seed1.json").read_text())
+    assert again["run"] != res["points"][0]["run"]  # a second training, not the first one read again
+    for p in res["points"]:
+        runs = p["seed_runs"]["psnr_person"]
+        assert len(runs) == 2 and runs[0] == p["psnr_person"]
+        assert p["seed_means"]["psnr_person"] == pytest.approx(sum(runs) / 2)
+    md = (out / "pareto.md").read_text()
+    assert "means over 2 seeds" in md and "psnr_person runs" in md
+
+
+def test_bad_seed_count_is_one_line_error(tmp_path, capsys):
+    from morf.cli.main import main
+
+    rc = main(["bench", "pareto", "--out", str(tmp_path / "p"), "--preset", "tiny", "--seeds", "0"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "seeds must be at least 1" in err[0]
+    assert not (tmp_path / "p").exists()

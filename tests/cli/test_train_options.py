@@ -10,7 +10,7 @@ from morf.errors import InputError
 
 def _args(**kw):
     base = dict(preset="cpu", method="morf", steps=None, resolution=None, crop=None, batch_size=None,
-                device="cpu", renderer=None)
+                device="cpu", renderer=None, lr_decay_start=None)
     return SimpleNamespace(**{**base, **kw})
 
 
@@ -30,3 +30,11 @@ def test_bad_renderer_choices_are_user_errors():
         resolve_config(_args(renderer="stem4_b16", preset="auto"))
     with pytest.raises(InputError, match="multiples"):  # the renderer's size multiple (64) vs a 96 px crop
         resolve_config(_args(renderer="stem4_b16", resolution=96, crop=96))
+
+
+def test_lr_decay_option_sets_the_schedule():
+    cfg, _ = resolve_config(_args(lr_decay_start=0.5))
+    assert cfg.lr_decay_start == 0.5 and cfg.lr_factor(cfg.steps) == pytest.approx(cfg.lr_decay_floor)
+    assert resolve_config(_args())[0].lr_decay_start == 1.0
+    with pytest.raises(InputError, match="lr_decay_start"):
+        resolve_config(_args(lr_decay_start=1.5))[0].validate()

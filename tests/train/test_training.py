@@ -101,6 +101,47 @@ def test_stop_then_resume_continues_from_step_k(frames_factory, tmp_path):
     assert torch.allclose(a, b, atol=1e-5)
 
 
+def test_lr_decay_schedule_shape():
+    cfg = tiny("morf", steps=100, lr_decay_start=0.5, lr_decay_floor=0.1)
+    f = [cfg.lr_factor(s) for s in range(101)]
+    assert f[0] == f[50] == 1.0 and f[100] == pytest.approx(0.1)
+    assert f[75] == pytest.approx(0.55) and all(a >= b for a, b in zip(f[50:], f[51:]))
+    assert tiny("morf", steps=100).lr_factor(100) == 1.0  # off by default
+    with pytest.raises(InputError):
+        tiny("morf", lr_decay_floor=0.0).validate()
+
+
+def test_lr_decay_sets_rates_and_composes_with_recovery_halving(frames_factory):
+    cfg = tiny("morf", steps=10, lr_decay_start=0.0, lr_decay_floor=0.5)
+    tr = Trainer(cfg, frames_factory(), texture_init(cfg))
+    for _ in range(5):
+        tr.train_step()
+    tr.scale_learning_rates(0.5)  # as a rollback does
+    tr.train_step()  # applies the factor of step 5
+    for opt in (tr.opt, tr.opt_d):
+        for g in opt.param_groups:
+            assert g["base_lr"] > 0 and g["lr"] == pytest.approx(g["base_lr"] * cfg.lr_factor(5))
+    lr = {g["name"]: g["lr"] for g in tr.opt.param_groups}
+    assert lr["renderer"] == pytest.approx(cfg.lr_renderer * 0.5 * cfg.lr_factor(5))
+    # a checkpoint keeps the base rates: a restored trainer continues the same schedule
+    tr2 = Trainer(cfg, frames_factory(), texture_init(cfg))
+    tr2.load_state_dict(tr.state_dict())
+    assert [g["base_lr"] for g in tr2.opt.param_groups] == [g["base_lr"] for g in tr.opt.param_groups]
+
+
+def test_resume_with_lr_decay_matches_an_uninterrupted_run(frames_factory, tmp_path):
+    frames = frames_factory()
+    cfg = tiny("morf", steps=12, checkpoint_minutes=1e6, report_every=1, lr_decay_start=0.25)
+    control = StageControl()
+    control._on_progress = lambda p: control.stop() if p.step >= 5 else None
+    with pytest.raises(StopRequested):
+        train_avatar(frames, tmp_path / "run", cfg, texture_init(cfg), control)
+    train_avatar(frames, tmp_path / "run", cfg, texture_init(cfg))
+    straight = train_avatar(frames, tmp_path / "straight", cfg, texture_init(cfg))
+    a = load_trained_avatar(tmp_path / "run").texture
+    assert torch.allclose(a, load_trained_avatar(straight.run_dir).texture, atol=1e-5)
+
+
 def test_nan_raises_and_keeps_last_good_checkpoint(frames_factory, tmp_path, monkeypatch):
     frames = frames_factory()
     cfg = tiny("stylepeople", steps=6, checkpoint_minutes=1e6)
