@@ -229,12 +229,12 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
     carries ``seed_runs`` and ``seed_means`` of :data:`SEED_KEYS`, and fronts, charts and table
     use the means.
     """
+    from morf.bench.common import machine_info, markdown_table, write_results
     from morf.errors import InputError
+    from morf.sizing.sweep import NOISE_AXES, PRESETS, select
 
     if seeds < 1:
         raise InputError(f"seeds must be at least 1, got {seeds}")
-    from morf.bench.common import machine_info, markdown_table, write_results
-    from morf.sizing.sweep import NOISE_AXES, PRESETS, select
 
     out = Path(out)
     sweep = PRESETS[preset]
