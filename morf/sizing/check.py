@@ -61,7 +61,7 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
     (names as in ``--points``); ``seeds``: trainings per point, the verdict on their means.
     """
     from morf.bench.common import machine_info, markdown_table, write_results
-    from morf.bench.pareto import QUALITY, make_capture, mean_of_runs, repeat_points, run_sweep
+    from morf.bench.pareto import QUALITY, make_capture, run_sweep
     from morf.errors import InputError
     from morf.sizing.choose import SizingRule, choose_train_config
     from morf.sizing.front import near_front
@@ -90,21 +90,22 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
         cfg = cfg.replace(preset=sweep.train[0])
         auto = SweepPoint("auto", "auto")
         res = run_sweep(out / scene, preset, scene, axes=SIZING_AXES, model=model, extra=[(auto, cfg)],
-                        points=points, project=project)
-        runs = repeat_points(out / scene, sweep, project, model, res["points"], seeds, {"auto": (auto, cfg)})
-        means = {n: [mean_of_runs(r, k) for k in (QUALITY, "fps")] for n, r in runs.items()}
+                        points=points, project=project, seeds=seeds)
+        rows_by_name = {r["name"]: r for r in res["points"]}
+        means = {n: [r.get("seed_means", r).get(k) for k in (QUALITY, "fps")] for n, r in rows_by_name.items()}
         q_auto, fps_auto = means["auto"]
         vals = [[float("nan") if v is None else v for v in m] for m in means.values()]
         fps_margin = rule.fps_margin_frac * fps_auto if fps_auto is not None else 0.0
         ok = near_front(vals, list(means).index("auto"), (rule.quality_margin_db, fps_margin))
         best = max((q for q, _ in means.values() if q is not None), default=None)
-        a = runs["auto"][0]
+        a = rows_by_name["auto"]
         rows.append({"scene": scene, "texture_size": cfg.texture_size, "texture_channels": cfg.texture_channels,
                      "renderer_width": cfg.renderer.width, "params_M": a["params"] / 1e6, QUALITY: q_auto,
                      "best_" + QUALITY: best, "fps": fps_auto, "near_front": ok})
         details[scene] = {"reasons": reasons, "config": a["config"], "point": a, "near_front": ok}
         if seeds > 1:
-            details[scene]["means"] = {n: {QUALITY: q, "fps": f, QUALITY + "_runs": [r.get(QUALITY) for r in runs[n]]}
+            details[scene]["means"] = {n: {QUALITY: q, "fps": f,
+                                           QUALITY + "_runs": rows_by_name[n]["seed_runs"][QUALITY]}
                                        for n, (q, f) in means.items()}
         print(f"{scene}: texture {cfg.texture_size}, channels {cfg.texture_channels}, renderer width "
               f"{cfg.renderer.width}; near the front: {ok}")
