@@ -11,7 +11,9 @@ each scene's sweep is in ``OUT/<scene>/`` (resumable like any sweep).
 
 One training per point resolves about 1 dB at default size, coarser than the margin; with
 ``seeds`` > 1 every point (the automatic choice included) is trained again with further seeds
-(``OUT/<scene>/points/<name>-seed<k>.json``) and the verdict compares the means.
+(``OUT/<scene>/points/<name>-seed<k>.json``) and the verdict compares the means. Each scene's row
+then also says whether the verdict is beyond that noise: the gap to the best point at most the fps
+margin slower, with its standard error over the seeds (:func:`morf.sizing.front.quality_gap`).
 """
 
 from __future__ import annotations
@@ -64,7 +66,7 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
     from morf.bench.pareto import QUALITY, make_capture, run_sweep
     from morf.errors import InputError
     from morf.sizing.choose import SizingRule, choose_train_config
-    from morf.sizing.front import near_front
+    from morf.sizing.front import near_front, quality_gap
     from morf.sizing.sweep import PRESETS, SweepPoint
 
     unknown = [s for s in scenes if s not in SCENE_ORDER]
@@ -98,11 +100,14 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
         fps_margin = rule.fps_margin_frac * fps_auto if fps_auto is not None else 0.0
         ok = near_front(vals, list(means).index("auto"), (rule.quality_margin_db, fps_margin))
         best = max((q for q, _ in means.values() if q is not None), default=None)
+        runs = {n: r["seed_runs"][QUALITY] if "seed_runs" in r else [r.get(QUALITY)] for n, r in rows_by_name.items()}
+        gap, se, rival = quality_gap(runs, {n: f for n, (_, f) in means.items()}, "auto", fps_margin)
         a = rows_by_name["auto"]
         rows.append({"scene": scene, "texture_size": cfg.texture_size, "texture_channels": cfg.texture_channels,
                      "renderer_width": cfg.renderer.width, "params_M": a["params"] / 1e6, QUALITY: q_auto,
-                     "best_" + QUALITY: best, "fps": fps_auto, "near_front": ok})
-        details[scene] = {"reasons": reasons, "config": a["config"], "point": a, "near_front": ok}
+                     "best_" + QUALITY: best, "fps": fps_auto, "near_front": ok, "gap_db": gap, "gap_se_db": se,
+                     "beyond_noise": None if se is None else abs(gap - rule.quality_margin_db) > 2 * se})
+        details[scene] = {"reasons": reasons, "config": a["config"], "point": a, "near_front": ok, "rival": rival}
         if seeds > 1:
             details[scene]["means"] = {n: {QUALITY: q, "fps": f,
                                            QUALITY + "_runs": rows_by_name[n]["seed_runs"][QUALITY]}
@@ -117,7 +122,10 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
     md = ("# Automatic size choice against the sweep\n\n"
           f"near_front: no sweep point is more than {rule.quality_margin_db} dB better at most "
           f"{rule.fps_margin_frac:.0%} slower, nor more than {rule.fps_margin_frac:.0%} faster at most "
-          f"{rule.quality_margin_db} dB worse ({QUALITY}{over}).\n\n")
+          f"{rule.quality_margin_db} dB worse ({QUALITY}{over}). gap_db: the best point at most "
+          f"{rule.fps_margin_frac:.0%} slower minus the automatic choice; gap_se_db: its standard error over "
+          f"the seeds; beyond_noise: the gap is more than two standard errors from the {rule.quality_margin_db} dB "
+          "margin (the verdict would survive more seeds; empty with one seed).\n\n")
     md += markdown_table(rows, list(rows[0])) if rows else ""
     for scene, d in details.items():
         md += f"\n## {scene}\n\n" + "\n".join(f"- {r}" for r in d["reasons"]) + "\n"

@@ -47,3 +47,33 @@ def near_front(values, index: int, margin: tuple[float, ...], maximize=(True, Tr
         if np.all(v[j] >= v[index] - m) and np.any(v[j] > v[index] + m):
             return False
     return True
+
+
+def quality_gap(runs: dict[str, list], fps: dict[str, float | None], name: str,
+                fps_margin: float) -> tuple[float | None, float | None, str | None]:
+    """How far point ``name`` trails the best point at most ``fps_margin`` slower than it.
+
+    ``runs``: {point: its quality per training (None: diverged)}; ``fps``: {point: mean fps}.
+    Returns (gap of the means, its standard error, that point's name); the standard error is
+    sqrt(s_a^2 / n_a + s_b^2 / n_b) over the trainings, None unless both points have two or more,
+    and the gap is None when no other point qualifies. A verdict at margin ``m`` is beyond the
+    training noise when ``|gap - m|`` exceeds about two standard errors.
+    """
+    def stats(name):
+        q = np.asarray([x for x in runs[name] if x is not None], np.float64)
+        return (float(q.mean()), float(q.var(ddof=1)) / len(q) if len(q) > 1 else None) if len(q) else (None, None)
+
+    q_self, v_self = stats(name)
+    if q_self is None or fps.get(name) is None:
+        return None, None, None
+    best = None
+    for other in runs:
+        q, v = stats(other)
+        if other == name or q is None or fps.get(other) is None or fps[other] < fps[name] - fps_margin:
+            continue
+        if best is None or q > best[0]:
+            best = (q, v, other)
+    if best is None:
+        return None, None, None
+    se = (best[1] + v_self) ** 0.5 if best[1] is not None and v_self is not None else None
+    return best[0] - q_self, se, best[2]

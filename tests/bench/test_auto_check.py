@@ -18,6 +18,7 @@ def test_tiny_auto_check(tmp_path, body_model, gl):
     for row in data["table"]:
         assert isinstance(row["near_front"], bool) and row["psnr_person"] is not None and row["fps"] > 0
         assert row["best_psnr_person"] >= row["psnr_person"]
+        assert row["gap_se_db"] is None and row["beyond_noise"] is None  # one training per point: no noise estimate
     for scene in ("plain", "print"):
         names = [p["name"] for p in json.loads((out / scene / "pareto.json").read_text())["points"]]
         assert names[0] == "base" and names[-1] == "auto" and "texture-32" in names
@@ -49,6 +50,12 @@ def test_auto_check_with_seeds_judges_means(tmp_path, body_model, gl):
     row = res["table"][0]
     assert row["psnr_person"] == means["auto"]["psnr_person"]
     assert row["best_psnr_person"] == max(m["psnr_person"] for m in means.values())
+    rival = res["scenes"]["print"]["rival"]  # None only when every other point timed 20 % slower
+    if rival is None:
+        assert row["gap_db"] is None and row["beyond_noise"] is None
+    else:
+        assert row["gap_db"] == pytest.approx(means[rival]["psnr_person"] - row["psnr_person"])
+        assert row["gap_se_db"] >= 0 and isinstance(row["beyond_noise"], bool)
     assert json.loads((out / "auto_check.json").read_text())["seeds"] == 2
     assert "means over 2 seeds" in (out / "auto_check.md").read_text()
 

@@ -1,6 +1,7 @@
 """Pareto-front computation on known point sets."""
 
 import numpy as np
+import pytest
 
 from morf.sizing.front import near_front, pareto_front
 
@@ -37,3 +38,16 @@ def test_near_front_counts_differences_inside_the_margin_as_equal():
     assert not near_front([[23.8, 24.7], [23.5, 40.0]], 0, (0.5, 0.2 * 24.7))
     assert near_front([[23.8, 24.7], [23.5, 40.0]], 0, (0.0, 0.2 * 24.7))
     assert near_front(pts, 3, (0.5, 0.2 * 30.0))  # 0.6 dB under the best, which is 20 % slower: near
+
+
+def test_quality_gap_and_its_standard_error():
+    from morf.sizing.front import quality_gap
+
+    runs = {"base": [21.0, 22.0, 23.0], "small": [20.0, 21.0, 22.0], "fast": [30.0, None], "auto": [20.5, 21.5]}
+    fps = {"base": 25.0, "small": 26.0, "fast": 10.0, "auto": 24.0}
+    gap, se, other = quality_gap(runs, fps, "auto", fps_margin=4.8)  # "fast" is too slow to compete
+    assert other == "base" and gap == pytest.approx(1.0)
+    assert se == pytest.approx((1.0 / 3 + 0.5 / 2) ** 0.5)
+    gap, se, other = quality_gap(runs, fps, "auto", fps_margin=20.0)  # now it competes, with one training
+    assert (other, gap, se) == ("fast", pytest.approx(9.0), None)
+    assert quality_gap({"auto": [20.0]}, {"auto": 24.0}, "auto", 5.0) == (None, None, None)
