@@ -27,6 +27,9 @@ def add_parser(sub):
     p.add_argument("--lr-decay-start", type=float, default=None, metavar="FRAC",
                    help="from this fraction of the steps on, the learning rates follow a cosine down to a tenth "
                         "(default 1: constant rates; docs/benchmarks.md has what it changed)")
+    p.add_argument("--ema", type=float, default=None, metavar="DECAY",
+                   help="make the avatar from a moving average of the weights with this decay per step, e.g. 0.998 "
+                        "(default 0: the last step's weights)")
     p.add_argument("--fits", choices=("auto", "fits", "ground-truth"), default="auto",
                    help="body fits to train on: fits/fits.npz, or a synthetic capture's ground truth")
     p.add_argument("--vgg", default=None, metavar="PATH",
@@ -49,7 +52,8 @@ def resolve_config(args, project=None):
     base = "gpu" if torch.cuda.is_available() else "cpu"
     overrides = {k: v for k, v in (("steps", args.steps), ("resolution", args.resolution), ("crop", args.crop),
                                    ("batch_size", args.batch_size),
-                                   ("lr_decay_start", getattr(args, "lr_decay_start", None))) if v is not None}
+                                   ("lr_decay_start", getattr(args, "lr_decay_start", None)),
+                                   ("ema_decay", getattr(args, "ema", None))) if v is not None}
     if getattr(args, "renderer", None):
         from morf.avatar.renderer import RendererConfig
         from morf.errors import InputError

@@ -85,7 +85,8 @@ def _axis_points(renderers, tex_sizes, channels, resolutions, steps, seeds=(1, 2
     pts += [SweepPoint(f"resolution-{r}", "resolution", {"resolution": r}) for r in resolutions]
     pts += [SweepPoint(f"steps-{s}", "steps", {"steps": s}) for s in steps]
     pts += [SweepPoint("lr-decay-half", "schedule", {"lr_decay_start": 0.5}),  # cosine decay over the second half
-            SweepPoint("lr-cosine-all", "schedule", {"lr_decay_start": 0.0})]  # ... over the whole run
+            SweepPoint("lr-cosine-all", "schedule", {"lr_decay_start": 0.0}),  # ... over the whole run
+            SweepPoint("ema", "schedule", {"ema_decay": 0.998})]  # the avatar from averaged weights
     pts += [SweepPoint("stylepeople", "method", method="stylepeople"),
             SweepPoint("fp32", "precision", precision="fp32")]
     pts += [SweepPoint(f"seed-{s}", "seed", {"seed": s}) for s in seeds]
@@ -148,11 +149,13 @@ def resolve(sweep: SweepPreset, point: SweepPoint, **extra) -> TrainConfig:
 def train_key(cfg: TrainConfig) -> str:
     """A short stable name for a training config (the run folder is ``pareto-<key>``).
 
-    The decay fields are left out while the decay is off (they change nothing then), so runs
-    made before the schedule existed keep their names."""
+    The decay fields and the weight average are left out while off (they change nothing then), so
+    runs made before they existed keep their names."""
     d = cfg.to_dict()
     if d["lr_decay_start"] >= 1.0:
         del d["lr_decay_start"], d["lr_decay_floor"]
+    if d["ema_decay"] == 0.0:
+        del d["ema_decay"]
     return hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:10]
 
 

@@ -41,6 +41,10 @@ class TrainConfig:
     # (1.0: constant rates to the end).
     lr_decay_start: float = 1.0
     lr_decay_floor: float = 0.1
+    # Weight averaging: the avatar written at the end (baked texture, renderer) is made from an
+    # exponential moving average of the avatar's weights with this decay per step (warm-up:
+    # min(decay, (1 + step) / (10 + step))) instead of the last step's weights (0.0: off).
+    ema_decay: float = 0.0
     w_l1: float = 1.0  # L1 on premultiplied RGB
     w_perceptual: float = 1.0  # VGG-16 perceptual loss (when weights are available)
     w_feature_matching: float = 1.0  # discriminator feature matching (used when VGG weights are absent)
@@ -107,6 +111,8 @@ class TrainConfig:
             raise InputError("batch size must be >= 1 and steps >= 0")
         if not (0.0 <= self.lr_decay_start <= 1.0 and 0.0 < self.lr_decay_floor <= 1.0):
             raise InputError("lr_decay_start must lie in [0, 1] and lr_decay_floor in (0, 1]")
+        if not 0.0 <= self.ema_decay < 1.0:
+            raise InputError(f"ema_decay must lie in [0, 1), got {self.ema_decay}")
 
     def lr_factor(self, step: int) -> float:
         """The learning-rate multiplier of ``step`` under the decay schedule (1.0 before it starts)."""

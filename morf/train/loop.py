@@ -204,6 +204,8 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
     t_session = save()
     run.log(f"main stage done at step {trainer.step}: " + ", ".join(f"{k} {v:.4f}" for k, v in losses.items()))
 
+    if trainer.use_averaged_weights():
+        run.log(f"avatar made from the moving average of the weights (decay {cfg.ema_decay})")
     texture = trainer.model.bake()
     renderer = trainer.model.renderer
     extra = {"steps": trainer.step}

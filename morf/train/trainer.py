@@ -72,6 +72,8 @@ class Trainer:
             for group in opt.param_groups:
                 group["base_lr"] = group["lr"]  # the rate the decay schedule scales (recoveries halve it)
         self.perceptual = perceptual.to(self.device) if perceptual is not None else None
+        # the moving average of the avatar's weights (cfg.ema_decay), in model.parameters() order
+        self.ema = [p.detach().clone() for p in self.model.parameters()] if cfg.ema_decay > 0 else None
         self.step = 0
         self.elapsed_s = 0.0  # training wall time over all sessions of this run
         # Adversarial terms (GAN, feature matching, discriminator updates) held off until the mask
@@ -85,6 +87,8 @@ class Trainer:
         if self.disc is not None:
             d["disc"] = self.disc.state_dict()
             d["opt_d"] = self.opt_d.state_dict()
+        if self.ema is not None:
+            d["ema"] = list(self.ema)
         return d
 
     def load_state_dict(self, d: dict) -> None:
@@ -96,6 +100,9 @@ class Trainer:
         self.step = int(d["step"])
         self.elapsed_s = float(d.get("elapsed_s", 0.0))
         self.hold_adversarial = bool(d.get("hold_adversarial", False))
+        if self.ema is not None:  # a checkpoint without an average starts one from its weights
+            for e, src in zip(self.ema, d.get("ema") or list(self.model.parameters())):
+                e.copy_(src)
         for opt in self._optimizers():
             for group in opt.param_groups:
                 group.setdefault("base_lr", group["lr"])  # checkpoints from before the decay schedule
@@ -115,6 +122,21 @@ class Trainer:
         for opt in self._optimizers():
             for group in opt.param_groups:
                 group["lr"] = group["base_lr"] * factor
+
+    def _update_ema(self) -> None:
+        if self.ema is not None:
+            decay = min(self.cfg.ema_decay, (1 + self.step) / (10 + self.step))
+            with torch.no_grad():
+                torch._foreach_lerp_(self.ema, [p.detach() for p in self.model.parameters()], 1.0 - decay)
+
+    def use_averaged_weights(self) -> bool:
+        """Load the moving average into the model (for baking and export); False when averaging is off."""
+        if self.ema is None:
+            return False
+        with torch.no_grad():
+            for p, e in zip(self.model.parameters(), self.ema):
+                p.copy_(e)
+        return True
 
     def parameters_finite(self) -> bool:
         return all(bool(torch.isfinite(p).all()) for p in self.model.parameters())
@@ -161,6 +183,7 @@ class Trainer:
             losses["disc"] = ld
         if not self.parameters_finite():
             raise TrainingDiverged(f"training diverged at step {self.step}: parameters became non-finite")
+        self._update_ema()
         self.step += 1
         values = {k: float(v.detach()) for k, v in losses.items()}
         values["total"] = float(total.detach())

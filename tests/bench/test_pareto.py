@@ -119,9 +119,11 @@ def test_schedule_points_and_run_names_of_constant_rate_configs():
     # while the decay is off its fields leave the run name alone (runs made before it keep theirs),
     # so the floor, which changes nothing then, does not rename the run either
     assert train_key(base) == train_key(base.replace(lr_decay_floor=0.5))
-    before = {k: v for k, v in base.to_dict().items() if not k.startswith("lr_decay")}
+    before = {k: v for k, v in base.to_dict().items() if not k.startswith("lr_decay") and k != "ema_decay"}
     assert train_key(base) == hashlib.sha1(json.dumps(before, sort_keys=True).encode()).hexdigest()[:10]
     assert train_key(half) != train_key(half.replace(lr_decay_floor=0.5))
+    ema = resolve(sweep, points["ema"])
+    assert ema.ema_decay == 0.998 and base.ema_decay == 0.0 and train_key(ema) != train_key(base)
 
 
 @pytest.mark.gl

@@ -10,7 +10,7 @@ from morf.errors import InputError
 
 def _args(**kw):
     base = dict(preset="cpu", method="morf", steps=None, resolution=None, crop=None, batch_size=None,
-                device="cpu", renderer=None, lr_decay_start=None)
+                device="cpu", renderer=None, lr_decay_start=None, ema=None)
     return SimpleNamespace(**{**base, **kw})
 
 
@@ -38,3 +38,8 @@ def test_lr_decay_option_sets_the_schedule():
     assert resolve_config(_args())[0].lr_decay_start == 1.0
     with pytest.raises(InputError, match="lr_decay_start"):
         resolve_config(_args(lr_decay_start=1.5))[0].validate()
+
+
+def test_ema_option_sets_the_weight_average():
+    assert resolve_config(_args(ema=0.998))[0].ema_decay == 0.998
+    assert resolve_config(_args())[0].ema_decay == 0.0

@@ -129,17 +129,53 @@ def test_lr_decay_sets_rates_and_composes_with_recovery_halving(frames_factory):
     assert [g["base_lr"] for g in tr2.opt.param_groups] == [g["base_lr"] for g in tr.opt.param_groups]
 
 
-def test_resume_with_lr_decay_matches_an_uninterrupted_run(frames_factory, tmp_path):
-    frames = frames_factory()
-    cfg = tiny("morf", steps=12, checkpoint_minutes=1e6, report_every=1, lr_decay_start=0.25)
+def _stopped_at_5_and_resumed(frames, cfg, tmp_path):
+    """The avatars of a run stopped after step 5 and resumed (``tmp_path/run``) and of the same run
+    uninterrupted."""
     control = StageControl()
     control._on_progress = lambda p: control.stop() if p.step >= 5 else None
     with pytest.raises(StopRequested):
         train_avatar(frames, tmp_path / "run", cfg, texture_init(cfg), control)
     train_avatar(frames, tmp_path / "run", cfg, texture_init(cfg))
     straight = train_avatar(frames, tmp_path / "straight", cfg, texture_init(cfg))
-    a = load_trained_avatar(tmp_path / "run").texture
-    assert torch.allclose(a, load_trained_avatar(straight.run_dir).texture, atol=1e-5)
+    return load_trained_avatar(tmp_path / "run"), load_trained_avatar(straight.run_dir)
+
+
+def test_resume_with_lr_decay_matches_an_uninterrupted_run(frames_factory, tmp_path):
+    cfg = tiny("morf", steps=12, checkpoint_minutes=1e6, report_every=1, lr_decay_start=0.25)
+    a, b = _stopped_at_5_and_resumed(frames_factory(), cfg, tmp_path)
+    assert torch.allclose(a.texture, b.texture, atol=1e-5)
+
+
+def test_weight_average_follows_its_recursion(frames_factory):
+    cfg = tiny("morf", steps=10, ema_decay=0.5)
+    tr = Trainer(cfg, frames_factory(), texture_init(cfg))
+    expected = tr.model.texture.texture.detach().clone()
+    for t in range(3):
+        tr.train_step()
+        d = min(0.5, (1 + t) / (10 + t))  # warm-up: 0.1, 0.18, 0.25
+        expected = d * expected + (1 - d) * tr.model.texture.texture.detach()
+    assert torch.allclose(tr.ema[0], expected, atol=1e-6)
+    assert not torch.allclose(tr.ema[0], tr.model.texture.texture)
+    assert tr.use_averaged_weights() and torch.equal(tr.model.texture.texture, tr.ema[0])
+    assert Trainer(tiny("morf"), frames_factory(), texture_init(cfg)).use_averaged_weights() is False
+    with pytest.raises(InputError, match="ema_decay"):
+        tiny("morf", ema_decay=1.0).validate()
+
+
+def test_resume_with_weight_average_matches_an_uninterrupted_run(frames_factory, tmp_path):
+    frames = frames_factory()
+    cfg = tiny("morf", steps=12, checkpoint_minutes=1e6, report_every=1, ema_decay=0.9)
+    a, b = _stopped_at_5_and_resumed(frames, cfg, tmp_path)
+    assert torch.allclose(a.texture, b.texture, atol=1e-5)
+    # the avatar's renderer is the average the checkpoint holds, not the last step's weights
+    ckpt = RunDir(tmp_path / "run").load_checkpoint()
+    names = [n for n, _ in Trainer(cfg, frames, texture_init(cfg)).model.named_parameters()]
+    avg = dict(zip(names, ckpt["ema"]))
+    for name, w in a.renderer.state_dict().items():
+        assert torch.allclose(w, avg["renderer." + name], atol=1e-6)
+        assert not torch.allclose(w, ckpt["model"]["renderer." + name])
+    assert "moving average" in (tmp_path / "run" / "train.log").read_text()
 
 
 def test_nan_raises_and_keeps_last_good_checkpoint(frames_factory, tmp_path, monkeypatch):
