@@ -26,6 +26,8 @@ def front_chart(points: list[dict], x: str, y: str, front: np.ndarray, path: Pat
         target_x: draws a vertical line there (e.g. the paper's 30 fps), labelled ``target_label``.
         note: a footnote under the axes (what is comparable with the paper and what is not).
         spread: (x, low, high): the base point's range over training seeds, drawn as a bar at x.
+    A point trained with several seeds (``p["seed_runs"][y]``, its ``y`` then their mean) gets the
+    range of its runs as a grey bar.
     """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 5.5), dpi=110)
@@ -39,6 +41,13 @@ def front_chart(points: list[dict], x: str, y: str, front: np.ndarray, path: Pat
     for (p, xv, yv), dy in zip([(p, xv, yv) for p, xv, yv, k in zip(points, xs, ys, ok) if k],
                                _label_offsets(xs[ok], ys[ok])):
         ax.annotate(p["name"], (xv, yv), fontsize=7, xytext=(3, dy), textcoords="offset points")
+    ranged = False
+    for p, xv in zip(points, xs):
+        runs = [v for v in (p.get("seed_runs") or {}).get(y) or [] if v is not None]
+        if len(runs) > 1 and np.isfinite(xv):
+            ax.vlines(xv, min(runs), max(runs), colors="tab:gray", lw=1.5, alpha=0.5, zorder=1,
+                      label=None if ranged else "range over the seeds")
+            ranged = True
     if spread is not None and all(v is not None and np.isfinite(v) for v in spread):
         ax.vlines(spread[0], spread[1], spread[2], colors="tab:orange", lw=3, alpha=0.6, zorder=2,
                   label="base over training seeds")

@@ -28,13 +28,13 @@ The rule (thresholds in :class:`SizingRule`, calibration in docs/benchmarks.md):
 Frame count and motion range do not change the sizes (they decide what can be learned at all);
 they are reported so a user sees why a capture may disappoint.
 
-How far to trust it: the rule held on the captures it was calibrated on, but on new captures
-(docs/benchmarks.md, third and fourth rounds) its choices came out 0.7-2.8 dB under the best
-point of their sweeps in single trainings; which texture size and channel count are best varied
-between captures by more than the 0.5 dB margin. One training carries about 0.75 dB of seed
-noise (std) at default size: over three seeds per point the loose choice that had failed round
-three by 0.73 dB came within 0.40 dB of the best. The preset's renderer and 256^2 for patterned
-clothing held throughout; the smaller textures and 8 channels are the rule's bets.
+How far to trust it: on three captures it was not calibrated on (docs/benchmarks.md, third and
+fourth rounds) its single-training verdicts came out 0.7-2.8 dB under the best point; over three
+seeds per point all three choices (plain 64^2 x 16, print 256^2 x 8, loose 64^2 x 8) came within
+the 0.5 dB margin of the best point at comparable speed (0.11, -0.01 and 0.41 dB under). The
+base's seed noise at default size ranged from 0.3 to 3.0 dB (std over three seeds) between
+captures, so those gaps' standard errors (0.4-1.8 dB) leave none of the verdicts beyond it. The preset's renderer and 256^2 for
+patterned clothing held throughout; the smaller textures and 8 channels are the rule's bets.
 """
 
 from __future__ import annotations
