@@ -109,8 +109,7 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
                      "beyond_noise": None if se is None else abs(gap - rule.quality_margin_db) > 2 * se})
         details[scene] = {"reasons": reasons, "config": a["config"], "point": a, "near_front": ok, "rival": rival}
         if seeds > 1:
-            details[scene]["means"] = {n: {QUALITY: q, "fps": f,
-                                           QUALITY + "_runs": rows_by_name[n]["seed_runs"][QUALITY]}
+            details[scene]["means"] = {n: {QUALITY: q, "fps": f, QUALITY + "_runs": runs[n]}
                                        for n, (q, f) in means.items()}
         print(f"{scene}: texture {cfg.texture_size}, channels {cfg.texture_channels}, renderer width "
               f"{cfg.renderer.width}; near the front: {ok}")

@@ -33,8 +33,9 @@ fourth rounds) its single-training verdicts came out 0.7-2.8 dB under the best p
 seeds per point all three choices (plain 64^2 x 16, print 256^2 x 8, loose 64^2 x 8) came within
 the 0.5 dB margin of the best point at comparable speed (0.11, -0.01 and 0.41 dB under). The
 base's seed noise at default size ranged from 0.3 to 3.0 dB (std over three seeds) between
-captures, so those gaps' standard errors (0.4-1.8 dB) leave none of the verdicts beyond it. The preset's renderer and 256^2 for
-patterned clothing held throughout; the smaller textures and 8 channels are the rule's bets.
+captures, so those gaps' standard errors (0.4-1.8 dB) leave none of the verdicts beyond it. The
+preset's renderer and 256^2 for patterned clothing held throughout; the smaller textures and 8
+channels are the rule's bets.
 """
 
 from __future__ import annotations

@@ -59,9 +59,11 @@ def quality_gap(runs: dict[str, list], fps: dict[str, float | None], name: str,
     and the gap is None when no other point qualifies. A verdict at margin ``m`` is beyond the
     training noise when ``|gap - m|`` exceeds about two standard errors.
     """
-    def stats(name):
+    def stats(name):  # (mean, squared standard error of the mean) over the finished trainings
         q = np.asarray([x for x in runs[name] if x is not None], np.float64)
-        return (float(q.mean()), float(q.var(ddof=1)) / len(q) if len(q) > 1 else None) if len(q) else (None, None)
+        if not len(q):
+            return None, None
+        return float(q.mean()), (float(q.var(ddof=1)) / len(q) if len(q) > 1 else None)
 
     q_self, v_self = stats(name)
     if q_self is None or fps.get(name) is None:
