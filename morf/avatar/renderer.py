@@ -42,6 +42,15 @@ class RendererConfig:
     stem: int = 2  # 1: full-resolution U-Net; 2 or 4: strided stem + full-resolution skip
     skip_hidden: int = 16  # hidden channels of the full-resolution head (stem > 1)
     premultiply: bool = True  # RGB = linear head x sigmoid(mask logit): black wherever the mask is off
+    # RGB = the input's channels 0-2 (the texture's colour channels) + the head's output, whose RGB
+    # weights start at zero: at step 0 the avatar shows the projected colours (the no-learning
+    # floor) and the network only learns a residual over them (Deferred Neural Rendering keeps
+    # three texture channels RGB the same way). False: the head alone makes the colour.
+    rgb_skip: bool = False
+    # With ``rgb_skip``: pixels off the body mesh take the colour of the nearest covered pixels
+    # (a push-pull fill over this many 2x levels) before the residual is added, so where the real
+    # silhouette reaches past the fitted body the skip offers the neighbouring colour, not black.
+    fill_levels: int = 4
 
     @property
     def multiple(self) -> int:
@@ -50,6 +59,29 @@ class RendererConfig:
 
 
 MASK_BIAS_INIT = -2.0
+
+
+def push_pull_fill(rgb: torch.Tensor, covered: torch.Tensor, levels: int) -> torch.Tensor:
+    """Fill uncovered pixels of ``rgb`` (B, 3, H, W) with the colour of nearby covered ones.
+
+    Push: average-pool colour and coverage ``levels`` times (colour stays premultiplied by
+    coverage); pull: from the coarsest level up, a pixel keeps its own normalised colour as far
+    as it is covered and takes the upsampled coarser colour for the rest. Covered pixels come
+    back unchanged; uncovered pixels within about ``2**levels`` pixels of the body get its colour.
+    Only pooling, division and bilinear resizing, so it exports to ONNX as plain ops.
+    """
+    if levels <= 0:
+        return rgb
+    cols, covs = [rgb * covered], [covered]
+    for _ in range(levels):
+        cols.append(F.avg_pool2d(cols[-1], 2, 2, ceil_mode=True))
+        covs.append(F.avg_pool2d(covs[-1], 2, 2, ceil_mode=True))
+    fill = cols[-1] / covs[-1].clamp_min(1e-4)
+    for col, cov in zip(reversed(cols[:-1]), reversed(covs[:-1])):
+        up = F.interpolate(fill, size=col.shape[-2:], mode="bilinear", align_corners=False)
+        a = (cov * 4).clamp(max=1.0)  # a quarter covered is enough to trust the level's own colour
+        fill = a * (col / cov.clamp_min(1e-4)) + (1 - a) * up
+    return rgb * covered + fill * (1 - covered)
 
 
 def _block(cin: int, cout: int, stride: int = 1) -> nn.Sequential:
@@ -84,6 +116,9 @@ class UNetRenderer(nn.Module):
                                       nn.LeakyReLU(0.2, inplace=True), nn.Conv2d(cfg.skip_hidden, 4, 1))
         with torch.no_grad():
             self.last.bias[3] = MASK_BIAS_INIT
+            if cfg.rgb_skip:
+                self.last.weight[:3].zero_()
+                self.last.bias[:3].zero_()
 
     @property
     def last(self) -> nn.Conv2d:
@@ -116,8 +151,17 @@ class UNetRenderer(nn.Module):
         h = F.interpolate(h, scale_factor=float(self.cfg.stem), mode="bilinear", align_corners=False)
         return self.head[1](h + F.conv2d(x, conv.weight[:, c:]))
 
+    def rgb_base(self, x: torch.Tensor) -> torch.Tensor:
+        """The colour the residual is added to (``rgb_skip``): texture channels 0-2, filled off
+        the mesh (a pixel is on the mesh where any of its texture channels is non-zero)."""
+        x = x.float()
+        covered = (x.abs().sum(1, keepdim=True) > 0).to(x.dtype)
+        return push_pull_fill(x[:, :3], covered, self.cfg.fill_levels)
+
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         out = self.last(self.features(x))
+        if self.cfg.rgb_skip:
+            out = torch.cat([out[:, :3] + self.rgb_base(x).to(out.dtype), out[:, 3:]], dim=1)
         if self.cfg.premultiply:
             logit = out[:, 3:]
             out = torch.cat([out[:, :3] * torch.sigmoid(logit), logit], dim=1)

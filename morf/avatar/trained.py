@@ -2,7 +2,9 @@
 renderer, nothing of the warp networks.
 
 Stored as ``runs/<name>/avatar.pt`` (torch.save of tensors, state dicts and plain values;
-read with ``weights_only=True``).
+read with ``weights_only=True``). ``renderer_kind`` names the renderer module: ``"unet"`` (the
+trained U-Net; files without the key are U-Net avatars) or ``"passthrough"`` (the RGB floor of
+``morf train --method rgb``, :mod:`morf.avatar.passthrough`).
 """
 
 from __future__ import annotations
@@ -12,14 +14,18 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import torch
+from torch import nn
 
 from morf.avatar.model import render_with_texture
+from morf.avatar.passthrough import PassthroughConfig, PassthroughRenderer
 from morf.avatar.renderer import RendererConfig, UNetRenderer
 from morf.camera import PinholeCamera
 from morf.errors import ProjectError
 
 FORMAT = "morf-avatar"
 VERSION = 1
+# renderer kind -> (config class, module class)
+RENDERERS = {"unet": (RendererConfig, UNetRenderer), "passthrough": (PassthroughConfig, PassthroughRenderer)}
 
 
 @dataclass(frozen=True)
@@ -27,16 +33,18 @@ class TrainedAvatar:
     """A trained avatar ready for inference.
 
     Fields:
-        texture: (C, Ht, Wt) float32 baked neural texture (row 0 = v 1, see morf.avatar.texture).
-        renderer: UNetRenderer in eval mode on the CPU (input (B, C, H, W) -> (B, 4, H, W)).
+        texture: (C, Ht, Wt) float32 baked neural texture (row 0 = v 1, see morf.avatar.texture);
+            for the RGB floor, RGB + a constant-1 channel.
+        renderer: UNetRenderer (or the floor's PassthroughRenderer) in eval mode on the CPU
+            (input (B, C, H, W) -> (B, 4, H, W)); ``renderer.cfg.multiple`` is its size multiple.
         config: the run's TrainConfig.
         shape: (1, S) float32 body shape the avatar was trained with.
         camera: the training camera at the working resolution, or None.
-        method: "morf" | "stylepeople" | "anr".
+        method: "morf" | "stylepeople" | "anr" | "rgb".
     """
 
     texture: torch.Tensor
-    renderer: UNetRenderer
+    renderer: nn.Module
     config: "object"
     shape: torch.Tensor
     camera: PinholeCamera | None
@@ -48,7 +56,7 @@ class TrainedAvatar:
         return render_with_texture(self.renderer, self.texture, uv, uv_mask)
 
 
-def save_trained_avatar(path: str | Path, texture: torch.Tensor, renderer: UNetRenderer, config_dict: dict,
+def save_trained_avatar(path: str | Path, texture: torch.Tensor, renderer: nn.Module, config_dict: dict,
                         shape: torch.Tensor | None, camera: PinholeCamera | None, extra: dict | None = None) -> None:
     """Atomically write ``avatar.pt``."""
     from morf.io import atomic_path
@@ -57,6 +65,7 @@ def save_trained_avatar(path: str | Path, texture: torch.Tensor, renderer: UNetR
         "format": FORMAT, "version": VERSION,
         "texture": texture.detach().float().cpu().contiguous(),
         "renderer": {k: v.detach().cpu() for k, v in renderer.state_dict().items()},
+        "renderer_kind": getattr(renderer, "kind", "unet"),
         "renderer_config": dict(renderer.cfg.__dict__),
         "config": config_dict,
         "shape": None if shape is None else shape.detach().float().cpu().reshape(1, -1),
@@ -82,7 +91,11 @@ def load_trained_avatar(run_dir: str | Path) -> TrainedAvatar:
         raise ProjectError(f"{path} is not a MoRF avatar file")
     if int(d.get("version", 0)) > VERSION:
         raise ProjectError(f"{path} was written by a newer MoRF (version {d.get('version')})")
-    renderer = UNetRenderer(RendererConfig(**d["renderer_config"]))
+    kind = d.get("renderer_kind", "unet")
+    if kind not in RENDERERS:
+        raise ProjectError(f"{path} uses an unknown renderer {kind!r}; update MoRF")
+    config_cls, module_cls = RENDERERS[kind]
+    renderer = module_cls(config_cls(**d["renderer_config"]))
     renderer.load_state_dict(d["renderer"])
     renderer.eval().requires_grad_(False)
     cfg = TrainConfig.from_dict(d["config"])

@@ -31,6 +31,9 @@ def machine_info() -> dict:
                     break
     except OSError:
         pass
+    from morf.cpu_features import cpu_summary
+
+    info["cpu_features"] = cpu_summary()
     return info
 
 

@@ -10,12 +10,15 @@ from __future__ import annotations
 import signal
 import sys
 
+from morf.train.config import METHODS
+
 
 def add_parser(sub):
     p = sub.add_parser("train", help="train a neural avatar (resumes an unfinished run)")
     p.add_argument("project", help="capture project folder (after 'morf fit')")
-    p.add_argument("--method", choices=("morf", "stylepeople", "anr"), default="morf",
-                   help="morf: texture warping (default); stylepeople: no warping; anr: split optimisation")
+    p.add_argument("--method", choices=METHODS, default="morf",
+                   help="morf: texture warping (default); stylepeople: no warping; anr: split optimisation; "
+                        "rgb: the no-learning floor (the frames projected into a colour texture, seconds)")
     p.add_argument("--preset", choices=("tiny", "cpu", "gpu", "auto"), default=None,
                    help="model and schedule sizes (default: gpu when CUDA is present, else cpu); auto: the "
                         "smallest texture and renderer the capture needs, chosen from the capture itself")
@@ -30,6 +33,8 @@ def add_parser(sub):
     p.add_argument("--ema", type=float, default=None, metavar="DECAY",
                    help="make the avatar from a moving average of the weights with this decay per step, e.g. 0.998 "
                         "(default 0: the last step's weights)")
+    p.add_argument("--holdout", type=int, default=None, metavar="K",
+                   help="keep every K-th usable frame out of training (K >= 2) for 'morf eval' (default 0: none)")
     p.add_argument("--fits", choices=("auto", "fits", "ground-truth"), default="auto",
                    help="body fits to train on: fits/fits.npz, or a synthetic capture's ground truth")
     p.add_argument("--vgg", default=None, metavar="PATH",
@@ -53,7 +58,8 @@ def resolve_config(args, project=None):
     overrides = {k: v for k, v in (("steps", args.steps), ("resolution", args.resolution), ("crop", args.crop),
                                    ("batch_size", args.batch_size),
                                    ("lr_decay_start", getattr(args, "lr_decay_start", None)),
-                                   ("ema_decay", getattr(args, "ema", None))) if v is not None}
+                                   ("ema_decay", getattr(args, "ema", None)),
+                                   ("holdout", getattr(args, "holdout", None))) if v is not None}
     if getattr(args, "renderer", None):
         from morf.avatar.renderer import RendererConfig
         from morf.errors import InputError
@@ -88,7 +94,7 @@ def run(args) -> int:
         print("automatic size choice:\n  " + "\n  ".join(reasons))
         atomic_write_text(project.runs_dir / (args.name or default_run_name(cfg)) / "auto_size.txt",
                           "\n".join(reasons) + "\n")
-    bar = progress(total=cfg.steps, desc=f"train {cfg.method}", unit="step")
+    bar = progress(total=cfg.steps if cfg.method != "rgb" else None, desc=f"train {cfg.method}", unit="step")
 
     def on_progress(p):
         if p.message:
@@ -110,6 +116,10 @@ def run(args) -> int:
     finally:
         signal.signal(signal.SIGINT, previous)
         bar.close()
+    if cfg.method == "rgb":
+        done = "built in" if result.losses else "already built in"
+        print(f"RGB floor {done} {result.run_dir} (the training frames projected into a colour texture, no learning)")
+        return 0
     if result.resumed_from >= result.step and not result.losses:
         print(f"{result.run_dir} is already trained ({result.step} steps); use --restart to train it again")
         return 0

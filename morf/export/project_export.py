@@ -1,6 +1,6 @@
 """Export a capture project's trained avatar: the function behind ``morf export`` and the studio.
 
-Picks the training run (the newest finished one, or a named one), builds the int8 calibration
+Picks the training run (the newest finished one that is not an RGB floor, or a named one), builds the int8 calibration
 and held-out views from the project's body fits, loads the trained avatar and calls
 :func:`morf.export.export_avatar.export_avatar`, which builds the folder beside its target and
 moves it into place (``PROJECT/avatar`` by default), so a failed or stopped export leaves the
@@ -9,6 +9,7 @@ previous avatar intact.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -49,6 +50,19 @@ def finished_runs(project) -> list[Path]:
     return sorted(done, key=lambda d: (d / "avatar.pt").stat().st_mtime)
 
 
+def is_floor_run(run_dir: Path) -> bool:
+    """Whether a run is the RGB floor (``morf train --method rgb``), which has no network to export."""
+    try:
+        return json.loads((Path(run_dir) / "config.json").read_text()).get("method") == "rgb"
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def floor_error(run_dir: Path) -> ProjectError:
+    return ProjectError(f"run {run_dir.name!r} is the RGB floor (method rgb: the frames projected into a colour "
+                        "texture, for 'morf eval'); it has no renderer to export; pick a trained run with --run")
+
+
 def pick_run(project, name: str | None) -> Path:
     """``PROJECT/runs/<name>``, or the newest finished run; one-line errors otherwise."""
     runs = Path(project.runs_dir)
@@ -58,8 +72,10 @@ def pick_run(project, name: str | None) -> Path:
             raise ProjectError(f"no run named {name!r} in {runs}")
         if not (d / "avatar.pt").is_file():
             raise ProjectError(f"run {name!r} has not finished (no avatar.pt); resume it with 'morf train'")
+        if is_floor_run(d):
+            raise floor_error(d)
         return d
-    done = finished_runs(project)
+    done = [d for d in finished_runs(project) if not is_floor_run(d)]
     if not done:
         raise ProjectError(f"no finished training run in {runs}; run 'morf train {project.root}' first")
     return done[-1]
@@ -108,6 +124,8 @@ def export_project(project, cfg: ProjectExportConfig = ProjectExportConfig(), co
     run_dir = pick_run(project, cfg.run)
     control.report(Progress("export", 0, 5, f"loading run {run_dir.name}"))
     trained = load_trained_avatar(run_dir)
+    if trained.method == "rgb":
+        raise floor_error(run_dir)
     if body_model is None:
         from morf.body import load_body_model
 

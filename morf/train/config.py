@@ -13,7 +13,7 @@ from morf.avatar.renderer import RendererConfig
 from morf.avatar.warp import WarpConfig
 from morf.errors import InputError
 
-METHODS = ("morf", "stylepeople", "anr")
+METHODS = ("morf", "stylepeople", "anr", "rgb")
 
 
 @dataclass(frozen=True)
@@ -48,6 +48,7 @@ class TrainConfig:
     w_l1: float = 1.0  # L1 on premultiplied RGB
     w_perceptual: float = 1.0  # VGG-16 perceptual loss (when weights are available)
     w_feature_matching: float = 1.0  # discriminator feature matching (used when VGG weights are absent)
+    w_ssim: float = 0.0  # 1 - SSIM around the person (structure without a pretrained network)
     w_gan: float = 0.02  # non-saturating GAN loss
     w_dice: float = 1.0  # Dice on the mask
     w_tv_rgb: float = 0.01  # low-weight TV on the image
@@ -69,6 +70,9 @@ class TrainConfig:
     log_every: int = 10  # steps between metrics.jsonl lines
     channels_last: bool = False  # renderer + discriminator in channels-last memory format (CPU speed)
     bf16: bool = False  # bfloat16 autocast for renderer + discriminator (weights and losses stay float32)
+    # Hold-out: every ``holdout``-th usable frame (positions 0, K, 2K, ... of the project's training
+    # frames, see morf.train.data.split_holdout) is kept out of training for ``morf eval`` (0: none).
+    holdout: int = 0
     seed: int = 0  # RNG seed (frame order, crops, init)
     device: str = "auto"  # auto: CUDA when present, else CPU
 
@@ -111,6 +115,8 @@ class TrainConfig:
             raise InputError("batch size must be >= 1 and steps >= 0")
         if not (0.0 <= self.lr_decay_start <= 1.0 and 0.0 < self.lr_decay_floor <= 1.0):
             raise InputError("lr_decay_start must lie in [0, 1] and lr_decay_floor in (0, 1]")
+        if self.holdout < 0 or self.holdout == 1:
+            raise InputError(f"holdout must be 0 (none) or at least 2 (every K-th frame), got {self.holdout}")
         if not 0.0 <= self.ema_decay < 1.0:
             raise InputError(f"ema_decay must lie in [0, 1), got {self.ema_decay}")
 

@@ -73,6 +73,27 @@ def load_body_fits(project, source: str = "auto") -> BodyFitArrays:
     raise ProjectError(f"no body fits in {project.root}; run 'morf fit {project.root}' first")
 
 
+def split_holdout(ids: list[int], k: int) -> tuple[list[int], list[int]]:
+    """(training ids, held-out ids): every ``k``-th of ``ids`` (positions 0, k, 2k, ...) is held out.
+
+    ``k`` = 0 holds nothing out. The split depends only on the list of usable frames, so a run and
+    ``morf eval`` agree on it as long as the project's frame decisions are unchanged.
+    """
+    if k <= 0:
+        return list(ids), []
+    if k == 1:
+        raise ProjectError("a hold-out of every frame leaves nothing to train on; use K >= 2")
+    held = list(ids[::k])
+    keep = set(held)
+    return [i for i in ids if i not in keep], held
+
+
+def usable_frame_ids(project, fits: BodyFitArrays) -> list[int]:
+    """The project's training frames that have a valid fit, in order."""
+    n_fit = len(fits.rotvecs)
+    return [i for i in project.training_frames() if i < n_fit and fits.valid[i]]
+
+
 def person_square(masks: list[np.ndarray], margin: float = 0.08) -> tuple[float, float, float]:
     """(x0, y0, side) of a square holding every mask's person, with a margin (may leave the image)."""
     xs0, ys0, xs1, ys1 = [], [], [], []
@@ -160,14 +181,16 @@ class ProjectFrames:
 
 
 def build_frames(project, model, resolution: int, fits_source: str = "auto",
-                 control: StageControl | None = None) -> ProjectFrames:
-    """Load (or build and cache) the training FrameSet of a project at ``resolution``."""
+                 control: StageControl | None = None, holdout: int = 0) -> ProjectFrames:
+    """Load (or build and cache) the training FrameSet of a project at ``resolution``.
+
+    ``holdout`` = K > 0 leaves every K-th usable frame out (:func:`split_holdout`).
+    """
     control = control or StageControl()
     fits = load_body_fits(project, fits_source)
-    n_fit = len(fits.rotvecs)
     if fits.rotvecs.shape[1] != len(model.bone_names):
         raise ProjectError(f"fits have {fits.rotvecs.shape[1]} bones, the body model {len(model.bone_names)}")
-    ids = [i for i in project.training_frames() if i < n_fit and fits.valid[i]]
+    ids, _ = split_holdout(usable_frame_ids(project, fits), holdout)
     if not ids:
         raise ProjectError(f"no usable training frames in {project.root} (all dropped or without fits)")
     digest = hashlib.sha1()

@@ -21,22 +21,33 @@ from morf.avatar.texture import sample_texture
 from morf.train.frames import UV_SCALE, FrameSet
 
 
+def projected_texels(frames: FrameSet, i: int, size: int, min_facing: float = 0.3):
+    """The pixels of frame ``i`` that project into the texture and the texel each one hits.
+
+    A pixel projects when it lies inside the person mask and the mesh coverage and its surface
+    faces the camera (|cos| >= ``min_facing``); it hits the texel its UV falls in.
+    Returns:
+        ok: (H, W) bool projecting pixels; row, col: (P,) int64 texel of each, in ``ok`` order.
+    """
+    ok = frames.uv_mask[i] & frames.masks[i] & (frames.facing[i] >= int(round(min_facing * 255)))
+    uv = frames.uv[i][ok].astype(np.float64) / UV_SCALE
+    col = np.clip((uv[:, 0] * size).astype(np.int64), 0, size - 1)
+    row = np.clip(((1 - uv[:, 1]) * size).astype(np.int64), 0, size - 1)
+    return ok, row, col
+
+
 def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
-    """Average the training frames' colours per texel.
+    """Average the training frames' colours per texel (pixels as in :func:`projected_texels`).
 
     Returns:
         rgb: (size, size, 3) float32 in [0, 1] (0 where unseen); seen: (size, size) bool.
     """
     acc = np.zeros((size * size, 3), np.float64)
     cnt = np.zeros(size * size, np.float64)
-    thr = int(round(min_facing * 255))
     for i in range(frames.num_frames):
-        ok = frames.uv_mask[i] & frames.masks[i] & (frames.facing[i] >= thr)
+        ok, row, col = projected_texels(frames, i, size, min_facing)
         if not ok.any():
             continue
-        uv = frames.uv[i][ok].astype(np.float64) / UV_SCALE
-        col = np.clip((uv[:, 0] * size).astype(np.int64), 0, size - 1)
-        row = np.clip(((1 - uv[:, 1]) * size).astype(np.int64), 0, size - 1)
         lin = row * size + col
         cnt += np.bincount(lin, minlength=size * size)
         rgb = frames.images[i][ok].astype(np.float64) / 255

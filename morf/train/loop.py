@@ -116,6 +116,9 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
                 f"{frames.resolution} px, device {trainer.device}")
         run.log("perceptual loss: VGG-16" if perceptual is not None else
                 "perceptual loss: no VGG-16 weights (--vgg / MORF_VGG16_WEIGHTS); using discriminator feature matching instead")
+        if cfg.bf16:
+            run.log("bfloat16 autocast: " + ("on" if trainer.bf16 else
+                                             "off (this CPU has neither AMX-BF16 nor AVX512-BF16; emulated it is slower)"))
         for line in notes or []:
             run.log(line)
     resumed_from = trainer.step

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import torch
 
+import torch.nn.functional as F
+
 from morf.avatar.losses import (dice_loss, feature_matching_loss, gan_discriminator_loss, gan_generator_loss,
-                                l1_loss, offset_l2, tv_loss)
+                                l1_loss, offset_l2, ssim_loss, tv_loss)
 from morf.avatar.model import AvatarModel, AvatarOutput
 from morf.avatar.warp import pose_features
 from morf.train.config import TrainConfig
@@ -27,30 +29,34 @@ def run_discriminator(disc, x: torch.Tensor, bf16: bool = False) -> list[list[to
 
 
 def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=None, perceptual=None,
-                     gan_on: bool = False) -> dict[str, torch.Tensor]:
+                     gan_on: bool = False, bf16: bool | None = None) -> dict[str, torch.Tensor]:
     """Unweighted loss terms of the generator side (texture, warp, renderer).
 
     Keys: l1, dice, tv_rgb, and when applicable perceptual, warp_l2, warp_tv, gan, feature_matching.
     The RGB target is the frame premultiplied by its person mask (the renderer's convention).
     """
+    bf16 = cfg.bf16 if bf16 is None else bf16
     target = batch.image * batch.mask
     L = {"l1": l1_loss(out.rgb, target), "dice": dice_loss(out.mask, batch.mask), "tv_rgb": tv_loss(out.rgb)}
+    if cfg.w_ssim > 0:  # around the person: the real mask grown by the SSIM window's radius
+        near = F.max_pool2d(batch.mask, 11, 1, 5)
+        L["ssim"] = ssim_loss(out.rgb, target, near)
     if perceptual is not None:
         L["perceptual"] = perceptual(out.rgb, target)
     if out.offsets is not None:
         L["warp_l2"] = offset_l2(out.offsets)
         L["warp_tv"] = tv_loss(out.offsets)
     if disc is not None and gan_on:
-        fake = run_discriminator(disc, torch.cat([out.rgb, out.mask], dim=1), cfg.bf16)
+        fake = run_discriminator(disc, torch.cat([out.rgb, out.mask], dim=1), bf16)
         L["gan"] = gan_generator_loss([f[-1] for f in fake])
         if perceptual is None:  # no VGG weights: discriminator feature matching stands in
             with torch.no_grad():
-                real = run_discriminator(disc, torch.cat([target, batch.mask], dim=1), cfg.bf16)
+                real = run_discriminator(disc, torch.cat([target, batch.mask], dim=1), bf16)
             L["feature_matching"] = feature_matching_loss(real, fake)
     return L
 
 
-WEIGHTS = {"l1": "w_l1", "dice": "w_dice", "tv_rgb": "w_tv_rgb", "perceptual": "w_perceptual",
+WEIGHTS = {"l1": "w_l1", "ssim": "w_ssim", "dice": "w_dice", "tv_rgb": "w_tv_rgb", "perceptual": "w_perceptual",
            "warp_l2": "w_warp_l2", "warp_tv": "w_warp_tv", "gan": "w_gan", "feature_matching": "w_feature_matching"}
 
 

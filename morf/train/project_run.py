@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import shutil
 
+import numpy as np
+
 import torch
 
 from morf.errors import InputError
@@ -47,16 +49,27 @@ def train_project(project, cfg: TrainConfig, name: str | None = None, control: S
                          "options, or pass --restart or another --name")
     control.report(Progress("train", 0, cfg.steps, "loading body model"))
     model = model or load_body_model("anny")
-    pf = build_frames(project, model, cfg.resolution, fits_source, control)
+    pf = build_frames(project, model, cfg.resolution, fits_source, control, holdout=cfg.holdout)
     notes = [f"fits: {pf.fits.source}; frames cache: {pf.cache_path}"]
-    tex = torch.from_numpy(spectral_texture(model, cfg.texture_channels, cfg.texture_size, cfg.texture_size,
-                                            cfg.texture_dilate))
+    if cfg.holdout:
+        notes.append(f"hold-out: every {cfg.holdout}-th usable frame is kept out of training")
+    atlas = body_uv_atlas(model, cfg.texture_size, cfg.texture_size)
+    fs = pf.frames
+    if cfg.renderer.rgb_skip:  # channels 0-2 are colour: the frames projected; the rest spectral
+        from morf.train.colour_init import projected_colour_texture
+
+        rgb = projected_colour_texture(fs, atlas.covered, cfg.texture_dilate)
+        spec = spectral_texture(model, cfg.texture_channels - 3, cfg.texture_size, cfg.texture_size,
+                                cfg.texture_dilate)
+        tex = torch.from_numpy(np.concatenate([rgb, spec], axis=0))
+        notes.append("texture channels 0-2: the training frames projected (colour); the renderer adds a residual")
+    else:
+        tex = torch.from_numpy(spectral_texture(model, cfg.texture_channels, cfg.texture_size, cfg.texture_size,
+                                                cfg.texture_dilate))
     vgg_path = resolve_vgg_path(vgg)
     perceptual = PerceptualLoss(load_vgg16(vgg_path)) if vgg_path is not None else None
     if vgg_path is not None:
         notes.append(f"VGG-16 weights: {vgg_path}")
-    atlas = body_uv_atlas(model, cfg.texture_size, cfg.texture_size)
-    fs = pf.frames
     mid = fs.num_frames // 2
     centre = pf.fits.transl[fs.frame_ids].mean(0)
 

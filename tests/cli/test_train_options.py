@@ -43,3 +43,14 @@ def test_lr_decay_option_sets_the_schedule():
 def test_ema_option_sets_the_weight_average():
     assert resolve_config(_args(ema=0.998))[0].ema_decay == 0.998
     assert resolve_config(_args())[0].ema_decay == 0.0
+
+
+def test_holdout_and_the_rgb_floor_are_train_options():
+    from morf.cli.main import build_parser
+
+    args = build_parser().parse_args(["train", "p", "--method", "rgb", "--holdout", "4", "--preset", "tiny"])
+    cfg, _ = resolve_config(args)
+    assert (cfg.method, cfg.holdout) == ("rgb", 4)
+    assert resolve_config(_args())[0].holdout == 0
+    with pytest.raises(InputError, match="holdout"):
+        resolve_config(_args(holdout=1))

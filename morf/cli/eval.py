@@ -1,0 +1,52 @@
+"""``morf eval PROJECT``: score trained avatars on frames they never trained on, beside the RGB floor.
+
+Writes ``eval.json``, a comparison sheet and space-time (y-t) slices per target into ``--out``
+(default ``PROJECT/eval``) and prints a table. See :mod:`morf.evaluate.project_eval`.
+"""
+
+from __future__ import annotations
+
+
+def add_parser(sub):
+    p = sub.add_parser("eval", help="score trained avatars on held-out frames beside the RGB floor")
+    p.add_argument("project", help="capture project folder with finished runs")
+    p.add_argument("--run", action="append", default=[], metavar="NAME",
+                   help="a run under PROJECT/runs to score (repeatable; default: every finished run)")
+    p.add_argument("--out", default=None, help="output folder (default: PROJECT/eval)")
+    p.add_argument("--floor", action="store_true", default=True,
+                   help="include the RGB floor of each hold-out setting, built in seconds when missing (default)")
+    p.add_argument("--no-floor", dest="floor", action="store_false", help="leave the RGB floor out")
+    p.add_argument("--resolution", default=None, metavar="R",
+                   help="evaluation side in pixels (a multiple of the renderer's), or 'native' for the crop's size "
+                        "in the capture (default: each run's training resolution)")
+    return p
+
+
+def parse_resolution(value: str | None):
+    from morf.errors import InputError
+
+    if value is None or value == "native":
+        return value
+    try:
+        side = int(value)
+    except ValueError:
+        raise InputError(f"--resolution must be a number of pixels or 'native', got {value!r}") from None
+    if side < 1:
+        raise InputError(f"--resolution must be positive, got {side}")
+    return side
+
+
+def run(args) -> int:
+    from pathlib import Path
+
+    from morf.capture.project import CaptureProject
+    from morf.evaluate.project_eval import EvalConfig, evaluate_project, format_table
+
+    project = CaptureProject.open(args.project)
+    cfg = EvalConfig(runs=tuple(args.run), out=args.out, floor=args.floor,
+                     resolution=parse_resolution(args.resolution))
+    result = evaluate_project(project, cfg, say=print)
+    print(format_table(result))
+    out = Path(args.out) if args.out else Path(project.root) / "eval"
+    print(f"wrote {out / 'eval.json'} and {2 * len(result['targets'])} images")
+    return 0

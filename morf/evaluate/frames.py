@@ -1,0 +1,70 @@
+"""A target's frames as a :class:`FrameSet` seen through a run's working camera at the evaluation
+resolution: the capture cropped to the run's square and resized, and the body rasterized there.
+
+The working camera a run trained with (``TrainedAvatar.camera``) is a square crop of the capture
+camera (:func:`morf.train.data.crop_camera`); scaling it keeps the crop and changes only the
+pixel count, and the renderer is fully convolutional, so a run renders at any side that is a
+multiple of its renderer's ``multiple``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from morf.camera import PinholeCamera
+from morf.errors import InputError
+from morf.train.data import BodyFitArrays, build_holdout_frames, crop_image, crop_of, rasterize_frames
+from morf.train.frames import UV_SCALE, FrameSet
+
+
+def eval_side(working: PinholeCamera, capture: PinholeCamera, resolution: int | str | None, multiple: int) -> int:
+    """The square side a run is evaluated at.
+
+    ``resolution``: None (the run's training side), "native" (the crop's size in capture pixels,
+    rounded to the renderer's multiple) or a side in pixels (must be a multiple of it).
+    """
+    if resolution is None:
+        return working.width
+    if resolution == "native":
+        side = crop_of(capture, working)[2]
+        return max(multiple, int(round(side / multiple)) * multiple)
+    r = int(resolution)
+    if r < 1 or r % multiple:
+        raise InputError(f"--resolution {r} must be a positive multiple of {multiple} (the renderer's size multiple)")
+    return r
+
+
+def scaled_camera(working: PinholeCamera, side: int) -> PinholeCamera:
+    """The working camera for the same square crop rendered at ``side`` pixels."""
+    return working if side == working.width else working.scaled(side / working.width)
+
+
+def capture_frames(project, model, fits: BodyFitArrays, ids, working: PinholeCamera) -> FrameSet:
+    """Project frames ``ids`` cropped to ``working``'s square, posed by ``fits`` and rasterized."""
+    ids = list(ids)
+    x0, y0, side = crop_of(project.camera(), working)
+    R = working.width
+    images, masks, uvs, uv_masks, facings = [], [], [], [], []
+    rot, tr = fits.rotvecs[ids], fits.transl[ids]
+    done = 0
+    for uv, uvm, fac in rasterize_frames(model, rot, tr, fits.shape, working):
+        for i in ids[done:done + len(uv)]:
+            images.append(crop_image(project.load_frame(i), x0, y0, side, R))
+            masks.append(crop_image(project.load_mask(i).astype(np.uint8) * 255, x0, y0, side, R) > 127)
+        done += len(uv)
+        uvs.append(np.round(np.clip(uv, 0, 1) * UV_SCALE).astype(np.uint16))
+        uv_masks.append(uvm)
+        facings.append(fac)
+    return FrameSet(np.stack(images), np.stack(masks), np.concatenate(uvs), np.concatenate(uv_masks),
+                    np.concatenate(facings), rot.astype(np.float32), np.asarray(ids, np.int64))
+
+
+def target_frames(project, model, target, fits: BodyFitArrays | None, shape: np.ndarray,
+                  working: PinholeCamera) -> FrameSet:
+    """The FrameSet of an :class:`~morf.evaluate.targets.EvalTarget` through ``working``."""
+    if target.kind == "capture":
+        return capture_frames(project, model, fits, target.frame_ids, working)
+    fs = build_holdout_frames(project, model, working, shape)
+    if fs is None:
+        raise InputError(f"{project.root} has no hold-out sequence")
+    return fs

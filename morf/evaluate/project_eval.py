@@ -1,0 +1,221 @@
+"""``evaluate_project``: score a project's finished runs on the frames they never trained on, beside
+the RGB floor, and write ``eval.json``, a comparison sheet and y-t slices per target.
+
+For each run (default: every finished run) and each target that applies to it
+(:mod:`morf.evaluate.targets`), the target's frames are rasterized through the run's working
+camera at the evaluation side (:mod:`morf.evaluate.frames`) and scored with
+:func:`morf.train.project_run.evaluate_frames` (PSNR / SSIM over the image and the person, both
+composited over the capture's backdrop colour; temporal flicker over consecutive target frames).
+The floor (method rgb, :mod:`morf.train.floor`) with each evaluated hold-out setting is included,
+built first when the project has none. LPIPS is reported as null: MoRF has no LPIPS network or
+weights (``morf/avatar/vgg.py`` holds VGG-16 for the perceptual loss only).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Callable
+
+import torch
+
+from morf.errors import ProjectError
+from morf.evaluate.runs import RunInfo, find_floor, floor_run_name, free_for_floor, read_run, select_runs
+from morf.evaluate.targets import EvalTarget, holdout_target, novel_poses_target, dataset_test_target, trained_on
+
+LPIPS_NOTE = ("not computed: MoRF has no LPIPS network or weights (morf/avatar/vgg.py holds VGG-16 for the "
+              "perceptual loss only)")
+METRIC_KEYS = ("psnr", "psnr_person", "ssim", "ssim_person", "temporal")
+
+
+@dataclass(frozen=True)
+class EvalConfig:
+    """What ``morf eval`` scores and where it writes.
+
+    Fields:
+        runs: run names (empty: every finished run); out: output folder (None: PROJECT/eval);
+        floor: include the RGB floor of each hold-out setting (built when missing);
+        resolution: None (each run's training side), "native" (the crop's capture pixels) or a side;
+        sheet_rows: frames per comparison sheet.
+    """
+
+    runs: tuple[str, ...] = ()
+    out: str | None = None
+    floor: bool = True
+    resolution: int | str | None = None
+    sheet_rows: int = 4
+
+
+@dataclass
+class _TargetResults:
+    """Accumulates one target's scores and views while runs are evaluated."""
+
+    target: EvalTarget
+    column: float | None = None
+    real: object = None  # SequenceViews of the real frames at the largest side seen
+    real_side: int = 0
+    rows: list[int] = field(default_factory=list)
+    scored: list = field(default_factory=list)  # (RunInfo, metrics, SequenceViews)
+
+
+def _clean(metrics: dict) -> dict:
+    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in metrics.items()}
+
+
+def ensure_floors(project, runs: list[RunInfo], model, say: Callable[[str], None]) -> list[RunInfo]:
+    """The RGB floor of every hold-out setting among ``runs`` not already among them: the newest
+    existing one, else one built now (at the largest training side of the runs with that setting,
+    on their fits)."""
+    from morf.train.floor import floor_request, train_floor
+
+    out = []
+    for k in sorted({r.holdout for r in runs if not r.is_floor}):
+        if any(r.is_floor and r.holdout == k for r in runs):
+            continue
+        found = find_floor(project, k)
+        if found is None:
+            group = [r for r in runs if r.holdout == k]
+            side = max(r.config.resolution for r in group)
+            name = floor_run_name(k)
+            if not free_for_floor(project.runs_dir / name):
+                raise ProjectError(f"{project.runs_dir / name} exists and is not an RGB floor; rename it, or pass "
+                                   "--no-floor")
+            say(f"building the RGB floor with hold-out {k} at {side} px ...")
+            res = train_floor(project, floor_request(side, k), name, group[0].fits_source, model, restart=True)
+            found = read_run(res.run_dir)
+        out.append(found)
+    return out
+
+
+def evaluate_project(project, cfg: EvalConfig = EvalConfig(), model=None,
+                     say: Callable[[str], None] = lambda line: None) -> dict:
+    """Evaluate, write everything into the output folder, and return the eval.json content."""
+    from morf.avatar.trained import load_trained_avatar
+    from morf.train.data import load_body_fits
+
+    load_body_fits(project, "auto")  # a project without fits fails here, in one line
+    runs = select_runs(project, cfg.runs)
+    if model is None:
+        from morf.body import load_body_model
+
+        model = load_body_model("anny")
+    if cfg.floor:
+        runs = [r for r in runs if not r.is_floor] + [r for r in runs if r.is_floor] + ensure_floors(
+            project, runs, model, say)
+    fits_cache: dict = {}
+
+    def fits_of(source):
+        if source not in fits_cache:
+            fits_cache[source] = load_body_fits(project, source)
+        return fits_cache[source]
+
+    novel = novel_poses_target(project)
+    targets: dict[str, _TargetResults] = {}
+    report_runs, skipped = {}, {}
+    for run in runs:
+        avatar = load_trained_avatar(run.root)
+        if avatar.camera is None:
+            skipped[run.name] = "its avatar.pt stores no working camera (trained by an older MoRF)"
+            continue
+        fits = fits_of(run.fits_source)
+        mine = [t for t in (holdout_target(project, fits, run.holdout), dataset_test_target(project, fits), novel) if t]
+        if not mine:
+            skipped[run.name] = ("trained on every usable frame and the project has no hold-out sequence or test "
+                                 "labels; retrain with --holdout K")
+            continue
+        entry = {"method": run.config.method, "holdout": run.holdout, "train_resolution": run.config.resolution,
+                 "fits": run.fits_source, "floor": run.is_floor, "targets": {}}
+        for target in mine:
+            tr = _target_slot(targets, target)
+            metrics = _score(project, model, avatar, run, target, fits, tr, cfg, say)
+            entry["targets"][tr.target.key] = metrics
+        report_runs[run.name] = entry
+    if not targets:
+        raise ProjectError("nothing to evaluate: " + "; ".join(f"{k}: {v}" for k, v in skipped.items()))
+    out = Path(cfg.out) if cfg.out else Path(project.root) / "eval"
+    order = sorted(targets, key=lambda k: (k == "novel-poses", k))  # capture frames first
+    result = {"project": str(Path(project.root).resolve()), "resolution": cfg.resolution or "training",
+              "lpips": LPIPS_NOTE, "runs": report_runs, "skipped": skipped,
+              "targets": {k: _write_target(targets[k], out) for k in order}}
+    from morf.io import atomic_write_json
+
+    atomic_write_json(out / "eval.json", result)
+    return result
+
+
+def _target_slot(targets: dict, target: EvalTarget) -> _TargetResults:
+    """The results slot of a target; runs on other fits, with other held-out frames, get their own."""
+    for tr in targets.values():
+        if tr.target.key.startswith(target.key) and tr.target.frame_ids == target.frame_ids:
+            return tr
+    key = target.key if target.key not in targets else f"{target.key}-{len(targets)}"
+    targets[key] = _TargetResults(replace(target, key=key))
+    return targets[key]
+
+
+def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _TargetResults, cfg: EvalConfig,
+           say) -> dict:
+    from morf.evaluate.frames import eval_side, scaled_camera, target_frames
+    from morf.evaluate.views import person_column, real_views, render_views, sheet_rows
+    from morf.train.project_run import evaluate_frames
+
+    side = eval_side(avatar.camera, project.camera(), cfg.resolution, avatar.renderer.cfg.multiple)
+    frames = target_frames(project, model, target, fits, avatar.shape.numpy(), scaled_camera(avatar.camera, side))
+    say(f"{run.name}: {tr.target.key}, {frames.num_frames} frames at {side} px")
+    metrics = _clean(evaluate_frames(avatar, frames))
+    colour = torch.tensor(metrics["background"], dtype=torch.float32)
+    if tr.column is None:
+        tr.column, tr.rows = person_column(frames), sheet_rows(frames.num_frames, cfg.sheet_rows)
+    if side > tr.real_side:
+        tr.real, tr.real_side = real_views(frames, colour, tr.rows, tr.column), side
+    tr.scored.append((run, metrics, render_views(avatar, frames, colour, tr.rows, tr.column)))
+    metrics.update({"lpips": None, "resolution": side})
+    if target.kind == "capture":  # how many of these frames the run trained on (0 for its own hold-out)
+        metrics["trained_on"] = trained_on(project, fits, run.holdout, target.frame_ids)
+    return metrics
+
+
+def _write_target(tr: _TargetResults, out: Path) -> dict:
+    """Write the target's sheet and y-t image; its eval.json entry."""
+    from morf.evaluate.sheet import Column, comparison_sheet, yt_slices
+    from morf.io import write_image
+
+    t = tr.target
+
+    def label(run, m):
+        p = m.get("psnr_person")
+        return (run.name, "person PSNR " + (f"{p:.2f} dB" if p is not None else "n/a"))
+
+    ordered = [s for s in tr.scored if not s[0].is_floor] + [s for s in tr.scored if s[0].is_floor]
+    columns = [Column(("real", f"{len(t.frame_ids)} frames"), tr.real.rows, tr.real.slice)]
+    columns += [Column(label(run, m), v.rows, v.slice) for run, m, v in ordered]
+    ids = [t.frame_ids[r] for r in tr.rows]
+    sheet = comparison_sheet(columns, [f"frame {i}" for i in ids])
+    slices = yt_slices(columns, (f"y-t slices: image column x = {tr.column:.0%} of the crop (the person's centre)",
+                                 f"time runs left to right over {len(t.frame_ids)} frames"))
+    write_image(out / f"sheet-{t.key}.png", sheet)
+    write_image(out / f"yt-{t.key}.png", slices)
+    return {"title": t.title, "holdout": t.holdout, "frame_ids": list(t.frame_ids), "sheet_frames": ids,
+            "columns": ["real"] + [run.name for run, _, _ in ordered], "slice_column": round(tr.column, 4),
+            "sheet": f"sheet-{t.key}.png", "sheet_size": [sheet.shape[1], sheet.shape[0]],
+            "slices": f"yt-{t.key}.png", "slices_size": [slices.shape[1], slices.shape[0]]}
+
+
+def format_table(result: dict) -> str:
+    """A short plain-text table of the scores, one block per target."""
+    lines = []
+    for key, t in result["targets"].items():
+        lines.append(f"{key}: {t['title']}, {len(t['frame_ids'])} frames")
+        lines.append(f"  {'run':<24} {'px':>5} {'PSNR':>7} {'person':>7} {'SSIM':>6} {'person':>6} {'flicker':>8}")
+        for name in t["columns"][1:]:
+            m = result["runs"][name]["targets"][key]
+
+            def f(k, fmt):
+                return format(m[k], fmt) if m.get(k) is not None else "n/a"
+
+            lines.append(f"  {name:<24} {m['resolution']:>5} {f('psnr', '7.2f'):>7} {f('psnr_person', '7.2f'):>7} "
+                         f"{f('ssim', '6.3f'):>6} {f('ssim_person', '6.3f'):>6} {f('temporal', '8.4f'):>8}")
+    for name, why in result["skipped"].items():
+        lines.append(f"skipped {name}: {why}")
+    return "\n".join(lines)

@@ -1,0 +1,105 @@
+"""Which training runs ``morf eval`` scores: the finished runs of a project, the fits each one was
+trained on, and the RGB floor that goes with each hold-out setting."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from morf.errors import MorfError, ProjectError
+from morf.train.config import TrainConfig
+from morf.train.run_dir import RunDir
+
+_FITS_NOTE = re.compile(r"\bfits: ([\w-]+);")
+
+
+@dataclass(frozen=True)
+class RunInfo:
+    """A finished run.
+
+    Fields:
+        name: folder name under PROJECT/runs; root: the folder; config: its TrainConfig;
+        fits_source: the fits it was trained on ("fits" | "ground-truth", from train.log;
+        "auto" when the log does not say).
+    """
+
+    name: str
+    root: Path
+    config: TrainConfig
+    fits_source: str
+
+    @property
+    def is_floor(self) -> bool:
+        return self.config.method == "rgb"
+
+    @property
+    def holdout(self) -> int:
+        return self.config.holdout
+
+
+def run_fits_source(run_dir: Path) -> str:
+    """The fits source a run's train.log names ("fits: <source>; frames cache: ..."), else "auto"."""
+    log = Path(run_dir) / "train.log"
+    if log.is_file():
+        m = _FITS_NOTE.search(log.read_text(errors="replace"))
+        if m and m.group(1) in ("fits", "ground-truth"):
+            return m.group(1)
+    return "auto"
+
+
+def read_run(run_dir: Path) -> RunInfo:
+    run = RunDir(run_dir)
+    return RunInfo(run.root.name, run.root, run.load_config(), run_fits_source(run.root))
+
+
+def finished_runs(project) -> list[RunInfo]:
+    """Every run of the project with an ``avatar.pt``, oldest avatar first."""
+    root = Path(project.runs_dir)
+    if not root.is_dir():
+        return []
+    done = sorted((d for d in root.iterdir() if (d / "avatar.pt").is_file()),
+                  key=lambda d: (d / "avatar.pt").stat().st_mtime)
+    return [read_run(d) for d in done]
+
+
+def select_runs(project, names: tuple[str, ...] | list[str] = ()) -> list[RunInfo]:
+    """The named runs (in the order given), or every finished run; one-line errors otherwise."""
+    root = Path(project.runs_dir)
+    if not names:
+        runs = finished_runs(project)
+        if not runs:
+            raise ProjectError(f"no finished training run in {root}; run 'morf train {project.root} --holdout 8' first")
+        return runs
+    out = []
+    for name in dict.fromkeys(names):
+        d = root / name
+        if not d.is_dir():
+            known = ", ".join(r.name for r in finished_runs(project)) or "none"
+            raise ProjectError(f"no run named {name!r} in {root} (finished runs: {known})")
+        if not (d / "avatar.pt").is_file():
+            raise ProjectError(f"run {name!r} has not finished (no avatar.pt); resume it with 'morf train'")
+        out.append(read_run(d))
+    return out
+
+
+def find_floor(project, holdout: int) -> RunInfo | None:
+    """The newest finished RGB floor run with this hold-out setting, if any."""
+    floors = [r for r in finished_runs(project) if r.is_floor and r.holdout == holdout]
+    return floors[-1] if floors else None
+
+
+def free_for_floor(run_dir: Path) -> bool:
+    """Whether ``run_dir`` is free for a floor: absent, empty of a config, or an RGB floor's."""
+    run = RunDir(run_dir)
+    if not run.config_path.is_file():
+        return not run.avatar_path.is_file()
+    try:
+        return run.load_config().method == "rgb"
+    except MorfError:
+        return False
+
+
+def floor_run_name(holdout: int) -> str:
+    """The name ``morf eval`` gives a floor it builds."""
+    return f"rgb-holdout{holdout}"

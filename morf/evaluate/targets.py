@@ -1,0 +1,95 @@
+"""What ``morf eval`` scores a run on (its targets):
+
+* ``holdout-k<K>``: the capture frames a run with ``holdout`` = K kept out of training
+  (:func:`morf.train.data.split_holdout` of the usable frames), in their fitted poses. Only runs
+  trained with that K are scored on it: for the others they were training frames.
+* ``novel-poses``: a synthetic capture's hold-out sequence (``ground_truth/holdout``), poses the
+  capture never showed; every run is scored on it.
+* ``test-split``: frames an imported dataset labels "test" (``morf dataset ... --split all``
+  keeps the labels in the manifest), in their fitted poses, for projects that label both train
+  and test frames. Those frames are training frames too unless a run's hold-out left them out
+  (nothing else excludes them); each score says how many of them its run trained on.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from morf.train.data import BodyFitArrays, split_holdout, usable_frame_ids
+
+
+@dataclass(frozen=True)
+class EvalTarget:
+    """A set of frames to score runs on.
+
+    Fields:
+        key: "holdout-k<K>" | "novel-poses" | "test-split" (file names and eval.json keys);
+        title: a human description; kind: "capture" (project frames posed by the fits) or
+        "novel-poses"; frame_ids: project frame numbers (capture) or hold-out sequence indices;
+        holdout: the K whose runs it scores (capture hold-out), else None (every run).
+    """
+
+    key: str
+    title: str
+    kind: str
+    frame_ids: tuple[int, ...]
+    holdout: int | None = None
+
+    def applies_to(self, holdout: int) -> bool:
+        return self.holdout is None or self.holdout == holdout
+
+
+def holdout_target(project, fits: BodyFitArrays, k: int) -> EvalTarget | None:
+    """The frames runs with hold-out ``k`` kept out of training (None for k = 0 or none left)."""
+    if k <= 0:
+        return None
+    held = split_holdout(usable_frame_ids(project, fits), k)[1]
+    if not held:
+        return None
+    return EvalTarget(f"holdout-k{k}", f"held-out capture frames (every {ordinal(k)} usable frame from the first)",
+                      "capture", tuple(held), k)
+
+
+def ordinal(k: int) -> str:
+    """2 -> "2nd", 3 -> "3rd", 11 -> "11th"."""
+    suffix = "th" if 10 <= k % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(k % 10, "th")
+    return f"{k}{suffix}"
+
+
+def novel_poses_target(project) -> EvalTarget | None:
+    """A synthetic capture's hold-out sequence, when it has one."""
+    from morf.io import load_npz
+
+    path = project.ground_truth_dir / "holdout.npz"
+    if not path.is_file():
+        return None
+    n = len(load_npz(path)["rotvecs"])
+    if n == 0:
+        return None
+    return EvalTarget("novel-poses", "synthetic hold-out sequence (novel poses)", "novel-poses", tuple(range(n)))
+
+
+def dataset_split_labels(project) -> list[str] | None:
+    """Per project frame, its dataset split label, when the project was imported with both
+    "train" and "test" labels; else None."""
+    labels = (project.manifest.get("dataset") or {}).get("splits")
+    if not isinstance(labels, list) or len(labels) != project.num_frames:
+        return None
+    return labels if {"train", "test"} <= set(labels) else None
+
+
+def dataset_test_target(project, fits: BodyFitArrays) -> EvalTarget | None:
+    """The usable frames labelled "test" by the dataset's published split."""
+    labels = dataset_split_labels(project)
+    if labels is None:
+        return None
+    ids = [i for i in usable_frame_ids(project, fits) if labels[i] == "test"]
+    if not ids:
+        return None
+    return EvalTarget("test-split", "frames the dataset's published split labels test", "capture", tuple(ids))
+
+
+def trained_on(project, fits: BodyFitArrays, holdout: int, ids) -> int:
+    """How many of ``ids`` a run with this hold-out setting trained on."""
+    train = set(split_holdout(usable_frame_ids(project, fits), holdout)[0])
+    return sum(1 for i in ids if i in train)

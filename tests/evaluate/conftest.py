@@ -1,0 +1,41 @@
+"""One tiny synthetic capture trained with a hold-out and evaluated once, shared by the eval tests."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import torch
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _one_torch_thread():
+    """Tiny tensors gain nothing from a second thread (see tests/train/conftest.py)."""
+    prev = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(prev)
+
+
+@pytest.fixture(scope="module")
+def evaluated(tmp_path_factory, gl, body_model):
+    """``morf train --holdout 3 --preset tiny`` (2 steps) then ``morf eval`` on a tiny synthetic capture.
+
+    Returns a dict: project (CaptureProject), run (its run name), eval (eval.json), out (the eval
+    folder), stdout (what ``morf eval`` printed).
+    """
+    from morf.cli.main import main
+    from morf.synth import make_synthetic_capture, synth_config
+
+    root = tmp_path_factory.mktemp("eval") / "cap"
+    project = make_synthetic_capture(root, synth_config("tiny"), model=body_model)
+    assert main(["train", str(root), "--preset", "tiny", "--steps", "2", "--holdout", "3", "--device", "cpu"]) == 0
+    import contextlib
+    import io
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(["eval", str(root)]) == 0
+    out = root / "eval"
+    return {"project": project, "run": "morf-tiny", "eval": json.loads((out / "eval.json").read_text()), "out": out,
+            "stdout": buf.getvalue()}

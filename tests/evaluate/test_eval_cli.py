@@ -1,0 +1,101 @@
+"""``morf train --holdout K`` then ``morf eval``: scores, the floor, the images, the split, bad input."""
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from morf.cli.main import main
+
+pytestmark = [pytest.mark.slow, pytest.mark.gl]
+METRICS = ("psnr", "psnr_person", "ssim", "ssim_person", "temporal")
+
+
+def test_eval_scores_every_run_and_the_floor(evaluated):
+    ev, run = evaluated["eval"], evaluated["run"]
+    assert set(ev["runs"]) == {run, "rgb-holdout3"}  # the floor was built with the run's hold-out
+    assert list(ev["targets"]) == ["holdout-k3", "novel-poses"]
+    assert ev["runs"]["rgb-holdout3"]["floor"] and ev["runs"][run]["holdout"] == 3
+    for name, entry in ev["runs"].items():
+        for key, m in entry["targets"].items():
+            assert all(math.isfinite(m[k]) for k in METRICS), (name, key, m)
+            assert m["lpips"] is None and m["resolution"] == 64
+            assert m["frames"] == len(ev["targets"][key]["frame_ids"])
+    held = ev["targets"]["holdout-k3"]
+    assert held["columns"] == ["real", run, "rgb-holdout3"] and len(held["frame_ids"]) == 4
+    floor = ev["runs"]["rgb-holdout3"]["targets"]["holdout-k3"]
+    assert floor["psnr_person"] > ev["runs"][run]["targets"]["holdout-k3"]["psnr_person"]  # 2 steps learn nothing
+    assert "holdout-k3" in evaluated["stdout"] and "rgb-holdout3" in evaluated["stdout"]
+
+
+def test_sheet_and_slices_have_the_documented_sizes(evaluated):
+    from morf.evaluate.sheet import CAPTION_H, GAP, LABEL_H, cell_size, slice_panel_width
+
+    for key, t in evaluated["eval"]["targets"].items():
+        sheet = cv2.imread(str(evaluated["out"] / t["sheet"]))
+        slices = cv2.imread(str(evaluated["out"] / t["slices"]))
+        cell, n = cell_size([64]), len(t["columns"])
+        assert sheet.shape == (LABEL_H + len(t["sheet_frames"]) * cell, n * cell, 3)
+        assert [sheet.shape[1], sheet.shape[0]] == t["sheet_size"]
+        _, panel = slice_panel_width(len(t["frame_ids"]))
+        assert slices.shape == (LABEL_H + cell + CAPTION_H, n * panel + (n - 1) * GAP, 3)
+        assert sheet[LABEL_H:].std() > 5 and slices[LABEL_H:LABEL_H + cell].std() > 5  # images, not blanks
+
+
+def test_held_out_frames_never_reach_training(evaluated):
+    from morf.io import load_npz
+    from morf.train.data import load_body_fits, split_holdout, usable_frame_ids
+
+    project, ev = evaluated["project"], evaluated["eval"]
+    usable = usable_frame_ids(project, load_body_fits(project, "auto"))
+    held = ev["targets"]["holdout-k3"]["frame_ids"]
+    assert held == split_holdout(usable, 3)[1] == usable[::3]
+    for name in (evaluated["run"], "rgb-holdout3"):
+        log = (project.runs_dir / name / "train.log").read_text()
+        cache = log.split("frames cache: ")[1].split()[0]
+        trained = load_npz(cache)["frame_ids"].tolist()  # the FrameSet the run trained on
+        assert not set(trained) & set(held) and sorted(set(trained) | set(held)) == usable
+        assert ev["runs"][name]["targets"]["holdout-k3"]["trained_on"] == 0
+
+
+def test_floor_is_reused_and_options_apply(evaluated, tmp_path, body_model):
+    from morf.avatar.trained import load_trained_avatar
+    from morf.train.data import crop_of
+    from morf.train.floor import floor_request, train_floor
+
+    project, run = evaluated["project"], evaluated["run"]
+    again = train_floor(project, floor_request(64, 3), "rgb-holdout3", model=body_model)
+    assert again.losses == {}  # already built: nothing redone
+    assert main(["eval", str(project.root), "--run", run, "--no-floor", "--resolution", "native",
+                 "--out", str(tmp_path)]) == 0
+    import json
+
+    ev = json.loads((tmp_path / "eval.json").read_text())
+    assert list(ev["runs"]) == [run] and ev["targets"]["holdout-k3"]["columns"] == ["real", run]
+    av = load_trained_avatar(project.runs_dir / run)
+    m = av.renderer.cfg.multiple
+    native = int(round(crop_of(project.camera(), av.camera)[2] / m)) * m
+    assert ev["runs"][run]["targets"]["holdout-k3"]["resolution"] == native != 64
+    assert np.isfinite(ev["runs"][run]["targets"]["holdout-k3"]["psnr"])
+
+
+def _one_line_error(capsys, argv, text):
+    rc = main(argv)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc != 0 and len(err) == 1 and text in err[0], err
+
+
+def test_bad_input_is_a_one_line_error(evaluated, tmp_path, capsys):
+    from morf.capture.project import CaptureProject
+
+    root = str(evaluated["project"].root)
+    _one_line_error(capsys, ["train", root, "--preset", "tiny", "--holdout", "1", "--name", "h1"], "holdout")
+    _one_line_error(capsys, ["eval", root, "--run", "nope"], "no run named 'nope'")
+    _one_line_error(capsys, ["eval", root, "--resolution", "13"], "multiple of")
+    _one_line_error(capsys, ["eval", root, "--resolution", "big"], "--resolution")
+    _one_line_error(capsys, ["export", root, "--run", "rgb-holdout3"], "RGB floor")
+    bare = CaptureProject.create(tmp_path / "bare", num_frames=1, width=32, height=32, fps=None,
+                                 source={"kind": "test"})
+    _one_line_error(capsys, ["eval", str(bare.root)], "no body fits")
+    _one_line_error(capsys, ["train", str(bare.root), "--preset", "tiny", "--holdout", "3"], "no body fits")

@@ -1,0 +1,38 @@
+"""Which frames ``morf eval`` scores on a project: hold-out, dataset test labels (no rendering here)."""
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from morf.evaluate.targets import holdout_target, ordinal, dataset_test_target, trained_on
+from morf.train.data import BodyFitArrays
+
+
+def _project(labels, dropped=()):
+    n = len(labels)
+    return SimpleNamespace(manifest={"dataset": {"splits": labels}}, num_frames=n,
+                           training_frames=lambda: [i for i in range(n) if i not in dropped])
+
+
+def _fits(n):
+    return BodyFitArrays(np.zeros((n, 2, 3), np.float32), np.zeros((n, 3), np.float32), np.zeros((1, 6), np.float32),
+                         np.ones(n, bool), "fits")
+
+
+def test_test_labels_become_a_target_and_say_what_was_trained_on():
+    p = _project(["train", "test", "train", "test", "", "test"], dropped=(5,))
+    fits = _fits(6)
+    t = dataset_test_target(p, fits)
+    assert t.key == "test-split" and t.frame_ids == (1, 3) and t.applies_to(0) and t.applies_to(4)
+    assert trained_on(p, fits, 0, t.frame_ids) == 2  # nothing excludes test frames from training
+    assert trained_on(p, fits, 3, t.frame_ids) == 1  # hold-out 3 keeps usable frames 0 and 3 out
+    assert dataset_test_target(_project(["test"] * 4), _fits(4)) is None  # a test-only import: nothing to compare
+    assert dataset_test_target(SimpleNamespace(manifest={}, num_frames=2), _fits(2)) is None
+
+
+def test_holdout_target_is_every_kth_usable_frame():
+    p = _project(["train"] * 7, dropped=(1,))
+    t = holdout_target(p, _fits(7), 2)
+    assert t.frame_ids == (0, 3, 5) and t.holdout == 2 and t.applies_to(2) and not t.applies_to(3)
+    assert holdout_target(p, _fits(7), 0) is None
+    assert [ordinal(k) for k in (2, 3, 4, 11, 21, 22)] == ["2nd", "3rd", "4th", "11th", "21st", "22nd"]
