@@ -89,6 +89,25 @@ def _block(cin: int, cout: int, stride: int = 1) -> nn.Sequential:
                          nn.Conv2d(cout, cout, 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
 
 
+class TextureColour(nn.Module):
+    """The colour the renderer's residual is added to (``rgb_skip``): texture channels 0-2,
+    filled off the mesh by :func:`push_pull_fill` (a pixel is on the mesh where any of its
+    texture channels is non-zero: the rasterization is exactly zero off the body). A module of its
+    own so the int8 exporter can find its nodes and keep them in float."""
+
+    def __init__(self, levels: int):
+        super().__init__()
+        self.levels = levels
+
+    def forward(self, x: torch.Tensor, scale: torch.Tensor | None = None) -> torch.Tensor:
+        """(B, C, H, W) rasterization -> (B, 3, H, W) colour; ``scale`` (1, 3, 1, 1) multiplies
+        channels 0-2 first (the exporter feeds the unscaled input, so its scale stays folded)."""
+        x = x.float()
+        covered = (x.abs().sum(1, keepdim=True) > 0).to(x.dtype)
+        rgb = x[:, :3] if scale is None else x[:, :3] * scale
+        return push_pull_fill(rgb, covered, self.levels)
+
+
 class UNetRenderer(nn.Module):
     """(B, C, H, W) neural rasterization -> (B, 4, H, W) linear premultiplied RGB + mask logit."""
 
@@ -114,6 +133,8 @@ class UNetRenderer(nn.Module):
             self.head_low = nn.Sequential(nn.Conv2d(ch[0], ch[0], 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
             self.head = nn.Sequential(nn.Conv2d(ch[0] + cfg.in_channels, cfg.skip_hidden, 1),
                                       nn.LeakyReLU(0.2, inplace=True), nn.Conv2d(cfg.skip_hidden, 4, 1))
+        if cfg.rgb_skip:
+            self.colour = TextureColour(cfg.fill_levels)
         with torch.no_grad():
             self.last.bias[3] = MASK_BIAS_INIT
             if cfg.rgb_skip:
@@ -151,17 +172,10 @@ class UNetRenderer(nn.Module):
         h = F.interpolate(h, scale_factor=float(self.cfg.stem), mode="bilinear", align_corners=False)
         return self.head[1](h + F.conv2d(x, conv.weight[:, c:]))
 
-    def rgb_base(self, x: torch.Tensor) -> torch.Tensor:
-        """The colour the residual is added to (``rgb_skip``): texture channels 0-2, filled off
-        the mesh (a pixel is on the mesh where any of its texture channels is non-zero)."""
-        x = x.float()
-        covered = (x.abs().sum(1, keepdim=True) > 0).to(x.dtype)
-        return push_pull_fill(x[:, :3], covered, self.cfg.fill_levels)
-
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         out = self.last(self.features(x))
         if self.cfg.rgb_skip:
-            out = torch.cat([out[:, :3] + self.rgb_base(x).to(out.dtype), out[:, 3:]], dim=1)
+            out = torch.cat([out[:, :3] + self.colour(x).to(out.dtype), out[:, 3:]], dim=1)
         if self.cfg.premultiply:
             logit = out[:, 3:]
             out = torch.cat([out[:, :3] * torch.sigmoid(logit), logit], dim=1)

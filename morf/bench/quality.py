@@ -1,119 +1,123 @@
-"""``morf bench quality --out DIR [--preset tiny|cpu]``: avatar quality on novel poses.
+"""``morf bench quality --out DIR [--preset tiny|cpu|gpu] [--seeds N]``: avatar quality on frames
+no run trained on, every learned method against the no-learning RGB floor.
 
-Trains morf, stylepeople and anr with the same preset on a synthetic capture (the default
-synthetic capture, or the tiny one with ``--preset tiny``; ``--project`` uses an existing
-synthetic project) and renders its hold-out sequence (``ground_truth/holdout``: arm raises, hip
-sway, steps) with the ground-truth hold-out poses. Writes ``DIR/quality.json``
-``{"methods": {"morf": {psnr, ssim, lpips, temporal, train_minutes, ...}, ...}}`` and
-``DIR/quality.md``.
+On a synthetic capture (made in ``DIR/capture`` and fitted, see :mod:`morf.bench.quality_capture`;
+``--project`` names an existing one) every learned method of ``--methods`` (default morf and
+stylepeople; anr on request) is trained ``--seeds`` times with seeds 0..N-1 on the fitted bodies
+(``--fits fits``; ``ground-truth`` trains on the capture's true poses) with every ``--holdout``-th
+usable frame kept out, and the RGB floor (method rgb, deterministic) is built once with the same
+frames (:mod:`morf.bench.quality_runs`). Then :func:`morf.evaluate.project_eval.evaluate_project`
+scores every run on two blocks: the synthetic hold-out sequence (``novel-poses``: poses the
+capture never showed) and the held-out capture frames (``holdout-k<K>``, in their fitted poses;
+none with ``--holdout 0``). Per block and method: means, per-seed values and spread of the
+metrics (:mod:`morf.bench.quality_scores`) and the targets (:mod:`morf.bench.quality_checks`).
 
-Metrics (morf/avatar/metrics.py, via ``evaluate_frames``): the render and the frame are both
-composited over the capture's backdrop colour (median outside the person masks), as the player
-composites; PSNR and SSIM over the whole image and over the person only; ``temporal`` is the weight-free temporal
-flicker (lower is better); LPIPS is null (no LPIPS weights on this machine). Training runs live in
-``PROJECT/runs/bench-<method>-<preset>`` and resume if the benchmark is interrupted.
+Writes into DIR: ``quality.json``, ``quality.md`` (:mod:`morf.bench.quality_report`), and what
+``morf eval`` writes: ``eval.json`` (every run's scores), ``sheet-<block>.png`` (real | each
+method's seed-0 run | floor) and ``yt-<block>.png`` (y-t slices). ``quality.json``:
+``{"preset", "project", "fits", "holdout", "seeds", "methods", "blocks": {key: {"title", "frames",
+"sheet", "slices", "methods": {method: {"mean", "seeds", "spread", "diverged"}}, "checks"}},
+"runs": [...], "training_checks", "targets_missed", "targets_not_measured", "machine", ...}``.
+LPIPS is not computed (no LPIPS weights in MoRF).
 """
 
 from __future__ import annotations
 
 import os
-import time
 from pathlib import Path
 
-METHODS = ("morf", "stylepeople", "anr")
+METHODS = ("morf", "stylepeople", "anr")  # the learned methods
+DEFAULT_METHODS = "morf,stylepeople,rgb"
 
 
 def add_arguments(p):
-    p.add_argument("--out", required=True, help="output folder for quality.json / quality.md")
+    p.add_argument("--out", required=True, help="output folder for quality.json / quality.md and the images")
     p.add_argument("--preset", choices=("tiny", "cpu", "gpu"), default="cpu", help="training preset (tiny: CI)")
     p.add_argument("--project", default=None,
-                   help="an existing synthetic capture project (default: build one in OUT/capture)")
-    p.add_argument("--methods", default=",".join(METHODS), help="comma-separated methods to compare")
+                   help="an existing synthetic capture project (default: make and fit one in OUT/capture)")
+    p.add_argument("--methods", default=DEFAULT_METHODS,
+                   help=f"comma-separated methods from {', '.join(METHODS)}; the rgb floor is always included "
+                        f"(default {DEFAULT_METHODS})")
+    p.add_argument("--seeds", type=int, default=1, help="trainings per learned method, seeds 0..N-1 (default 1)")
+    p.add_argument("--holdout", type=int, default=5,
+                   help="keep every K-th usable capture frame out of training and score on it (default 5; 0: none)")
     p.add_argument("--steps", type=int, default=None, help="override the preset's training steps")
-    p.add_argument("--fits", choices=("ground-truth", "fits", "auto"), default="ground-truth",
-                   help="body fits to train on (default: the capture's ground truth)")
+    p.add_argument("--fits", choices=("fits", "ground-truth", "auto"), default="fits",
+                   help="body fits to train on (default: fitted bodies; the capture is fitted when it has none)")
     p.add_argument("--vgg", default=None, help="VGG-16 weights for the perceptual loss (else feature matching)")
 
 
-def _project(args, out: Path):
-    from morf.capture.project import CaptureProject
+def parse_methods(text: str) -> list[str]:
+    """The learned methods named in ``text`` (the floor, always run, may be named too)."""
+    from morf.bench.quality_runs import FLOOR
     from morf.errors import InputError
 
-    if args.project:
-        project = CaptureProject.open(args.project)
-        if not (project.ground_truth_dir / "holdout.npz").is_file():
-            raise InputError(f"{project.root} has no hold-out sequence (a synthetic capture is needed)")
-        return project
-    root = out / "capture"
-    if CaptureProject.is_project(root):
-        return CaptureProject.open(root)
-    from morf.synth.capture import make_synthetic_capture
-    from morf.synth.config import synth_config
-
-    return make_synthetic_capture(root, synth_config("tiny" if args.preset == "tiny" else "default"), overwrite=True)
+    names = list(dict.fromkeys(m.strip() for m in text.split(",") if m.strip()))
+    bad = [m for m in names if m not in METHODS and m != FLOOR]
+    if bad:
+        raise InputError(f"unknown method(s) {', '.join(bad)}; choose from {', '.join(METHODS + (FLOOR,))}")
+    return [m for m in names if m != FLOOR]
 
 
 def run(args) -> int:
-    from morf.avatar.trained import load_trained_avatar
-    from morf.bench.common import machine_info, markdown_table, write_results
-    from morf.body import load_body_model
     from morf.errors import InputError
-    from morf.train.config import preset
-    from morf.train.data import build_holdout_frames
-    from morf.train.plateau import run_plateau
-    from morf.train.project_run import evaluate_frames, train_project
 
-    out = Path(args.out)
-    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
-    bad = [m for m in methods if m not in METHODS]
-    if bad or not methods:
-        raise InputError(f"unknown method(s) {bad}; choose from {', '.join(METHODS)}")
-    model = load_body_model("anny")
-    project = _project(args, out)
-    results, rows = {}, []
-    for method in methods:
-        overrides = {"steps": args.steps} if args.steps else {}
-        cfg = preset(args.preset, method, **overrides)
-        t0 = time.time()
-        res = train_project(project, cfg, f"bench-{method}-{args.preset}", fits_source=args.fits, vgg=args.vgg,
-                            model=model)
-        avatar = load_trained_avatar(res.run_dir)
-        holdout = build_holdout_frames(project, model, avatar.camera, avatar.shape.numpy())
-        if holdout is None:
-            raise InputError(f"{project.root} has no hold-out sequence")
-        m = evaluate_frames(avatar, holdout)
-        m.update({"lpips": None, "train_minutes": res.train_minutes, "steps": res.step,
-                  "wall_minutes_this_session": (time.time() - t0) / 60})
-        plat = run_plateau(res.run_dir)
-        m["plateau"] = plat
-        m["plateau_minutes"] = None if plat is None else plat["minutes"]
-        results[method] = m
-        rows.append({"method": method, **m})
-        print(f"{method}: PSNR {m['psnr']:.2f} dB (person {m['psnr_person']:.2f}), SSIM {m['ssim']:.4f}, "
-              f"temporal {m['temporal']:.5f}, {res.train_minutes:.1f} min")
-    checks = {}
-    if "morf" in results and "stylepeople" in results:
-        a, b = results["morf"], results["stylepeople"]
-        checks = {"temporal_gain_vs_stylepeople": 1 - a["temporal"] / b["temporal"] if b["temporal"] else None,
-                  "psnr_delta_vs_stylepeople_db": a["psnr"] - b["psnr"]}
-        checks["target_temporal_10pct_better"] = bool(checks["temporal_gain_vs_stylepeople"] is not None
-                                                      and checks["temporal_gain_vs_stylepeople"] >= 0.10)
-        checks["target_psnr_within_0p5db"] = bool(checks["psnr_delta_vs_stylepeople_db"] >= -0.5)
-    if results.get("morf", {}).get("plateau_minutes") is not None:
-        checks["morf_plateau_minutes"] = results["morf"]["plateau_minutes"]
-        checks["target_plateau_within_30min"] = bool(results["morf"]["plateau_minutes"] <= 30)
-    result = {"benchmark": "quality", "preset": args.preset, "project": str(project.root), "fits": args.fits,
-              "holdout_frames": results[methods[0]]["frames"], "methods": results, "checks": checks,
-              "machine": machine_info()}
-    cols = ["method", "psnr", "psnr_person", "ssim", "ssim_person", "lpips", "temporal", "train_minutes",
-            "plateau_minutes", "steps"]
-    # the load average says how much of the 2-core CPU the run actually had
-    result["load_average"] = list(os.getloadavg())
-    md = (f"# Avatar quality on novel-pose hold-out ({args.preset} preset)\n\n"
-          + markdown_table(rows, cols, "{:.4g}")
-          + "\nPSNR in dB (higher is better); SSIM (higher is better); temporal = flicker, lower is better.\n")
-    if checks:
-        md += "\n" + "\n".join(f"- {k}: {v}" for k, v in checks.items()) + "\n"
-    path = write_results(out, "quality", result, md)
-    print(f"wrote {path}")
+    methods = parse_methods(args.methods)
+    if args.seeds < 1:
+        raise InputError(f"--seeds must be at least 1, got {args.seeds}")
+    if args.holdout < 0 or args.holdout == 1:
+        raise InputError(f"--holdout must be 0 (none) or at least 2 (every K-th frame), got {args.holdout}")
+    if args.steps is not None and args.steps < 1:
+        raise InputError(f"--steps must be at least 1, got {args.steps}")
+    run_quality(Path(args.out), args.preset, methods, seeds=args.seeds, holdout=args.holdout, steps=args.steps,
+                fits=args.fits, vgg=args.vgg, project_path=args.project)
     return 0
+
+
+def run_quality(out: Path, preset: str, methods: list[str], *, seeds: int = 1, holdout: int = 5,
+                steps: int | None = None, fits: str = "fits", vgg: str | None = None,
+                project_path: str | None = None, model=None) -> dict:
+    """Train, evaluate and write everything into ``out``; returns the quality.json content."""
+    from morf.bench.common import machine_info, write_results
+    from morf.bench.quality_capture import bench_capture
+    from morf.bench.quality_checks import block_checks, training_checks
+    from morf.bench.quality_report import quality_markdown
+    from morf.bench.quality_runs import FLOOR, TrainPlan, train_runs
+    from morf.bench.quality_scores import block_scores
+    from morf.evaluate.project_eval import EvalConfig, evaluate_project, format_table
+    from morf.train.data import load_body_fits
+
+    if model is None:
+        from morf.body import load_body_model
+
+        model = load_body_model("anny")
+    out = Path(out)
+    project = bench_capture(out, preset, project_path, fits, model)
+    source = load_body_fits(project, fits).source
+    runs = train_runs(project, TrainPlan(preset, holdout, steps, source, vgg), methods, seeds, model)
+    scored = [r for r in runs if not r.diverged]
+    first = {}
+    for r in scored:
+        first.setdefault(r.method, r.name)  # each method's column on the sheets: its first scored seed
+    ev = evaluate_project(project, EvalConfig(runs=tuple(r.name for r in scored), out=str(out), floor=False,
+                                              sheet_runs=tuple(first.values())), model, say=print)
+    print(format_table(ev))
+    keys = sorted(ev["targets"], key=lambda k: k != "novel-poses")  # novel poses first, as before
+    blocks = [block_scores(ev, k, runs) for k in keys]
+    blocks = [(b, block_checks(b, FLOOR)) for b in blocks]
+    plateaus = [r.plateau_minutes for r in runs if r.method == "morf" and r.plateau_minutes is not None]
+    training = training_checks(sum(plateaus) / len(plateaus) if plateaus else None)
+    head = {"benchmark": "quality", "preset": preset, "project": str(project.root), "fits": source,
+            "holdout": holdout, "seeds": seeds, "steps": steps, "methods": methods + [FLOOR]}
+    every = [(b.key, c) for b, c in blocks] + [("training", training)]
+    result = {**head, "blocks": {b.key: {**b.to_dict(), "checks": c.to_dict()} for b, c in blocks},
+              "runs": [r.to_dict() for r in runs], "training_checks": training.to_dict(),
+              "targets_missed": [f"{k}: {n}" for k, c in every for n, met in c.met.items() if met is False],
+              "targets_not_measured": [f"{k}: {n}" for k, c in every for n, met in c.met.items() if met is None],
+              "eval": "eval.json", "lpips": ev["lpips"], "machine": machine_info(),
+              # the load average says how much of the shared CPU the run actually had
+              "load_average": list(os.getloadavg())}
+    path = write_results(out, "quality", result, quality_markdown(head, blocks, runs, training))
+    print("targets missed: " + (", ".join(result["targets_missed"]) or "none"))
+    print(f"wrote {path}")
+    return result

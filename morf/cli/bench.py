@@ -10,7 +10,7 @@ import importlib
 
 BENCHMARKS = {
     "fitting": "mesh fitting against ground truth, with the paper's ablation",
-    "quality": "avatar quality on novel-pose hold-out frames: morf vs stylepeople vs anr",
+    "quality": "avatar quality on held-out frames and novel poses, over seeds, against the RGB floor",
     "render": "live playback speed at 640x640 (GL rasterization + int8 renderer)",
     "pareto": "speed against accuracy over model sizes",
     "stability": "quality as nuisances grow, per method",

@@ -37,7 +37,8 @@ class EvalConfig:
         runs: run names (empty: every finished run); out: output folder (None: PROJECT/eval);
         floor: include the RGB floor of each hold-out setting (built when missing);
         resolution: None (each run's training side), "native" (the crop's capture pixels) or a side;
-        sheet_rows: frames per comparison sheet.
+        sheet_rows: frames per comparison sheet; sheet_runs: the runs given a column on the sheets
+        and y-t slices (empty: every scored run; the floors always get one).
     """
 
     runs: tuple[str, ...] = ()
@@ -45,6 +46,10 @@ class EvalConfig:
     floor: bool = True
     resolution: int | str | None = None
     sheet_rows: int = 4
+    sheet_runs: tuple[str, ...] = ()
+
+    def on_sheet(self, run: RunInfo) -> bool:
+        return run.is_floor or not self.sheet_runs or run.name in self.sheet_runs
 
 
 @dataclass
@@ -167,9 +172,10 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
     colour = torch.tensor(metrics["background"], dtype=torch.float32)
     if tr.column is None:
         tr.column, tr.rows = person_column(frames), sheet_rows(frames.num_frames, cfg.sheet_rows)
-    if side > tr.real_side:
-        tr.real, tr.real_side = real_views(frames, colour, tr.rows, tr.column), side
-    tr.scored.append((run, metrics, render_views(avatar, frames, colour, tr.rows, tr.column)))
+    if cfg.on_sheet(run):
+        if side > tr.real_side:
+            tr.real, tr.real_side = real_views(frames, colour, tr.rows, tr.column), side
+        tr.scored.append((run, metrics, render_views(avatar, frames, colour, tr.rows, tr.column)))
     metrics.update({"lpips": None, "resolution": side})
     if target.kind == "capture":  # how many of these frames the run trained on (0 for its own hold-out)
         metrics["trained_on"] = trained_on(project, fits, run.holdout, target.frame_ids)
@@ -208,7 +214,7 @@ def format_table(result: dict) -> str:
     for key, t in result["targets"].items():
         lines.append(f"{key}: {t['title']}, {len(t['frame_ids'])} frames")
         lines.append(f"  {'run':<24} {'px':>5} {'PSNR':>7} {'person':>7} {'SSIM':>6} {'person':>6} {'flicker':>8}")
-        for name in t["columns"][1:]:
+        for name in scored_runs(result, key):
             m = result["runs"][name]["targets"][key]
 
             def f(k, fmt):
@@ -219,3 +225,9 @@ def format_table(result: dict) -> str:
     for name, why in result["skipped"].items():
         lines.append(f"skipped {name}: {why}")
     return "\n".join(lines)
+
+
+def scored_runs(result: dict, key: str) -> list[str]:
+    """The runs of an eval.json scored on target ``key``: the sheet's columns first, then the rest."""
+    columns = result["targets"][key]["columns"][1:]
+    return columns + [n for n, e in result["runs"].items() if key in e["targets"] and n not in columns]

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from morf.train.data import BodyFitArrays, split_holdout, usable_frame_ids
+from morf.train.data import BodyFitArrays, published_test_frames, split_holdout, usable_frame_ids
 
 
 @dataclass(frozen=True)
@@ -91,5 +91,5 @@ def dataset_test_target(project, fits: BodyFitArrays) -> EvalTarget | None:
 
 def trained_on(project, fits: BodyFitArrays, holdout: int, ids) -> int:
     """How many of ``ids`` a run with this hold-out setting trained on."""
-    train = set(split_holdout(usable_frame_ids(project, fits), holdout)[0])
+    train = set(split_holdout(usable_frame_ids(project, fits), holdout)[0]) - published_test_frames(project)
     return sum(1 for i in ids if i in train)

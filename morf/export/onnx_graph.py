@@ -56,7 +56,7 @@ def fold_input_scale(model: onnx.ModelProto, input_name: str) -> bool:
     Returns True when folded; False leaves the graph unchanged (still correct, a little slower).
     """
     muls = [n for n in _consumers(model, input_name) if n.op_type == "Mul"]
-    if len(muls) != 1 or len(_consumers(model, input_name)) != 1:
+    if len(muls) != 1:  # other consumers (e.g. the texture-colour fill) keep reading the raw input
         return False
     mul = muls[0]
     other = mul.input[1] if mul.input[0] == input_name else mul.input[0]

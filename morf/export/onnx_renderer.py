@@ -117,6 +117,7 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
             self.register_buffer("scale", torch.as_tensor(127.0 * np.asarray(scales, np.float32)).view(1, -1, 1, 1))
 
         def forward(self, x):
+            raw = x
             x = x * self.scale
             x = x if used == x.shape[1] else x[:, :used]
             if not split:
@@ -129,7 +130,10 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
             out = torch.nn.functional.conv2d(self.renderer.features(x), w, b, stride=last.stride, padding=last.padding)
             logit = out[:, 3:4] if colours is None else out[:, 3:4] * k + c
             mask = torch.sigmoid(logit)
-            rgb = out[:, :3] * mask if getattr(cfg, "premultiply", False) else out[:, :3]
+            rgb = out[:, :3]
+            if getattr(cfg, "rgb_skip", False):  # the residual over the texture's own colour
+                rgb = rgb + self.renderer.colour(raw, self.scale[:, :3])  # reads the raw input: the scale stays folded
+            rgb = rgb * mask if getattr(cfg, "premultiply", False) else rgb
             return torch.cat([rgb, mask], dim=1)
 
     wrapper = _Wrapper().eval().float()
@@ -206,7 +210,7 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
             warnings.simplefilter("ignore")
             quant_pre_process(str(f32), str(pre), skip_symbolic_shape=True)
             quantize_static(str(pre), str(q8), _Calibration(calibration), quant_format=QuantFormat.QDQ,
-                            nodes_to_exclude=downstream_nodes(model, last_out) if last_out else [],
+                            nodes_to_exclude=float_nodes(model, last_out),
                             per_channel=True, activation_type=QuantType.QUInt8, weight_type=QuantType.QInt8,
                             calibrate_method=CalibrationMethod.Percentile,
                             extra_options={"CalibPercentile": 99.99, "TensorQuantOverrides": overrides})
@@ -215,6 +219,15 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
     append_composite(q)
     onnx.checker.check_model(q)
     _save(q, path)
+
+
+def float_nodes(model: onnx.ModelProto, last_out: str | None) -> list[str]:
+    """Nodes the int8 graph keeps in float: everything after the last convolution (the colour
+    head, the mask's sigmoid) and the texture-colour fill of an ``rgb_skip`` renderer (pooling
+    and division of colours that are themselves the output: 8 bits there would band the image)."""
+    after = downstream_nodes(model, last_out) if last_out else []
+    fill = [n.name for n in model.graph.node if n.name.startswith("/renderer/colour/")]
+    return after + [n for n in fill if n not in after]
 
 
 def _save(model: onnx.ModelProto, path: str | os.PathLike) -> None:

@@ -11,17 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from morf.avatar.uv_atlas import dilate_texture
 from morf.train.frames import FrameSet
 
 
 def projected_colour_texture(frames: FrameSet, covered: np.ndarray, dilate: int = 4) -> np.ndarray:
-    """(3, S, S) float32 colour texture in [0, 1] for a (S, S) atlas coverage ``covered``."""
-    from morf.train.inpaint import close_seen, fill_unseen, project_rgb_texture
+    """(3, S, S) float32 colour texture in [0, 1] for a (S, S) atlas coverage ``covered``: the
+    colour channels of the no-learning floor (:func:`morf.train.floor_texture.floor_texture`)."""
+    from morf.train.floor_texture import floor_texture
 
-    size = covered.shape[0]
-    rgb, seen = project_rgb_texture(frames, size)
-    seen = close_seen(seen) & covered
-    filled = fill_unseen(rgb, seen, covered)
-    filled, _ = dilate_texture(filled, covered, dilate)
-    return np.ascontiguousarray(filled.transpose(2, 0, 1), dtype=np.float32)
+    return np.ascontiguousarray(floor_texture(frames, covered, dilate)[0][:3])

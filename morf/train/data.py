@@ -94,6 +94,16 @@ def usable_frame_ids(project, fits: BodyFitArrays) -> list[int]:
     return [i for i in project.training_frames() if i < n_fit and fits.valid[i]]
 
 
+def published_test_frames(project) -> set[int]:
+    """Frames an imported dataset labels "test" in its published split (``morf dataset ... --split
+    all`` keeps one label per frame in the manifest); empty unless both "train" and "test" occur.
+    Training never uses them, so ``morf eval`` scores the published split honestly."""
+    labels = (project.manifest.get("dataset") or {}).get("splits")
+    if not isinstance(labels, list) or len(labels) != project.num_frames or not {"train", "test"} <= set(labels):
+        return set()
+    return {i for i, label in enumerate(labels) if label == "test"}
+
+
 def person_square(masks: list[np.ndarray], margin: float = 0.08) -> tuple[float, float, float]:
     """(x0, y0, side) of a square holding every mask's person, with a margin (may leave the image)."""
     xs0, ys0, xs1, ys1 = [], [], [], []
@@ -191,6 +201,8 @@ def build_frames(project, model, resolution: int, fits_source: str = "auto",
     if fits.rotvecs.shape[1] != len(model.bone_names):
         raise ProjectError(f"fits have {fits.rotvecs.shape[1]} bones, the body model {len(model.bone_names)}")
     ids, _ = split_holdout(usable_frame_ids(project, fits), holdout)
+    test = published_test_frames(project)
+    ids = [i for i in ids if i not in test]
     if not ids:
         raise ProjectError(f"no usable training frames in {project.root} (all dropped or without fits)")
     digest = hashlib.sha1()

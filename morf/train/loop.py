@@ -227,10 +227,10 @@ def _inpaint(trainer: Trainer, frames: FrameSet, texture: torch.Tensor, inpaint:
     cfg = trainer.cfg
     size = texture.shape[-1]
     control.report(Progress("train", trainer.step, cfg.steps, "inpainting unseen body parts"))
-    rgb, seen = project_rgb_texture(frames, size)
-    seen = close_seen(seen)
+    rgb, hit = project_rgb_texture(frames, size)
+    seen = close_seen(hit)  # pinholes between hit texels count as seen (kept as trained) ...
     covered = inpaint.covered
-    rgb = fill_unseen(rgb, seen, covered)
+    rgb = fill_unseen(rgb, hit, covered)  # ... but get a filled colour, not black
     uv, uv_mask = inpaint.make_views()
     dev = trainer.device
     new_tex, hist = finetune_unseen(texture.to(dev), trainer.model.renderer, uv.to(dev), uv_mask.to(dev),

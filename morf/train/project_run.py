@@ -40,6 +40,10 @@ def train_project(project, cfg: TrainConfig, name: str | None = None, control: S
     from morf.train.data import build_frames
     from morf.train.pseudo_views import make_pseudo_views
 
+    if cfg.method == "rgb":  # the no-learning floor: no network, seconds
+        from morf.train.floor import train_floor
+
+        return train_floor(project, cfg, name, fits_source, model, control, restart=restart)
     control = control or StageControl()
     run = RunDir(project.runs_dir / (name or default_run_name(cfg)))
     if restart and run.root.exists():
@@ -52,7 +56,7 @@ def train_project(project, cfg: TrainConfig, name: str | None = None, control: S
     pf = build_frames(project, model, cfg.resolution, fits_source, control, holdout=cfg.holdout)
     notes = [f"fits: {pf.fits.source}; frames cache: {pf.cache_path}"]
     if cfg.holdout:
-        notes.append(f"hold-out: every {cfg.holdout}-th usable frame is kept out of training")
+        notes.append(f"hold-out: usable frames 0, K, 2K, ... (1 in K = {cfg.holdout}) are kept out of training")
     atlas = body_uv_atlas(model, cfg.texture_size, cfg.texture_size)
     fs = pf.frames
     if cfg.renderer.rgb_skip:  # channels 0-2 are colour: the frames projected; the rest spectral

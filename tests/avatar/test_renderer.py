@@ -95,3 +95,31 @@ def test_head_runs_its_concat_conv_split_by_resolution():
         h = F.interpolate(r.head_low(r.trunk(x)), scale_factor=2.0, mode="bilinear", align_corners=False)
         ref = r.head[:-1](torch.cat([h, x], 1))
         torch.testing.assert_close(r.features(x), ref, atol=1e-5, rtol=1e-5)
+
+
+def test_push_pull_fill_keeps_covered_and_fills_near_pixels():
+    from morf.avatar.renderer import push_pull_fill
+
+    rgb = torch.zeros(1, 3, 32, 32)
+    cov = torch.zeros(1, 1, 32, 32)
+    rgb[:, :, 8:24, 8:16] = torch.tensor([0.9, 0.2, 0.1]).view(1, 3, 1, 1)  # red block
+    rgb[:, :, 8:24, 16:24] = torch.tensor([0.1, 0.2, 0.8]).view(1, 3, 1, 1)  # blue block
+    cov[:, :, 8:24, 8:24] = 1
+    out = push_pull_fill(rgb, cov, 4)
+    assert torch.equal(out * cov, rgb * cov)  # covered pixels unchanged
+    left, right = out[0, :, 16, 5], out[0, :, 16, 26]  # off the mesh, beside each block
+    assert left[0] > 0.6 and left[2] < 0.4  # red side takes red
+    assert right[2] > 0.6 and right[0] < 0.4  # blue side takes blue
+    assert torch.isfinite(out).all() and out.min() >= 0 and out.max() <= 1
+
+
+def test_rgb_skip_starts_at_the_texture_colour():
+    """With rgb_skip the residual starts at zero: inside the mesh the colour is channels 0-2."""
+    torch.manual_seed(0)
+    r = UNetRenderer(RendererConfig(in_channels=8, width=8, depth=2, stem=2, skip_hidden=8, rgb_skip=True,
+                                    premultiply=False))
+    x = torch.rand(1, 8, 32, 32) * 0.8 + 0.1
+    x[..., :4, :] = 0  # a band off the mesh
+    out = r(x)
+    torch.testing.assert_close(out[:, :3, 4:], x[:, :3, 4:])
+    assert out[:, :3, :4].abs().sum() > 0  # off the mesh: filled from the neighbours, not black

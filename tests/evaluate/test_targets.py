@@ -24,8 +24,8 @@ def test_test_labels_become_a_target_and_say_what_was_trained_on():
     fits = _fits(6)
     t = dataset_test_target(p, fits)
     assert t.key == "test-split" and t.frame_ids == (1, 3) and t.applies_to(0) and t.applies_to(4)
-    assert trained_on(p, fits, 0, t.frame_ids) == 2  # nothing excludes test frames from training
-    assert trained_on(p, fits, 3, t.frame_ids) == 1  # hold-out 3 keeps usable frames 0 and 3 out
+    assert trained_on(p, fits, 0, t.frame_ids) == 0  # training leaves the published test frames out
+    assert trained_on(p, fits, 3, t.frame_ids) == 0
     assert dataset_test_target(_project(["test"] * 4), _fits(4)) is None  # a test-only import: nothing to compare
     assert dataset_test_target(SimpleNamespace(manifest={}, num_frames=2), _fits(2)) is None
 

@@ -43,11 +43,15 @@ def _run(path, x, output="rgba", background=None):
 @pytest.fixture(scope="module")
 def renderers():
     torch.manual_seed(0)
-    return {"stem2": UNetRenderer(RendererConfig(width=8, depth=2, stem=2, skip_hidden=8)).eval(),
-            "stem1": UNetRenderer(RendererConfig(width=8, depth=2, stem=1)).eval()}
+    out = {"stem2": UNetRenderer(RendererConfig(width=8, depth=2, stem=2, skip_hidden=8)).eval(),
+           "stem1": UNetRenderer(RendererConfig(width=8, depth=2, stem=1)).eval(),
+           "skip": UNetRenderer(RendererConfig(width=8, depth=2, stem=2, skip_hidden=8, rgb_skip=True)).eval()}
+    with torch.no_grad():  # a residual that is not zero, as after training
+        out["skip"].last.weight[:3].normal_(0, 0.05)
+    return out
 
 
-@pytest.mark.parametrize("name", ["stem2", "stem1"])
+@pytest.mark.parametrize("name", ["stem2", "stem1", "skip"])
 @pytest.mark.parametrize("layout", ["nhwc", "nchw", "planes"])
 def test_fp32_matches_torch(tmp_path, renderers, name, layout):
     rasters, scales = _rasters(1, seed=1)
@@ -61,10 +65,11 @@ def test_fp32_matches_torch(tmp_path, renderers, name, layout):
     np.testing.assert_allclose(_run(tmp_path / "r.onnx", feed), _torch_reference(renderers[name], x, scales), atol=2e-5)
 
 
-def test_int8_close_to_fp32(tmp_path, renderers):
+@pytest.mark.parametrize("name", ["stem2", "skip"])
+def test_int8_close_to_fp32(tmp_path, renderers, name):
     calib, scales = _rasters(4, seed=2)
     held, _ = _rasters(2, seed=5)
-    r = renderers["stem2"]
+    r = renderers[name]
     export_fp32(r, scales, tmp_path / "f.onnx")
     export_int8(r, scales, tmp_path / "q.onnx", calib)
     ops = {n.op_type for n in onnx.load(tmp_path / "q.onnx").graph.node}

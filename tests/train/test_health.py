@@ -11,7 +11,8 @@ from morf.train.run_dir import RunDir
 
 
 def _cfg(**kw):
-    kw = {"steps": 8, "checkpoint_minutes": 0.0, **kw}  # default: a checkpoint after every step
+    # default: a checkpoint after every step; the adversarial terms on (their rollback is tested here)
+    kw = {"steps": 8, "checkpoint_minutes": 0.0, "w_gan": 0.02, **kw}
     return preset("tiny", "stylepeople", resolution=32, batch_size=2, texture_size=32, inpaint_steps=0,
                   device="cpu", **kw)
 
