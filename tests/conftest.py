@@ -38,3 +38,36 @@ def gl():
         return gl_state()
     except GLUnavailable as e:
         pytest.skip(str(e))
+
+
+@pytest.fixture(scope="module")
+def one_torch_thread():
+    """Torch on one thread for a module: tiny tensors gain nothing from a second one, and the
+    trainings of a whole pipeline run take less than half the time without the thread hand-offs."""
+    import torch
+
+    prev = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(prev)
+
+
+@pytest.fixture(scope="session")
+def lpips_weights(tmp_path_factory):
+    """Random LPIPS weights in the layouts MoRF reads: ``(lin, vgg)`` paths of a state dict in the
+    lpips package's ``vgg.pth`` layout (positive lin weights) and a torchvision-format VGG-16."""
+    import torch
+
+    from morf.avatar.lpips import LIN_CHANNELS, LIN_KEYS
+    from morf.avatar.vgg import VGG16Features
+
+    root = tmp_path_factory.mktemp("lpips")
+    gen = torch.Generator().manual_seed(0)
+    with torch.random.fork_rng():
+        torch.manual_seed(0)
+        vgg = {k: v.clone() for k, v in VGG16Features().state_dict().items()}  # keys features.N.weight / .bias
+    vgg["classifier.0.weight"] = torch.zeros(2, 2)  # torchvision files carry the classifier too
+    lin = {k: torch.rand(1, c, 1, 1, generator=gen) + 0.01 for k, c in zip(LIN_KEYS, LIN_CHANNELS)}
+    torch.save(vgg, root / "vgg16.pth")
+    torch.save(lin, root / "lpips-vgg.pth")
+    return root / "lpips-vgg.pth", root / "vgg16.pth"

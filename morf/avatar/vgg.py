@@ -1,4 +1,6 @@
-"""VGG-16 features for the perceptual loss, loaded from a torchvision-format state dict on disk.
+"""VGG-16 features for the perceptual loss and for LPIPS (:mod:`morf.avatar.lpips`, which reads
+them up to relu5_3: ``load_vgg16(path, max_layer=29)``), loaded from a torchvision-format state
+dict on disk.
 
 No weights are ever downloaded. Point ``--vgg PATH`` or ``$MORF_VGG16_WEIGHTS`` at a file such as
 torchvision's ``vgg16-397923af.pth`` (keys ``features.N.weight`` / ``features.N.bias``; the
@@ -44,7 +46,11 @@ class VGG16Features(nn.Module):
 
     def forward(self, rgb: torch.Tensor, layers=FEATURE_LAYERS) -> list[torch.Tensor]:
         """(B, 3, H, W) RGB in [0, 1] -> activations after each index in ``layers``."""
-        x = (rgb - self.mean) / self.std
+        return self.activations((rgb - self.mean) / self.std, layers)
+
+    def activations(self, x: torch.Tensor, layers=FEATURE_LAYERS) -> list[torch.Tensor]:
+        """Activations after each index in ``layers`` of an input already normalised as the weights
+        expect (``forward`` applies the ImageNet mean and std first)."""
         out = []
         for i, m in enumerate(self.features):
             x = m(x)
@@ -61,19 +67,27 @@ def resolve_vgg_path(path: str | os.PathLike | None) -> Path | None:
     return Path(p) if p else None
 
 
-def load_vgg16(path: str | os.PathLike, max_layer: int = 22) -> VGG16Features:
-    """A frozen :class:`VGG16Features` (up to ``max_layer``) from a torchvision-format state dict."""
-    path = Path(path)
+def read_state_dict(path: Path, what: str) -> dict:
+    """The state dict in ``path`` (a ``{"state_dict": ...}`` wrapper unwrapped; {} when the file
+    holds no dict), read with ``torch.load(weights_only=True)``, which unpickles tensors and plain
+    containers only. A missing or unreadable file is an InputError naming ``what``."""
     if not path.is_file():
-        raise InputError(f"VGG-16 weights not found: {path}")
+        raise InputError(f"{what} not found: {path}")
     try:
         state = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as e:
-        raise InputError(f"cannot read VGG-16 weights {path}: {e}") from None
+        raise InputError(f"cannot read {what} {path}: {e}") from None
     if isinstance(state, dict) and "state_dict" in state and isinstance(state["state_dict"], dict):
         state = state["state_dict"]
+    return state if isinstance(state, dict) else {}
+
+
+def load_vgg16(path: str | os.PathLike, max_layer: int = 22) -> VGG16Features:
+    """A frozen :class:`VGG16Features` (up to ``max_layer``) from a torchvision-format state dict."""
+    path = Path(path)
+    state = read_state_dict(path, "VGG-16 weights")
     net = VGG16Features(max_layer)
-    wanted = {k: v for k, v in state.items() if k.startswith("features.")} if isinstance(state, dict) else {}
+    wanted = {k: v for k, v in state.items() if k.startswith("features.")}
     own = net.state_dict()
     missing = [k for k in own if k not in wanted]
     if missing:

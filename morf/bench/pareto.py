@@ -169,20 +169,36 @@ def seed_spread(rows: list[dict]) -> dict | None:
             "std_db": float(q.std(ddof=1))}
 
 
+def floor_point(project, sweep, model) -> dict:
+    """The RGB floor (no learning, :mod:`morf.train.floor`) on the base point's frames, scored as
+    the points are; its playback speed is not measured (it cannot be exported)."""
+    from morf.sizing.evaluate import holdout_quality
+    from morf.sizing.sweep import SweepPoint, resolve
+    from morf.train.floor import floor_request, train_floor
+
+    base = resolve(sweep, SweepPoint("base", "base"))
+    res = train_floor(project, floor_request(base.resolution, base.holdout), f"pareto-rgb-{base.resolution}",
+                      "ground-truth", model)
+    m = holdout_quality(project, res.run_dir, model, base.resolution)
+    return {"name": "rgb floor", "run": str(res.run_dir), "fps": None,
+            **{k: m[k] for k in (QUALITY, "ssim_person", "psnr", "temporal")}}
+
+
 def charts(rows: list[dict], front: dict, out: Path, fps_size: int, title: str,
-           noise: dict | None = None) -> list[str]:
+           noise: dict | None = None, floor: dict | None = None) -> list[str]:
     from morf.sizing.charts import front_chart
 
     paper = fps_size == 640
     base = next((r for r in rows if r["axis"] == "base"), None)
     spread = lambda x: (base[x], min(noise[QUALITY]), max(noise[QUALITY])) if noise and base else None  # noqa: E731
-    a = front_chart(rows, "fps", QUALITY, front["fps"], out / "pareto_fps.png", spread=spread("fps"),
+    ref = {"reference_y": floor[QUALITY], "reference_label": "rgb floor"} if floor else {}
+    a = front_chart(rows, "fps", QUALITY, front["fps"], out / "pareto_fps.png", spread=spread("fps"), **ref,
                     title=f"{title}: quality vs live fps", xlabel=f"fps at {fps_size}x{fps_size}, end to end, this CPU",
                     ylabel="hold-out PSNR on the person (dB)", target_x=30.0 if paper else None,
                     target_label="paper: 30 fps @640, Snapdragon 888", note=PAPER_NOTE if paper else
                     f"Measured at {fps_size}x{fps_size} (not the paper's 640x640): no paper reference applies.")
     b = front_chart(rows, "train_minutes", QUALITY, front["train"], out / "pareto_train.png",
-                    spread=spread("train_minutes"),
+                    spread=spread("train_minutes"), **ref,
                     title=f"{title}: quality vs training time", xlabel="training minutes (this CPU)",
                     ylabel="hold-out PSNR on the person (dB)", log_x=True,
                     note="The paper gives no comparable training time.")
@@ -271,16 +287,18 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
         r["on_front_fps"] = v["on_front_fps"] = bool(f1)
         r["on_front_train"] = v["on_front_train"] = bool(f2)
     noise = seed_spread(rows)
+    floor = floor_point(project, sweep, model)
     result = {"benchmark": "pareto", "preset": preset, "scene": scene, "project": str(project.root),
               "quality_metric": QUALITY, "fps_size": sweep.fps_size, "fps_precision_default": "int8",
               "points": rows, "front_fps": [r["name"] for r in rows if r["on_front_fps"]],
               "front_train": [r["name"] for r in rows if r["on_front_train"]], "seed_spread": noise, "reused": reused,
-              "seeds": seeds,
+              "seeds": seeds, "floor": floor,
               "paper_reference": {"fps": 30, "size": 640, "device": "Snapdragon 888", "params_m": 14.4, "ssim": 0.899,
                                   "lpips": 0.0623, "tlpips": 0.00466, "comparable": ["fps"], "note": PAPER_NOTE},
               "machine": machine_info()}
     over = f", means over {seeds} seeds" if seeds > 1 else ""
-    result["charts"] = charts(view, front, out, sweep.fps_size, f"{preset} sweep, {scene} scene{over}", noise)
+    result["charts"] = charts(view, front, out, sweep.fps_size, f"{preset} sweep, {scene} scene{over}", noise,
+                              floor)
     shown = view + [r for r in rows if r["axis"] in NOISE_AXES]
     table = [{**r, "params_M": r["params"] / 1e6, "front": ("fps " if r["on_front_fps"] else "")
               + ("train" if r["on_front_train"] else "")} for r in shown]
@@ -300,6 +318,8 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
           + (f"The base point over {len(noise['points'])} seeds spans {noise['range_db']:.2f} dB of {QUALITY} "
              f"(std {noise['std_db']:.2f} dB): differences smaller than that are within training noise; "
              "the seed points stay off the fronts.\n\n" if noise else "")
+          + f"RGB floor (no learning, `{Path(floor['run']).name}`): {floor[QUALITY]:.2f} dB {QUALITY} on the same "
+            "hold-out; its speed is not measured, so the charts draw it as a horizontal line.\n\n"
           + f"{PAPER_NOTE}\n")
     path = write_results(out, "pareto", result, md)
     print(f"wrote {path}")

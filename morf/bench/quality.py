@@ -18,7 +18,9 @@ method's seed-0 run | floor) and ``yt-<block>.png`` (y-t slices). ``quality.json
 ``{"preset", "project", "fits", "holdout", "seeds", "methods", "blocks": {key: {"title", "frames",
 "sheet", "slices", "methods": {method: {"mean", "seeds", "spread", "diverged"}}, "checks"}},
 "runs": [...], "training_checks", "targets_missed", "targets_not_measured", "machine", ...}``.
-LPIPS is not computed (no LPIPS weights in MoRF).
+LPIPS (:mod:`morf.avatar.lpips`) is scored when ``--lpips PATH`` (or ``$MORF_LPIPS_WEIGHTS``) names
+the ``lpips`` package's ``weights/v0.1/vgg.pth`` and ``--vgg`` (or ``$MORF_VGG16_WEIGHTS``) the
+VGG-16 weights, which the trainings then use for their perceptual loss too; null otherwise.
 """
 
 from __future__ import annotations
@@ -44,7 +46,11 @@ def add_arguments(p):
     p.add_argument("--steps", type=int, default=None, help="override the preset's training steps")
     p.add_argument("--fits", choices=("fits", "ground-truth", "auto"), default="fits",
                    help="body fits to train on (default: fitted bodies; the capture is fitted when it has none)")
-    p.add_argument("--vgg", default=None, help="VGG-16 weights for the perceptual loss (else feature matching)")
+    p.add_argument("--vgg", default=None, help="VGG-16 weights for the perceptual loss (else feature matching) "
+                                               "and for LPIPS")
+    p.add_argument("--lpips", default=None, metavar="PATH",
+                   help="LPIPS v0.1 linear layers (the lpips package's weights/v0.1/vgg.pth; default "
+                        "$MORF_LPIPS_WEIGHTS) to score LPIPS with; needs the VGG-16 weights too (else null)")
 
 
 def parse_methods(text: str) -> list[str]:
@@ -70,14 +76,15 @@ def run(args) -> int:
     if args.steps is not None and args.steps < 1:
         raise InputError(f"--steps must be at least 1, got {args.steps}")
     run_quality(Path(args.out), args.preset, methods, seeds=args.seeds, holdout=args.holdout, steps=args.steps,
-                fits=args.fits, vgg=args.vgg, project_path=args.project)
+                fits=args.fits, vgg=args.vgg, lpips=args.lpips, project_path=args.project)
     return 0
 
 
 def run_quality(out: Path, preset: str, methods: list[str], *, seeds: int = 1, holdout: int = 5,
                 steps: int | None = None, fits: str = "fits", vgg: str | None = None,
-                project_path: str | None = None, model=None) -> dict:
+                lpips: str | None = None, project_path: str | None = None, model=None) -> dict:
     """Train, evaluate and write everything into ``out``; returns the quality.json content."""
+    from morf.avatar.lpips import find_lpips
     from morf.bench.common import machine_info, write_results
     from morf.bench.quality_capture import bench_capture
     from morf.bench.quality_checks import block_checks, training_checks
@@ -87,6 +94,7 @@ def run_quality(out: Path, preset: str, methods: list[str], *, seeds: int = 1, h
     from morf.evaluate.project_eval import EvalConfig, evaluate_project, format_table
     from morf.train.data import load_body_fits
 
+    find_lpips(lpips, vgg)  # bad LPIPS or VGG-16 files fail now, not after the trainings
     if model is None:
         from morf.body import load_body_model
 
@@ -100,7 +108,8 @@ def run_quality(out: Path, preset: str, methods: list[str], *, seeds: int = 1, h
     for r in scored:
         first.setdefault(r.method, r.name)  # each method's column on the sheets: its first scored seed
     ev = evaluate_project(project, EvalConfig(runs=tuple(r.name for r in scored), out=str(out), floor=False,
-                                              sheet_runs=tuple(first.values())), model, say=print)
+                                              sheet_runs=tuple(first.values()), lpips=lpips, vgg=vgg),
+                          model, say=print)
     print(format_table(ev))
     keys = sorted(ev["targets"], key=lambda k: k != "novel-poses")  # novel poses first, as before
     blocks = [block_scores(ev, k, runs) for k in keys]
@@ -118,6 +127,7 @@ def run_quality(out: Path, preset: str, methods: list[str], *, seeds: int = 1, h
               # the load average says how much of the shared CPU the run actually had
               "load_average": list(os.getloadavg())}
     path = write_results(out, "quality", result, quality_markdown(head, blocks, runs, training))
-    print("targets missed: " + (", ".join(result["targets_missed"]) or "none"))
+    print("targets missed: " + (", ".join(result["targets_missed"]) or "none")
+          + f"; not measured: {len(result['targets_not_measured'])}")
     print(f"wrote {path}")
     return result

@@ -59,7 +59,8 @@ class Checks:
         return {t.name: t.met(self.values.get(t.name)) for t in self.targets}
 
     def to_dict(self) -> dict:
-        return {**self.values, "targets": {t.name: {"want": f"{t.op} {t.bound:g}", "met": t.met(self.values.get(t.name))}
+        met = self.met
+        return {**self.values, "targets": {t.name: {"want": f"{t.op} {t.bound:g}", "met": met[t.name]}
                                            for t in self.targets}}
 
 

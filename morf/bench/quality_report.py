@@ -10,6 +10,7 @@ from morf.bench.quality_scores import BlockScores
 
 BLOCK_COLUMNS = ["method", "runs", "psnr", "psnr_person", "psnr_person per seed", "psnr_person spread", "ssim",
                  "ssim_person", "ssim_person spread", "temporal"]
+LPIPS_COLUMNS = ["lpips", "lpips_person"]  # shown when LPIPS was scored
 RUN_COLUMNS = ["run", "method", "seed", "train_minutes", "plateau_minutes", "steps", "diverged"]
 
 
@@ -44,14 +45,19 @@ def quality_markdown(head: dict, blocks: list[tuple[BlockScores, Checks]], runs:
 
     seeds, k = head["seeds"], head["holdout"]
     held = f"every {ordinal(k)} usable capture frame kept out of training" if k else "no capture frame kept out"
-    md = (f"# Avatar quality ({head['preset']} preset, {head['fits']} fits, {seeds} seed{'s' * (seeds > 1)})\n\n"
-          f"Capture `{head['project']}`; every learned method trained with seeds 0 to {seeds - 1}, the RGB floor "
+    trained = f"with seeds 0 to {seeds - 1}" if seeds > 1 else "once (seed 0)"
+    bodies = "fitted bodies" if head["fits"] == "fits" else f"{head['fits']} bodies"
+    md = (f"# Avatar quality ({head['preset']} preset, {bodies}, {seeds} seed{'s' * (seeds > 1)})\n\n"
+          f"Capture `{head['project']}`; every learned method trained {trained}, the RGB floor "
           f"(rgb, no learning) built once; {held}. Means over the seeds; spread = max - min over them. PSNR in "
           "dB, SSIM, both over the image and over the person (higher is better); temporal = flicker (lower is "
           "better).\n")
+    lpips = any(s.mean.get(k) is not None for b, _ in blocks for s in b.methods.values() for k in LPIPS_COLUMNS)
+    if lpips:
+        md += "LPIPS (v0.1, vgg) over the image and over the person: lower is better.\n"
     for block, checks in blocks:
-        md += (f"\n## {block.title} ({block.frames} frames)\n\n"
-               + markdown_table(block_rows(block), BLOCK_COLUMNS, "{:.4g}")
+        md += (f"\n## {block.title[:1].upper()}{block.title[1:]}, {block.frames} frames\n\n"
+               + markdown_table(block_rows(block), BLOCK_COLUMNS + (LPIPS_COLUMNS if lpips else []), "{:.4g}")
                + "\n" + checks_lines(checks)
                + f"\n![comparison sheet: real | each method (seed 0) | floor]({block.sheet})\n\n"
                + f"![y-t slices]({block.slices})\n")

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 from morf.bench.quality_runs import BenchRun
 
-METRICS = ("psnr", "psnr_person", "ssim", "ssim_person", "temporal")
+# the LPIPS means are None when morf eval had no LPIPS weights
+METRICS = ("psnr", "psnr_person", "ssim", "ssim_person", "temporal", "lpips", "lpips_person")
 SPREAD_KEYS = ("psnr_person", "ssim_person")
 
 

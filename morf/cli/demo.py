@@ -31,7 +31,8 @@ class DemoPreset:
 PRESETS = {
     # Seconds: what CI runs.
     "tiny": DemoPreset("tiny", "fast", "tiny", None, 128, 8),
-    # About a quarter of an hour on 2 CPU cores: a default-size capture, a short cpu-preset training.
+    # Under ten minutes on 2 CPU cores: a default-size capture, a short cpu-preset training (the
+    # colour starts from the projected frames, so a few hundred steps already look like the person).
     "quick": DemoPreset("default", "default", "cpu", 600, 640, 240),
     # The cpu preset trained to its plateau (tens of minutes).
     "full": DemoPreset("default", "default", "cpu", None, 640, 0),

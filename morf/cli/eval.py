@@ -1,7 +1,8 @@
 """``morf eval PROJECT``: score trained avatars on frames they never trained on, beside the RGB floor.
 
 Writes ``eval.json``, a comparison sheet and space-time (y-t) slices per target into ``--out``
-(default ``PROJECT/eval``) and prints a table. See :mod:`morf.evaluate.project_eval`.
+(default ``PROJECT/eval``) and prints a table; LPIPS with ``--lpips PATH --vgg PATH`` (or their
+environment variables). See :mod:`morf.evaluate.project_eval`.
 """
 
 from __future__ import annotations
@@ -19,6 +20,11 @@ def add_parser(sub):
     p.add_argument("--resolution", default=None, metavar="R",
                    help="evaluation side in pixels (a multiple of the renderer's), or 'native' for the crop's size "
                         "in the capture (default: each run's training resolution)")
+    p.add_argument("--lpips", default=None, metavar="PATH",
+                   help="LPIPS v0.1 linear layers, the lpips package's weights/v0.1/vgg.pth (default: "
+                        "$MORF_LPIPS_WEIGHTS; neither: LPIPS is null). Needs the VGG-16 weights too")
+    p.add_argument("--vgg", default=None, metavar="PATH",
+                   help="torchvision's VGG-16 weights (vgg16-397923af.pth) for LPIPS (default: $MORF_VGG16_WEIGHTS)")
     return p
 
 
@@ -44,7 +50,7 @@ def run(args) -> int:
 
     project = CaptureProject.open(args.project)
     cfg = EvalConfig(runs=tuple(args.run), out=args.out, floor=args.floor,
-                     resolution=parse_resolution(args.resolution))
+                     resolution=parse_resolution(args.resolution), lpips=args.lpips, vgg=args.vgg)
     result = evaluate_project(project, cfg, say=print)
     print(format_table(result))
     out = Path(args.out) if args.out else Path(project.root) / "eval"

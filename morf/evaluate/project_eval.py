@@ -7,8 +7,9 @@ camera at the evaluation side (:mod:`morf.evaluate.frames`) and scored with
 :func:`morf.train.project_run.evaluate_frames` (PSNR / SSIM over the image and the person, both
 composited over the capture's backdrop colour; temporal flicker over consecutive target frames).
 The floor (method rgb, :mod:`morf.train.floor`) with each evaluated hold-out setting is included,
-built first when the project has none. LPIPS is reported as null: MoRF has no LPIPS network or
-weights (``morf/avatar/vgg.py`` holds VGG-16 for the perceptual loss only).
+built first when the project has none. LPIPS (:mod:`morf.avatar.lpips`, on the same composited
+images, :mod:`morf.evaluate.perceptual`) is computed when its weights are on disk (``lpips`` /
+``$MORF_LPIPS_WEIGHTS`` and ``vgg`` / ``$MORF_VGG16_WEIGHTS``) and reported as null otherwise.
 """
 
 from __future__ import annotations
@@ -24,9 +25,19 @@ from morf.errors import ProjectError
 from morf.evaluate.runs import RunInfo, find_floor, floor_run_name, free_for_floor, read_run, select_runs
 from morf.evaluate.targets import EvalTarget, holdout_target, novel_poses_target, dataset_test_target, trained_on
 
-LPIPS_NOTE = ("not computed: MoRF has no LPIPS network or weights (morf/avatar/vgg.py holds VGG-16 for the "
-              "perceptual loss only)")
+LPIPS_NOTE = ("not computed: no LPIPS weights given (--lpips PATH or $MORF_LPIPS_WEIGHTS: the lpips package's "
+              "weights/v0.1/vgg.pth, with the VGG-16 weights from --vgg PATH or $MORF_VGG16_WEIGHTS)")
 METRIC_KEYS = ("psnr", "psnr_person", "ssim", "ssim_person", "temporal")
+LPIPS_KEYS = ("lpips", "lpips_person")
+
+
+def lpips_note(metric) -> str:
+    """eval.json's ``lpips`` entry: what was computed from which files, or why nothing was."""
+    if metric is None:
+        return LPIPS_NOTE
+    lin, vgg = metric.files or ("?", "?")
+    return (f"LPIPS v0.1 vgg (Zhang et al. 2018) from {lin} and {vgg}, on the composited images; lpips_person "
+            "averages every level over the person mask resized to it (MoRF's extension)")
 
 
 @dataclass(frozen=True)
@@ -38,7 +49,9 @@ class EvalConfig:
         floor: include the RGB floor of each hold-out setting (built when missing);
         resolution: None (each run's training side), "native" (the crop's capture pixels) or a side;
         sheet_rows: frames per comparison sheet; sheet_runs: the runs given a column on the sheets
-        and y-t slices (empty: every scored run; the floors always get one).
+        and y-t slices (empty: every scored run; the floors always get one);
+        lpips, vgg: the LPIPS linear-layer and VGG-16 weights files (None: ``$MORF_LPIPS_WEIGHTS``,
+        ``$MORF_VGG16_WEIGHTS``; no LPIPS file at all: LPIPS is null).
     """
 
     runs: tuple[str, ...] = ()
@@ -47,6 +60,8 @@ class EvalConfig:
     resolution: int | str | None = None
     sheet_rows: int = 4
     sheet_runs: tuple[str, ...] = ()
+    lpips: str | None = None
+    vgg: str | None = None
 
     def on_sheet(self, run: RunInfo) -> bool:
         return run.is_floor or not self.sheet_runs or run.name in self.sheet_runs
@@ -96,10 +111,12 @@ def ensure_floors(project, runs: list[RunInfo], model, say: Callable[[str], None
 def evaluate_project(project, cfg: EvalConfig = EvalConfig(), model=None,
                      say: Callable[[str], None] = lambda line: None) -> dict:
     """Evaluate, write everything into the output folder, and return the eval.json content."""
+    from morf.avatar.lpips import find_lpips
     from morf.avatar.trained import load_trained_avatar
     from morf.train.data import load_body_fits
 
     load_body_fits(project, "auto")  # a project without fits fails here, in one line
+    metric = find_lpips(cfg.lpips, cfg.vgg)  # None without weights; bad files fail here, before any work
     runs = select_runs(project, cfg.runs)
     if model is None:
         from morf.body import load_body_model
@@ -133,7 +150,7 @@ def evaluate_project(project, cfg: EvalConfig = EvalConfig(), model=None,
                  "fits": run.fits_source, "floor": run.is_floor, "targets": {}}
         for target in mine:
             tr = _target_slot(targets, target)
-            metrics = _score(project, model, avatar, run, target, fits, tr, cfg, say)
+            metrics = _score(project, model, avatar, run, target, fits, tr, cfg, metric, say)
             entry["targets"][tr.target.key] = metrics
         report_runs[run.name] = entry
     if not targets:
@@ -141,7 +158,7 @@ def evaluate_project(project, cfg: EvalConfig = EvalConfig(), model=None,
     out = Path(cfg.out) if cfg.out else Path(project.root) / "eval"
     order = sorted(targets, key=lambda k: (k == "novel-poses", k))  # capture frames first
     result = {"project": str(Path(project.root).resolve()), "resolution": cfg.resolution or "training",
-              "lpips": LPIPS_NOTE, "runs": report_runs, "skipped": skipped,
+              "lpips": lpips_note(metric), "runs": report_runs, "skipped": skipped,
               "targets": {k: _write_target(targets[k], out) for k in order}}
     from morf.io import atomic_write_json
 
@@ -160,7 +177,7 @@ def _target_slot(targets: dict, target: EvalTarget) -> _TargetResults:
 
 
 def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _TargetResults, cfg: EvalConfig,
-           say) -> dict:
+           metric, say) -> dict:
     from morf.evaluate.frames import eval_side, scaled_camera, target_frames
     from morf.evaluate.views import person_column, real_views, render_views, sheet_rows
     from morf.train.project_run import evaluate_frames
@@ -176,7 +193,13 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
         if side > tr.real_side:
             tr.real, tr.real_side = real_views(frames, colour, tr.rows, tr.column), side
         tr.scored.append((run, metrics, render_views(avatar, frames, colour, tr.rows, tr.column)))
-    metrics.update({"lpips": None, "resolution": side})
+    if metric is not None:
+        from morf.evaluate.perceptual import lpips_scores
+
+        metrics.update(lpips_scores(metric, avatar, frames, colour))
+    else:
+        metrics.update(dict.fromkeys(LPIPS_KEYS))
+    metrics["resolution"] = side
     if target.kind == "capture":  # how many of these frames the run trained on (0 for its own hold-out)
         metrics["trained_on"] = trained_on(project, fits, run.holdout, target.frame_ids)
     return metrics
@@ -211,9 +234,12 @@ def _write_target(tr: _TargetResults, out: Path) -> dict:
 def format_table(result: dict) -> str:
     """A short plain-text table of the scores, one block per target."""
     lines = []
+    lpips = any(m.get(k) is not None for e in result["runs"].values() for m in e["targets"].values()
+                for k in LPIPS_KEYS)  # LPIPS columns only when computed
     for key, t in result["targets"].items():
         lines.append(f"{key}: {t['title']}, {len(t['frame_ids'])} frames")
-        lines.append(f"  {'run':<24} {'px':>5} {'PSNR':>7} {'person':>7} {'SSIM':>6} {'person':>6} {'flicker':>8}")
+        lines.append(f"  {'run':<24} {'px':>5} {'PSNR':>7} {'person':>7} {'SSIM':>6} {'person':>6} {'flicker':>8}"
+                     + (f" {'LPIPS':>6} {'person':>6}" if lpips else ""))
         for name in scored_runs(result, key):
             m = result["runs"][name]["targets"][key]
 
@@ -221,13 +247,14 @@ def format_table(result: dict) -> str:
                 return format(m[k], fmt) if m.get(k) is not None else "n/a"
 
             lines.append(f"  {name:<24} {m['resolution']:>5} {f('psnr', '7.2f'):>7} {f('psnr_person', '7.2f'):>7} "
-                         f"{f('ssim', '6.3f'):>6} {f('ssim_person', '6.3f'):>6} {f('temporal', '8.4f'):>8}")
+                         f"{f('ssim', '6.3f'):>6} {f('ssim_person', '6.3f'):>6} {f('temporal', '8.4f'):>8}"
+                         + (f" {f('lpips', '6.3f'):>6} {f('lpips_person', '6.3f'):>6}" if lpips else ""))
     for name, why in result["skipped"].items():
         lines.append(f"skipped {name}: {why}")
     return "\n".join(lines)
 
 
 def scored_runs(result: dict, key: str) -> list[str]:
-    """The runs of an eval.json scored on target ``key``: the sheet's columns first, then the rest."""
-    columns = result["targets"][key]["columns"][1:]
-    return columns + [n for n, e in result["runs"].items() if key in e["targets"] and n not in columns]
+    """The runs of an eval.json scored on target ``key``, the floors last (the sheet's order)."""
+    scored = [(n, e["floor"]) for n, e in result["runs"].items() if key in e["targets"]]
+    return [n for n, floor in scored if not floor] + [n for n, floor in scored if floor]

@@ -18,7 +18,8 @@ def _pyplot():
 
 def front_chart(points: list[dict], x: str, y: str, front: np.ndarray, path: Path, *, title: str, xlabel: str,
                 ylabel: str, log_x: bool = False, target_x: float | None = None, target_label: str = "",
-                note: str = "", spread: tuple[float, float, float] | None = None) -> Path:
+                note: str = "", spread: tuple[float, float, float] | None = None,
+                reference_y: float | None = None, reference_label: str = "") -> Path:
     """Scatter of ``points[i][x]`` against ``points[i][y]`` with the Pareto front drawn as a step line.
 
     Args:
@@ -26,6 +27,8 @@ def front_chart(points: list[dict], x: str, y: str, front: np.ndarray, path: Pat
         target_x: draws a vertical line there (e.g. the paper's 30 fps), labelled ``target_label``.
         note: a footnote under the axes (what is comparable with the paper and what is not).
         spread: (x, low, high): the base point's range over training seeds, drawn as a bar at x.
+        reference_y: a quality with no speed on this axis (the RGB floor), drawn as a horizontal
+            line labelled ``reference_label``.
     A point trained with several seeds (``p["seed_runs"][y]``, its ``y`` then their mean) gets the
     range of its runs as a grey bar.
     """
@@ -51,6 +54,8 @@ def front_chart(points: list[dict], x: str, y: str, front: np.ndarray, path: Pat
     if spread is not None and all(v is not None and np.isfinite(v) for v in spread):
         ax.vlines(spread[0], spread[1], spread[2], colors="tab:orange", lw=3, alpha=0.6, zorder=2,
                   label="base over training seeds")
+    if reference_y is not None and np.isfinite(reference_y):
+        ax.axhline(reference_y, c="tab:green", ls=":", lw=1.5, label=reference_label)
     if target_x is not None:
         ax.axvline(target_x, c="tab:blue", ls="--", lw=1)
         ax.text(target_x, ax.get_ylim()[0], " " + target_label, color="tab:blue", fontsize=8, rotation=90,

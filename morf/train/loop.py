@@ -114,8 +114,14 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
     else:
         run.log(f"start: method {cfg.method}, preset {cfg.preset}, {frames.num_frames} frames at "
                 f"{frames.resolution} px, device {trainer.device}")
-        run.log("perceptual loss: VGG-16" if perceptual is not None else
-                "perceptual loss: no VGG-16 weights (--vgg / MORF_VGG16_WEIGHTS); using discriminator feature matching instead")
+        if perceptual is not None:
+            run.log("perceptual loss: VGG-16")
+        elif cfg.w_gan > 0 and cfg.w_feature_matching > 0:
+            run.log("perceptual loss: no VGG-16 weights (--vgg / MORF_VGG16_WEIGHTS); using discriminator "
+                    "feature matching instead")
+        else:
+            run.log("perceptual loss: none (no VGG-16 weights given with --vgg / MORF_VGG16_WEIGHTS); "
+                    f"structure from the SSIM term (weight {cfg.w_ssim})")
         if cfg.bf16:
             run.log("bfloat16 autocast: " + ("on" if trainer.bf16 else
                                              "off (this CPU has neither AMX-BF16 nor AVX512-BF16; emulated it is slower)"))

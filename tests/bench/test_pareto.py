@@ -29,6 +29,9 @@ def test_tiny_sweep_writes_results_and_resumes(tmp_path, body_model, gl):
     base, fp32 = data["points"][0], data["points"][2]
     assert base["run"] == fp32["run"] and base["psnr_person"] == fp32["psnr_person"]
     assert data["paper_reference"]["comparable"] == ["fps"]
+    floor = data["floor"]  # the RGB floor: a quality with no speed, a line on the charts
+    assert floor["fps"] is None and floor["psnr_person"] is not None and floor["run"].endswith("pareto-rgb-64")
+    assert "RGB floor" in (out / "pareto.md").read_text()
     for png in ("pareto_fps.png", "pareto_train.png"):
         assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert res["reused"] == []

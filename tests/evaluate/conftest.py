@@ -34,7 +34,9 @@ def evaluated(tmp_path_factory, gl, body_model):
     import io
 
     buf = io.StringIO()
-    with contextlib.redirect_stdout(buf):
+    with contextlib.redirect_stdout(buf), pytest.MonkeyPatch.context() as mp:
+        mp.delenv("MORF_LPIPS_WEIGHTS", raising=False)  # a user's LPIPS weights must not change this test
+        mp.delenv("MORF_VGG16_WEIGHTS", raising=False)
         assert main(["eval", str(root)]) == 0
     out = root / "eval"
     return {"project": project, "run": "morf-tiny", "eval": json.loads((out / "eval.json").read_text()), "out": out,

@@ -1,5 +1,6 @@
 """``morf train --holdout K`` then ``morf eval``: scores, the floor, the images, the split, bad input."""
 
+import json
 import math
 
 import cv2
@@ -20,7 +21,7 @@ def test_eval_scores_every_run_and_the_floor(evaluated):
     for name, entry in ev["runs"].items():
         for key, m in entry["targets"].items():
             assert all(math.isfinite(m[k]) for k in METRICS), (name, key, m)
-            assert m["lpips"] is None and m["resolution"] == 64
+            assert m["lpips"] is None and m["lpips_person"] is None and m["resolution"] == 64
             assert m["frames"] == len(ev["targets"][key]["frame_ids"])
     held = ev["targets"]["holdout-k3"]
     assert held["columns"] == ["real", run, "rgb-holdout3"] and len(held["frame_ids"]) == 4
@@ -78,6 +79,24 @@ def test_floor_is_reused_and_options_apply(evaluated, tmp_path, body_model):
     native = int(round(crop_of(project.camera(), av.camera)[2] / m)) * m
     assert ev["runs"][run]["targets"]["holdout-k3"]["resolution"] == native != 64
     assert np.isfinite(ev["runs"][run]["targets"]["holdout-k3"]["psnr"])
+
+
+def test_lpips_from_weights_on_disk(evaluated, lpips_weights, tmp_path, capsys):
+    lin, vgg = lpips_weights
+    root = str(evaluated["project"].root)
+    assert evaluated["eval"]["lpips"].startswith("not computed")  # no weights: null, with the note
+    assert main(["eval", root, "--lpips", str(lin), "--vgg", str(vgg), "--out", str(tmp_path / "e")]) == 0
+    assert "LPIPS" in capsys.readouterr().out
+    ev = json.loads((tmp_path / "e" / "eval.json").read_text())
+    assert str(lin) in ev["lpips"] and str(vgg) in ev["lpips"]
+    assert set(ev["runs"]) == {evaluated["run"], "rgb-holdout3"}
+    for name, entry in ev["runs"].items():
+        for key, m in entry["targets"].items():
+            assert all(math.isfinite(m[k]) and m[k] > 0 for k in ("lpips", "lpips_person")), (name, key, m)
+            assert m["psnr"] == evaluated["eval"]["runs"][name]["targets"][key]["psnr"]  # the other scores unchanged
+    _one_line_error(capsys, ["eval", root, "--lpips", str(tmp_path / "none.pth"), "--vgg", str(vgg)],
+                    "LPIPS weights not found")
+    _one_line_error(capsys, ["eval", root, "--lpips", str(lin), "--vgg", str(lin)], "VGG-16")
 
 
 def _one_line_error(capsys, argv, text):
