@@ -64,7 +64,7 @@ def target_frames(project, model, target, fits: BodyFitArrays | None, shape: np.
     """The FrameSet of an :class:`~morf.evaluate.targets.EvalTarget` through ``working``."""
     if target.kind == "capture":
         return capture_frames(project, model, fits, target.frame_ids, working)
-    fs = build_holdout_frames(project, model, working, shape)
+    fs = build_holdout_frames(project, model, working, shape, fits)  # moved into the fitted frame
     if fs is None:
         raise InputError(f"{project.root} has no hold-out sequence")
     return fs

@@ -82,14 +82,16 @@ def _preview(out, batch, texture: torch.Tensor | None = None) -> dict[str, np.nd
 
 def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, texture_init: torch.Tensor,
                  control: StageControl | None = None, perceptual=None, inpaint: InpaintViews | None = None,
-                 shape: torch.Tensor | None = None, camera=None, notes: list[str] | None = None) -> TrainResult:
+                 shape: torch.Tensor | None = None, camera=None, notes: list[str] | None = None,
+                 zoom_frames: FrameSet | None = None) -> TrainResult:
     """Train (or resume) a run in ``run_dir``.
 
     Args:
         frames: the training frames; texture_init: (C, Ht, Wt) initial neural texture (ignored on resume);
         control: progress + pause/stop; perceptual: a PerceptualLoss or None (then the discriminator's
         feature matching is used, and the log says so); inpaint: pseudo views for the fine-tune or None;
-        shape, camera: stored with the avatar for export; notes: extra lines for the log.
+        shape, camera: stored with the avatar for export; notes: extra lines for the log;
+        zoom_frames: the same frames at ``cfg.zoom_resolution`` (every other step), or None.
     Raises:
         TrainingDiverged: NaN/inf or a collapsed mask (``health.py``) that rolling back with halved
             learning rates (``cfg.max_recoveries`` times; to the last snapshot or checkpoint, or to
@@ -107,7 +109,9 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
                              "resume it with the same options, or use --restart or another --name")
     else:
         run.save_config(cfg)
-    trainer = Trainer(cfg, frames, texture_init, perceptual=perceptual)
+    if cfg.zoom_resolution and zoom_frames is None:
+        raise InputError(f"the config asks for frames at {cfg.zoom_resolution} px as well; none were given")
+    trainer = Trainer(cfg, frames, texture_init, perceptual=perceptual, zoom_frames=zoom_frames)
     if run.has_checkpoint:
         trainer.load_state_dict(run.load_checkpoint(map_location=trainer.device))
         run.log(f"resumed at step {trainer.step}")

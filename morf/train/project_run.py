@@ -54,7 +54,12 @@ def train_project(project, cfg: TrainConfig, name: str | None = None, control: S
     control.report(Progress("train", 0, cfg.steps, "loading body model"))
     model = model or load_body_model("anny")
     pf = build_frames(project, model, cfg.resolution, fits_source, control, holdout=cfg.holdout)
+    zoom = None
+    if cfg.zoom_resolution:
+        zoom = build_frames(project, model, cfg.zoom_resolution, fits_source, control, holdout=cfg.holdout).frames
     notes = [f"fits: {pf.fits.source}; frames cache: {pf.cache_path}"]
+    if zoom is not None:
+        notes.append(f"every other step: {cfg.crop or cfg.resolution} px crops of the frames at {cfg.zoom_resolution} px")
     if cfg.holdout:
         notes.append(f"hold-out: usable frames 0, K, 2K, ... (1 in K = {cfg.holdout}) are kept out of training")
     atlas = body_uv_atlas(model, cfg.texture_size, cfg.texture_size)
@@ -81,7 +86,7 @@ def train_project(project, cfg: TrainConfig, name: str | None = None, control: S
         return make_pseudo_views(model, pf.fits.shape, pf.camera, fs.rotvecs[mid], centre, cfg.inpaint_views)
 
     return train_avatar(fs, run.root, cfg, tex, control, perceptual, InpaintViews(atlas.covered, views),
-                        shape=torch.from_numpy(pf.fits.shape), camera=pf.camera, notes=notes)
+                        shape=torch.from_numpy(pf.fits.shape), camera=pf.camera, notes=notes, zoom_frames=zoom)
 
 
 def evaluate_frames(avatar, frames, background: str = "capture") -> dict:

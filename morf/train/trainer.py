@@ -40,9 +40,13 @@ def pick_device(name: str = "auto") -> torch.device:
 class Trainer:
     """Training state for one run. Use :meth:`train_step`; save with :meth:`state_dict`."""
 
-    def __init__(self, cfg: TrainConfig, frames: FrameSet, texture_init: torch.Tensor, device=None, perceptual=None):
+    def __init__(self, cfg: TrainConfig, frames: FrameSet, texture_init: torch.Tensor, device=None, perceptual=None,
+                 zoom_frames: FrameSet | None = None):
         self.cfg = cfg
         self.frames = frames
+        if zoom_frames is not None and not np.array_equal(zoom_frames.frame_ids, frames.frame_ids):
+            raise ValueError("the zoomed frames must be the same frames as the training frames")
+        self.zoom_frames = zoom_frames  # the same frames at cfg.zoom_resolution (every other step)
         self.device = torch.device(device) if device is not None else pick_device(cfg.device)
         torch.manual_seed(cfg.seed)
         self.model = AvatarModel(texture_init.float(), cfg.renderer, cfg.warp if cfg.method == "morf" else None,
@@ -150,6 +154,8 @@ class Trainer:
         rng = np.random.default_rng([self.cfg.seed, self.step])
         N, B = self.frames.num_frames, self.cfg.batch_size
         idx = rng.choice(N, size=B, replace=N < B)
+        if self.zoom_frames is not None and self.step % 2 == 1:
+            return self.zoom_frames.batch(idx, self.cfg.crop or self.cfg.resolution, rng, self.device)
         return self.frames.batch(idx, self.cfg.crop, rng, self.device)
 
     def train_step(self) -> tuple[dict[str, float], AvatarOutput, Batch]:

@@ -233,3 +233,24 @@ def test_preview_shows_the_warp_and_its_effect_on_the_texture():
     moved = _preview(SimpleNamespace(rgb=torch.rand(1, 3, 8, 8), offsets=torch.full((1, 2, 16, 16), 0.2)), batch, tex)
     assert not np.array_equal(moved["warp_effect"][:, :16], moved["warp_effect"][:, 16:])
     assert "warp" not in _preview(SimpleNamespace(rgb=torch.rand(1, 3, 8, 8), offsets=None), batch, tex)
+
+
+def test_zoomed_frames_take_every_other_step(frames_factory):
+    """With zoom_resolution the odd steps train on crops of the same frames at the larger side."""
+    import dataclasses
+
+    cfg = tiny("stylepeople", resolution=32, zoom_resolution=64, steps=4)
+    small = frames_factory(n=4, res=32)
+    large = frames_factory(n=4, res=64)
+    large = dataclasses.replace(large, images=np.full_like(large.images, 255))  # tells the two sets apart
+    tr = Trainer(cfg, small, texture_init(cfg), zoom_frames=large)
+    seen = []
+    for _ in range(4):
+        batch = tr.next_batch()
+        seen.append((batch.image.shape[-1], bool((batch.image == 1).all())))
+        tr.train_step()
+    assert seen == [(32, False), (32, True), (32, False), (32, True)]  # same cost, every other step zoomed
+    with pytest.raises(ValueError):
+        Trainer(cfg, small, texture_init(cfg), zoom_frames=frames_factory(n=3, res=64))
+    with pytest.raises(InputError):
+        tiny("stylepeople", resolution=32, zoom_resolution=36).validate()  # not a multiple of 8
