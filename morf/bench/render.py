@@ -165,7 +165,7 @@ def _build(tmp: Path, names: list[str], size: int) -> dict[str, Path]:
     jobs = [(n, "nhwc") for n in names] + [(DEFAULT_VARIANT, "nchw")]
     for name, layout in jobs:
         key = name if layout == "nhwc" else f"{name}@{layout}"
-        cfg = RendererConfig(in_channels=16, **RENDERERS[name])
+        cfg = RendererConfig(in_channels=16, rgb_skip=True, **RENDERERS[name])  # as the presets train them
         print(f"building synthetic avatar {key} ({count_parameters(UNetRenderer(cfg)) / 1e6:.2f} M parameters)", file=sys.stderr)
         build_synthetic_avatar(tmp / key, body_model=body, renderer_cfg=cfg, image_size=size, calibration_views=6,
                                heldout_views=2, input_layout=layout)

@@ -61,14 +61,15 @@ def resolve_config(args, project=None):
                                    ("ema_decay", getattr(args, "ema", None)),
                                    ("holdout", getattr(args, "holdout", None))) if v is not None}
     if getattr(args, "renderer", None):
-        from morf.avatar.renderer import RendererConfig
+        import dataclasses
+
         from morf.errors import InputError
         from morf.sizing.sweep import renderer_fields
 
         if args.preset == "auto":
             raise InputError("--renderer and --preset auto both choose the renderer; give one of them")
         cfg = preset(args.preset or base, args.method, device=args.device, **overrides)
-        rcfg = RendererConfig(in_channels=cfg.texture_channels, **renderer_fields(args.renderer))
+        rcfg = dataclasses.replace(cfg.renderer, in_channels=cfg.texture_channels, **renderer_fields(args.renderer))
         return cfg.replace(renderer=rcfg), []
     if args.preset == "auto":
         from morf.body import load_body_model

@@ -43,7 +43,6 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from morf.avatar.renderer import RendererConfig
 from morf.sizing.features import ATLAS_UNITS_PER_METRE, BODY_HEIGHT_M, CaptureFeatures
 from morf.train.config import TrainConfig, preset
 
@@ -163,7 +162,7 @@ def choose_from_features(f: CaptureFeatures, base: TrainConfig, base_preset: str
         reasons.append(f"the fits cover {f.yaw_coverage_deg:.0f} degrees of the turn: unseen sides come from "
                        "inpainting (sizes unchanged)")
     cfg = base.replace(preset="auto", texture_size=size, texture_channels=channels,
-                       renderer=RendererConfig(in_channels=channels, **rfields))
+                       renderer=dataclasses.replace(base.renderer, in_channels=channels, **rfields))
     return cfg, reasons
 
 

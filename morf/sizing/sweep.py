@@ -13,7 +13,6 @@ import hashlib
 import json
 from dataclasses import dataclass, field
 
-from morf.avatar.renderer import RendererConfig
 from morf.errors import InputError
 from morf.train.config import TrainConfig, preset
 
@@ -142,7 +141,7 @@ def resolve(sweep: SweepPreset, point: SweepPoint, **extra) -> TrainConfig:
     channels = int(change.pop("texture_channels", base.texture_channels))
     rfields = renderer_fields(change.pop("renderer")) if "renderer" in change else {
         k: v for k, v in dataclasses.asdict(base.renderer).items() if k != "in_channels"}
-    renderer = RendererConfig(in_channels=channels, **rfields)
+    renderer = dataclasses.replace(base.renderer, in_channels=channels, **rfields)  # keeps rgb_skip & co.
     return base.replace(texture_channels=channels, renderer=renderer, **change)
 
 

@@ -66,7 +66,8 @@ def test_full_run_with_progress_writes_avatar(frames_factory, tmp_path):
     run = RunDir(tmp_path / "run")
     assert json.loads(run.config_path.read_text())["method"] == "morf"
     assert [m["step"] for m in run.read_metrics()] == [5, 10]
-    assert "feature matching" in run.log_path.read_text()
+    assert "structure from the SSIM term" in run.log_path.read_text()  # no VGG, no adversarial terms
+    assert "bfloat16" not in run.log_path.read_text()  # the tiny preset does not ask for it
     av = load_trained_avatar(run.root)
     assert av.texture.shape == (cfg.texture_channels, 32, 32) and av.method == "morf"
     rgb, mask = av.render(torch.rand(1, 32, 32, 2), torch.ones(1, 32, 32, dtype=torch.bool))
@@ -254,3 +255,35 @@ def test_zoomed_frames_take_every_other_step(frames_factory):
         Trainer(cfg, small, texture_init(cfg), zoom_frames=frames_factory(n=3, res=64))
     with pytest.raises(InputError):
         tiny("stylepeople", resolution=32, zoom_resolution=36).validate()  # not a multiple of 8
+
+
+def test_bf16_only_where_the_cpu_has_it(frames_factory, monkeypatch):
+    """bf16 autocast on the CPU only with native support (AMX-BF16 or AVX512-BF16)."""
+    import morf.train.trainer as trainer_mod
+
+    cfg = tiny("stylepeople", bf16=True)
+    for native in (True, False):
+        monkeypatch.setattr(trainer_mod, "native_bf16", lambda native=native: native)
+        assert Trainer(cfg, frames_factory(), texture_init(cfg), device="cpu").bf16 is native
+    assert Trainer(tiny("stylepeople"), frames_factory(), texture_init(cfg), device="cpu").bf16 is False
+
+
+def test_cpu_flags_read_from_cpuinfo(monkeypatch, tmp_path):
+    import builtins
+
+    from morf import cpu_features
+
+    text = "processor : 0\nflags : fpu avx2 avx512f avx512_vnni\n"
+    real_open = builtins.open
+    monkeypatch.setattr(builtins, "open", lambda p, *a, **k: real_open(tmp_path / "ci", *a, **k)
+                        if p == "/proc/cpuinfo" else real_open(p, *a, **k))
+    (tmp_path / "ci").write_text(text)
+    cpu_features.cpu_flags.cache_clear()
+    try:
+        assert not cpu_features.native_bf16()
+        assert cpu_features.cpu_summary()["flags"] == ["avx2", "avx512f", "avx512_vnni"]
+        (tmp_path / "ci").write_text(text.replace("avx512_vnni", "avx512_vnni amx_bf16"))
+        cpu_features.cpu_flags.cache_clear()
+        assert cpu_features.native_bf16()
+    finally:
+        cpu_features.cpu_flags.cache_clear()
