@@ -39,7 +39,7 @@ def add_parser(sub):
                    help="body fits to train on: fits/fits.npz, or a synthetic capture's ground truth")
     p.add_argument("--vgg", default=None, metavar="PATH",
                    help="VGG-16 weights (torchvision state dict) for the perceptual loss; else $MORF_VGG16_WEIGHTS; "
-                        "without them discriminator feature matching is used")
+                        "without them the SSIM term carries the structure (train.log says which term a run used)")
     p.add_argument("--renderer", default=None, metavar="NAME",
                    help="renderer size instead of the preset's: stem2_b8, stem2_b16 (cpu), stem2_b24, stem4_b16, "
                         "stem4_b24, stem4_b32, stem4_b48, plain_b16 (see docs/benchmarks.md for speed against quality)")

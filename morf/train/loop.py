@@ -89,7 +89,8 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
     Args:
         frames: the training frames; texture_init: (C, Ht, Wt) initial neural texture (ignored on resume);
         control: progress + pause/stop; perceptual: a PerceptualLoss or None (then the discriminator's
-        feature matching is used, and the log says so); inpaint: pseudo views for the fine-tune or None;
+        feature matching is used when the config has adversarial terms, else the SSIM term alone;
+        the log says which); inpaint: pseudo views for the fine-tune or None;
         shape, camera: stored with the avatar for export; notes: extra lines for the log;
         zoom_frames: the same frames at ``cfg.zoom_resolution`` (every other step), or None.
     Raises:
