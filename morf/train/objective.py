@@ -49,7 +49,7 @@ def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=Non
     if disc is not None and gan_on:
         fake = run_discriminator(disc, torch.cat([out.rgb, out.mask], dim=1), bf16)
         L["gan"] = gan_generator_loss([f[-1] for f in fake])
-        if perceptual is None:  # no VGG weights: discriminator feature matching stands in
+        if perceptual is None and cfg.w_feature_matching > 0:  # no VGG weights: feature matching stands in
             with torch.no_grad():
                 real = run_discriminator(disc, torch.cat([target, batch.mask], dim=1), bf16)
             L["feature_matching"] = feature_matching_loss(real, fake)

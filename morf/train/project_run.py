@@ -65,9 +65,9 @@ def train_project(project, cfg: TrainConfig, name: str | None = None, control: S
     atlas = body_uv_atlas(model, cfg.texture_size, cfg.texture_size)
     fs = pf.frames
     if cfg.renderer.rgb_skip:  # channels 0-2 are colour: the frames projected; the rest spectral
-        from morf.train.colour_init import projected_colour_texture
+        from morf.train.floor_texture import floor_texture
 
-        rgb = projected_colour_texture(fs, atlas.covered, cfg.texture_dilate)
+        rgb = floor_texture(fs, atlas.covered, cfg.texture_dilate)[0][:3]  # the floor's colours: step 0 = floor
         spec = spectral_texture(model, cfg.texture_channels - 3, cfg.texture_size, cfg.texture_size,
                                 cfg.texture_dilate)
         tex = torch.from_numpy(np.concatenate([rgb, spec], axis=0))
