@@ -4,7 +4,11 @@ One GLFW window with an OpenGL context; imgui-bundle's native GLFW and OpenGL3 b
 UI; moderngl shares the same context for textures. Without a display (or with
 ``--headless-frames``) GLFW's null platform with an EGL context renders off-screen, which is also
 how the screenshot tests run. Frames are deterministic there: no imgui.ini, no cursor blink, a
-fixed frame time and the bundled font.
+fixed frame time and the bundled font; tests draw each frame themselves with :meth:`StudioApp.frame`.
+
+:meth:`StudioApp.run` draws only when something changed (see :mod:`studio.pacing`): input, a new
+worker snapshot, a new live frame, a decoded image, a resize, an animation's next step, or the
+idle rate. Without a GPU every frame is CPU work that the live render and training need.
 """
 
 from __future__ import annotations
@@ -32,10 +36,11 @@ from studio.keys import handle_keys  # noqa: E402
 from studio.layout import draw_ui  # noqa: E402
 from studio.live_render import LiveRenderer  # noqa: E402
 from studio.loader import ImageLoader  # noqa: E402
+from studio.pacing import IDLE_FPS, MAX_FPS, SNAPSHOT_FPS, FramePacer, Wakeup  # noqa: E402
 from studio.player import Player, open_player  # noqa: E402
 from studio.project_view import ProjectView  # noqa: E402
 from studio.stages import LIBRARY_STAGES, cpu_load_stage, find_library_stages  # noqa: E402
-from studio.state import AppState  # noqa: E402
+from studio.state import PANELS, AppState  # noqa: E402
 from studio.textures import TextureCache  # noqa: E402
 from studio.worker import StageFn, Worker  # noqa: E402
 
@@ -43,6 +48,7 @@ FONT_PATH = Path(__file__).resolve().parents[1] / "resources" / "fonts" / "DejaV
 FONT_SIZE = 15.0
 FIXED_DT = 1.0 / 60.0
 CLEAR_RGB = (0.06, 0.06, 0.07)
+LIVE_PANEL = PANELS.index("Live render")
 DEFAULT_MOTION_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "motion"
 
 
@@ -57,16 +63,24 @@ class StudioApp:
         unavailable: stage name -> why it is missing (with ``stages``).
         player_opener: avatar folder -> (player, note); None: :func:`studio.player.open_player`.
             It is called on the live render's own thread (see :mod:`studio.live_render`).
+        deterministic: a fixed 1/60 s frame time (screenshots, tests); None: when headless.
+        max_fps, idle_fps: :meth:`run` draws at most ``max_fps`` frames a second (0: as fast as
+            it can, every time round the loop) and at least ``idle_fps`` (see :mod:`studio.pacing`).
     """
 
     def __init__(self, project: str | os.PathLike | None = None, *, size: tuple[int, int] = (1280, 800),
                  headless: bool = True, stages: dict[str, StageFn] | None = None,
                  unavailable: dict[str, str] | None = None,
                  player_opener: Callable[[Path], tuple[Any, str | None]] | None = None,
-                 motion_dir: str | os.PathLike | None = None):
+                 motion_dir: str | os.PathLike | None = None, deterministic: bool | None = None,
+                 max_fps: float = MAX_FPS, idle_fps: float = IDLE_FPS):
         self._headless = headless
-        self._fixed_dt = FIXED_DT if headless else None
+        self._fixed_dt = FIXED_DT if (headless if deterministic is None else deterministic) else None
+        self.pacer = FramePacer(max_fps, idle_fps)
         self._init_window(size, headless)
+        # other threads end the frame loop's wait through this (no event queue to post to when headless)
+        self._wakeup = Wakeup(None if headless else glfw.post_empty_event)
+        self._init_input_callbacks()
         self._init_imgui()
         if stages is None:
             stages, unavailable = find_library_stages()
@@ -76,14 +90,15 @@ class StudioApp:
         self._stage_status = {n: None if n in stages else (unavailable or {}).get(n, "not part of this build")
                               for n in shown}
         stages = {**stages, "cpu-load": cpu_load_stage}  # benchmark only, not shown as a button
-        self.worker = Worker(stages, unavailable, stage_threads=max(1, (os.cpu_count() or 2) - 1)).start()
+        self.worker = Worker(stages, unavailable, stage_threads=max(1, (os.cpu_count() or 2) - 1),
+                             on_publish=lambda: self._wakeup.notify(1.0 / SNAPSHOT_FPS)).start()
         self.state = AppState(motion_dir=str(motion_dir if motion_dir is not None else DEFAULT_MOTION_DIR))
         self.view: ProjectView | None = None
         self.loader: ImageLoader | None = None
         self.textures = TextureCache(self.ctx, None)
         self.live: LiveRenderer | None = None  # the live render's thread, once an avatar is exported
         self._player_opener = player_opener or open_player
-        self._live: dict = {}
+        self.live_panel: dict = {}  # the live render panel's scratch (motion list, loaded clip)
         self._review_rev = 0
         self._was_busy = False
         self.frame_times: list[float] = []  # seconds per frame (UI work and its GL rasterization, no vsync wait)
@@ -140,6 +155,19 @@ class StudioApp:
         # injected mouse positions are dropped.
         imgui.backends.glfw_cursor_enter_callback(self._window_addr, 1)
 
+    def _init_input_callbacks(self) -> None:
+        """Input and window changes ask for a frame. Installed before imgui's backend, which
+        chains to them from its own callbacks; the window ones imgui does not use."""
+        def on_input(*_):
+            self.pacer.input()
+
+        w = self.window
+        for install in (glfw.set_window_focus_callback, glfw.set_cursor_enter_callback, glfw.set_cursor_pos_callback,
+                        glfw.set_mouse_button_callback, glfw.set_scroll_callback, glfw.set_key_callback,
+                        glfw.set_char_callback, glfw.set_framebuffer_size_callback, glfw.set_window_refresh_callback,
+                        glfw.set_window_iconify_callback):
+            install(w, on_input)
+
     # ---- project ------------------------------------------------------------------------
     def open_project(self, path: str) -> bool:
         """Open a project folder; on failure the start screen shows why. True when it opened."""
@@ -155,7 +183,7 @@ class StudioApp:
         self.state.project_root, self.state.project_error = str(view.root), None
         self.state.frame, self.state.scroll_strip, self.state.note = 0, True, ""
         self.loader = ImageLoader({"frame": view.project.frame_path, "mask": view.project.mask_path,
-                                   "fit": view.fit_overlay_path})
+                                   "fit": view.fit_overlay_path}, on_ready=self._wakeup.notify)
         self.textures = TextureCache(self.ctx, self.loader)
         if view.avatar_ready():
             self._open_live(view.project.avatar_dir)
@@ -182,13 +210,13 @@ class StudioApp:
         """
         self._close_live()
         opener = player if callable(player) and not hasattr(player, "render") else (lambda: (player, None))
-        self.live = LiveRenderer(opener).start()
+        self.live = LiveRenderer(opener, on_frame=self._wakeup.notify).start()
 
     def _close_live(self) -> None:
         if self.live is not None and not self.live.close(timeout=10.0):
             print("morf-studio: the live render did not stop within 10 s; leaving it behind", file=sys.stderr)
         self.live, self._live_seq = None, 0
-        self._live.clear()
+        self.live_panel.clear()
 
     # ---- the frame loop -----------------------------------------------------------------
     def send(self, command: Command) -> None:
@@ -258,19 +286,62 @@ class StudioApp:
         return UiContext(view=self.view, textures=self.textures, snapshot=snap, send=self.send,
                          stages=self._stage_status, stage_labels=self._stage_labels, actions=self._actions,
                          open_project=self.open_project, live_render=self.live, stage_presets=self._stage_presets,
-                         frame_ms=1000 * self.frame_times[-1] if self.frame_times else 0.0, live=self._live)
+                         frame_ms=1000 * self.frame_times[-1] if self.frame_times else 0.0, live=self.live_panel,
+                         redraw_within=self._wakeup.notify)
 
-    def run(self, max_frames: int | None = None, pace_hz: float | None = None, capture_last: bool = False) -> np.ndarray | None:
-        """Loop until the window closes or ``max_frames`` ran; ``pace_hz`` sleeps like vsync would."""
-        n, shot = 0, None
-        while not glfw.window_should_close(self.window) and (max_frames is None or n < max_frames):
-            start = time.perf_counter()
-            last = max_frames is not None and n == max_frames - 1
-            shot = self.frame(capture=capture_last and last)
-            n += 1
-            if pace_hz:
-                time.sleep(max(0.0, 1.0 / pace_hz - (time.perf_counter() - start)))
-        return shot
+    def run(self, max_frames: int | None = None, pace_hz: float | None = None, capture_last: bool = False,
+            seconds: float | None = None) -> np.ndarray | None:
+        """Loop until the window closes, ``max_frames`` ran or ``seconds`` passed.
+
+        With ``max_frames`` every iteration draws (``pace_hz`` sleeps like vsync would): a fixed
+        number of frames, as scripted screenshots want. Otherwise frames are drawn when
+        :attr:`pacer` says so, and the loop sleeps in between.
+        """
+        if max_frames is not None:
+            n, shot = 0, None
+            while not glfw.window_should_close(self.window) and n < max_frames:
+                start = time.perf_counter()
+                last = n == max_frames - 1
+                shot = self.frame(capture=capture_last and last)
+                n += 1
+                if pace_hz:
+                    time.sleep(max(0.0, 1.0 / pace_hz - (time.perf_counter() - start)))
+            return shot
+        end = time.perf_counter() + seconds if seconds is not None else None
+        while not glfw.window_should_close(self.window):
+            within = self._wakeup.take()
+            if within is not None:
+                self.pacer.want_within(within)
+            wait = self.pacer.wait_s()
+            if end is not None:
+                left = end - time.perf_counter()
+                if left <= 0:
+                    break
+                wait = min(wait, left)
+            if wait > 0:
+                if self._headless:  # GLFW's null platform has no event queue to wait on
+                    self._wakeup.wait(wait)
+                else:  # input callbacks (and posted empty events) end this early
+                    glfw.wait_events_timeout(wait)
+                continue
+            self.pacer.frame_started()
+            self.frame()
+            self._schedule_animation()
+        return None
+
+    def _schedule_animation(self) -> None:
+        """Ask for the frames that time itself brings: frame playback, uploads left for later."""
+        if self.textures.backlog():
+            self.pacer.want_within(0.0)
+        v = self.view
+        if self.state.playing and v is not None and v.num_frames and self.state.panel != LIVE_PANEL:
+            period = 1.0 / (v.project.fps or 10.0)
+            self.pacer.want_within(max(0.0, period - self.state.play_clock))
+
+    def request_close(self) -> None:
+        """End :meth:`run` (from any thread), as the window's close button does."""
+        glfw.set_window_should_close(self.window, True)
+        self._wakeup.notify()
 
     def settle(self, max_frames: int = 300, timeout_s: float = 20.0) -> None:
         """Run frames until decoded images are uploaded and the worker applied every command."""
@@ -331,6 +402,7 @@ class StudioApp:
         if self._closed:
             return
         self._closed = True
+        self._wakeup.disconnect()  # threads still finishing must not post to a destroyed window
         stopped = self.worker.close(timeout=15.0)
         if not stopped:
             print("morf-studio: the running stage did not stop within 15 s; leaving it behind", file=sys.stderr)
@@ -366,6 +438,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frame", type=int, default=0, metavar="I", help="frame to show first")
     p.add_argument("--help-overlay", action="store_true", help="open the key help at start")
     p.add_argument("--play", action="store_true", help="start playing the frames (as Space does)")
+    p.add_argument("--max-fps", type=float, default=MAX_FPS,
+                   help=f"redraw at most this often (default {MAX_FPS:g}; 0: redraw continuously)")
+    p.add_argument("--idle-fps", type=float, default=IDLE_FPS,
+                   help=f"redraw this often when nothing changes (default {IDLE_FPS:g})")
     return p
 
 
@@ -405,7 +481,7 @@ def run_cli(args: argparse.Namespace) -> int:
     headless = bool(args.headless_frames) or not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
     if headless and not args.headless_frames:
         raise MorfError("no display found (DISPLAY / WAYLAND_DISPLAY unset); use --headless-frames N --screenshot PNG")
-    with StudioApp(args.project, size=size, headless=headless) as app:
+    with StudioApp(args.project, size=size, headless=headless, max_fps=args.max_fps, idle_fps=args.idle_fps) as app:
         if args.panel:
             app.state.select_panel(args.panel - 1)
         if app.view is not None:

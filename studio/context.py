@@ -28,3 +28,4 @@ class UiContext:
     stage_presets: dict[str, tuple[str, ...]] = field(default_factory=dict)  # stage -> its config presets
     frame_ms: float = 0.0  # the UI's own recent frame time
     live: dict = field(default_factory=dict)  # live-render panel's per-session scratch (fps, motion list)
+    redraw_within: Callable[[float], None] = lambda seconds: None  # want a frame within this many seconds (any thread)

@@ -77,10 +77,13 @@ class LiveRenderer:
     Args:
         open_player: called once on the render thread: () -> (player, None) or (None, why not).
             It runs there so that the player's GL objects belong to that thread's context.
+        on_frame: called on the render thread whenever there is something new to show (a
+            finished frame, a failure, the player opened or not): the UI's frame loop wakes on it.
     """
 
-    def __init__(self, open_player: PlayerOpener):
+    def __init__(self, open_player: PlayerOpener, on_frame: Callable[[], None] | None = None):
         self._open_player = open_player
+        self._on_frame = on_frame or (lambda: None)
         self._cond = threading.Condition()
         self._pending: LiveRequest | None = None  # newest request (UI writes, render thread reads)
         self._frame: LiveFrame | None = None  # newest finished frame (render thread writes)
@@ -102,13 +105,17 @@ class LiveRenderer:
         """Wait until the player opened or failed to; True when that happened within ``timeout``."""
         return self._opened.wait(timeout)
 
-    def request(self, req: LiveRequest) -> None:
-        """Ask for a render; replaces any request the thread has not started yet."""
+    def request(self, req: LiveRequest) -> bool:
+        """Ask for a render; replaces any request the thread has not started yet.
+
+        Returns False when ``req`` has the key of the newest request already (nothing new to render).
+        """
         with self._cond:
             if self._pending is not None and self._pending.key == req.key:
-                return
+                return False
             self._pending = req
             self._cond.notify()
+        return True
 
     def latest(self) -> LiveFrame | None:
         return self._frame
@@ -121,6 +128,11 @@ class LiveRenderer:
             return True
         with self._cond:
             return self._pending is None or self._pending.key == self._done_key
+
+    @property
+    def native_id(self) -> int | None:
+        """The render thread's OS id (for per-thread CPU accounting), once started."""
+        return self._thread.native_id
 
     @property
     def alive(self) -> bool:
@@ -146,11 +158,13 @@ class LiveRenderer:
         if player is None:
             self.note = note or "the avatar player could not be opened"
             self._opened.set()
+            self._on_frame()
             return
         self.size = int(getattr(player, "size", 0) or 0)
         self.num_bones = int(getattr(player, "num_bones", 0) or 0)
         self.ready = True
         self._opened.set()
+        self._on_frame()
         finished: collections.deque[float] = collections.deque()
         seq = 0
         try:
@@ -168,6 +182,7 @@ class LiveRenderer:
                     self.note = f"the player failed: {type(e).__name__}: {e}"
                     with self._cond:
                         self._done_key = req.key
+                    self._on_frame()
                     continue
                 now = time.perf_counter()
                 image.flags.writeable = False
@@ -180,6 +195,7 @@ class LiveRenderer:
                 self._frame = LiveFrame(image, req.key, seq, (now - t0) * 1e3, fps)
                 with self._cond:
                     self._done_key = req.key
+                self._on_frame()
         finally:
             release = getattr(player, "release", None)
             if callable(release):

@@ -28,12 +28,15 @@ class ImageLoader:
     Args:
         paths: kind -> (frame index -> file path) for "frame", "mask" and "fit".
         thumb_height: height of thumbnails in pixels.
+        on_ready: called on the loader's thread after each decoded image (wakes the UI's frame loop).
     """
 
-    def __init__(self, paths: dict[str, Callable[[int], object]], thumb_height: int = 72, max_side: int = 1280):
+    def __init__(self, paths: dict[str, Callable[[int], object]], thumb_height: int = 72, max_side: int = 1280,
+                 on_ready: Callable[[], None] | None = None):
         self._paths = paths
         self._thumb_height = thumb_height
         self._max_side = max_side  # larger frames are shrunk here: uploads stay cheap on the UI thread
+        self._on_ready = on_ready
         self._cond = threading.Condition()
         self._wanted: list[Key] = []  # a stack: newest request on top
         self._ready: dict[Key, np.ndarray] = {}
@@ -48,6 +51,11 @@ class ImageLoader:
                 self._wanted.remove(key)
             self._wanted.append(key)
             self._cond.notify()
+
+    def has_ready(self) -> bool:
+        """Decoded images wait to be taken."""
+        with self._cond:
+            return bool(self._ready)
 
     def take_ready(self, limit: int) -> list[tuple[Key, np.ndarray]]:
         """Up to ``limit`` decoded images, oldest first; MISSING for files that cannot be read."""
@@ -82,6 +90,8 @@ class ImageLoader:
             with self._cond:
                 self._ready[key] = image
                 self._busy = False
+            if self._on_ready is not None:
+                self._on_ready()
 
     def _decode(self, key: Key) -> np.ndarray:
         kind, i = key

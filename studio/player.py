@@ -26,9 +26,11 @@ class Player(Protocol):
         """One frame: (H, W, 3) uint8 RGB of camera.width x camera.height, on the live-render thread."""
 
 
-# onnxruntime threads of the live renderer: one, so that on a small CPU the UI thread and a
-# running stage keep a core between them (the renderer runs on its own thread, see live_render.py).
-LIVE_RENDER_THREADS = 1
+# onnxruntime threads of the live renderer: two, as ``morf bench render`` measures it. The UI draws
+# only when something changed (studio/pacing.py), so between its frames the render has the cores;
+# onnxruntime's pool is created on the render thread and inherits its lower priority
+# (live_render.py), so the UI and a running stage still come first when the CPU is short.
+LIVE_RENDER_THREADS = 2
 LIVE_RENDER_SIZE = 640
 
 

@@ -95,7 +95,7 @@ class ProjectView:
 
 def _load_residuals(project: CaptureProject) -> dict[int, float]:
     """Per-frame mean keypoint residual of the body fit (fits/fits.npz), empty before fitting."""
-    p = project.fits_dir / "fits.npz"
+    p = project.fits_path
     if not p.is_file():
         return {}
     r = load_npz(p).get("keypoint_residual_px")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
@@ -76,15 +77,22 @@ class Snapshot:
 
 
 class Mailbox:
-    """One slot, newest wins. The lock is held only to swap a reference."""
+    """One slot, newest wins. The lock is held only to swap a reference.
 
-    def __init__(self, initial: Snapshot | None = None):
+    ``on_publish`` (optional) is called after each publish, on the publishing thread: the UI's
+    frame loop uses it to wake up and draw the new snapshot.
+    """
+
+    def __init__(self, initial: Snapshot | None = None, on_publish: Callable[[], None] | None = None):
         self._lock = threading.Lock()
         self._value = initial if initial is not None else Snapshot()
+        self._on_publish = on_publish
 
     def publish(self, snapshot: Snapshot) -> None:
         with self._lock:
             self._value = snapshot
+        if self._on_publish is not None:
+            self._on_publish()
 
     def latest(self) -> Snapshot:
         with self._lock:

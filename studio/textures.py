@@ -89,6 +89,10 @@ class TextureCache:
                     if old is not None:
                         old.release()
 
+    def backlog(self) -> bool:
+        """Decoded images wait for a later frame's upload budget."""
+        return self._loader is not None and self._loader.has_ready()
+
     def settled(self) -> bool:
         """Nothing requested is still on its way (for tests and screenshots)."""
         return not self._requested and (self._loader is None or self._loader.idle())

@@ -91,15 +91,16 @@ class Worker:
         unavailable: stage name -> why it cannot run (shown when the UI asks for it anyway).
         stage_threads: torch threads for stages (None: leave torch's setting). The app leaves one
             core to the UI: on a 2-core machine torch's spinning threads otherwise starve it.
+        on_publish: called on the worker thread after each new snapshot (the UI's wake-up).
     """
 
     def __init__(self, stages: dict[str, StageFn], unavailable: dict[str, str] | None = None,
-                 stage_threads: int | None = None):
+                 stage_threads: int | None = None, on_publish: Callable[[], None] | None = None):
         self._stages = dict(stages)
         self._stage_threads = stage_threads
         self._unavailable = dict(unavailable or {})
         self._commands: "queue.Queue[Command]" = queue.Queue()
-        self.mailbox = Mailbox()
+        self.mailbox = Mailbox(on_publish=on_publish)
         self._thread = threading.Thread(target=self._main, name="morf-worker", daemon=True)
         self._project: CaptureProject | None = None
         self._control: _WorkerControl | None = None
@@ -117,6 +118,11 @@ class Worker:
     def start(self) -> "Worker":
         self._thread.start()
         return self
+
+    @property
+    def native_id(self) -> int | None:
+        """The worker thread's OS id (for per-thread CPU accounting), once started."""
+        return self._thread.native_id
 
     def send(self, command: Command) -> None:
         self._sent += 1

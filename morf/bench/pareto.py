@@ -16,7 +16,7 @@ Writes ``DIR/pareto.json`` ``{"points": [...], "front_fps": [...], "front_train"
 point's result is saved in ``DIR/points/<name>.json`` as it finishes and reused on a re-run (its
 training run also resumes); ``--points`` names what to measure, and points measured earlier in
 ``DIR`` on the same capture stay in the results. ``--auto-check`` runs the automatic size choice on three scenes
-instead (see :mod:`morf.sizing.check`).
+instead (see :mod:`morf.bench.auto_check`).
 """
 
 from __future__ import annotations
@@ -89,8 +89,8 @@ def _summary(cfg) -> dict:
 def run_point(project, sweep, point, model, out: Path, cfg=None) -> tuple[dict, bool]:
     """Train, evaluate and time one point; (result, reused) where reused means loaded from
     ``OUT/points/<name>.json`` (same config, same fps size) without any work."""
+    from morf.bench.train_eval import speed_of_run, train_and_evaluate
     from morf.io import atomic_write_json
-    from morf.sizing.evaluate import speed_of_run, train_and_evaluate
     from morf.sizing.sweep import resolve, train_key
 
     cfg = cfg or resolve(sweep, point)
@@ -146,7 +146,7 @@ SEED_KEYS = (QUALITY, "ssim_person", "psnr", "temporal", "fps", "train_minutes")
 
 def fronts(rows: list[dict]) -> dict[str, np.ndarray]:
     """Pareto fronts of quality against fps (both up) and against training minutes (down)."""
-    from morf.sizing.front import pareto_front
+    from morf.bench.front import pareto_front
 
     q = [r.get(QUALITY) for r in rows]
     fps = [[a, r.get("fps")] for a, r in zip(q, rows)]
@@ -172,7 +172,7 @@ def seed_spread(rows: list[dict]) -> dict | None:
 def floor_point(project, sweep, model) -> dict:
     """The RGB floor (no learning, :mod:`morf.train.floor`) on the base point's frames, scored as
     the points are; its playback speed is not measured (it cannot be exported)."""
-    from morf.sizing.evaluate import holdout_quality
+    from morf.bench.train_eval import holdout_quality
     from morf.sizing.sweep import SweepPoint, resolve
     from morf.train.floor import floor_request, train_floor
 
@@ -186,7 +186,7 @@ def floor_point(project, sweep, model) -> dict:
 
 def charts(rows: list[dict], front: dict, out: Path, fps_size: int, title: str,
            noise: dict | None = None, floor: dict | None = None) -> list[str]:
-    from morf.sizing.charts import front_chart
+    from morf.bench.charts import front_chart
 
     paper = fps_size == 640
     base = next((r for r in rows if r["axis"] == "base"), None)
@@ -330,7 +330,7 @@ def run(args) -> int:
     split = lambda s: [a.strip() for a in s.split(",") if a.strip()] if s else None  # noqa: E731
     points = split(args.points)
     if args.auto_check:
-        from morf.sizing.check import auto_check
+        from morf.bench.auto_check import auto_check
 
         auto_check(Path(args.out), args.preset, scenes=split(args.scenes), project_path=args.project, points=points,
                    seeds=args.seeds)

@@ -18,7 +18,7 @@ FIT_PRESETS = {"tiny": "fast"}  # training preset -> fit preset; the others fit 
 def bench_capture(out: Path, preset: str, project_path: str | None, fits: str, model):
     """The benchmark's CaptureProject, fitted when ``fits`` is "fits" and no fits exist yet."""
     project = _synthetic_capture(out, preset, project_path, model)
-    if fits == "fits" and not (project.fits_dir / "fits.npz").is_file():
+    if fits == "fits" and not project.fits_path.is_file():
         from morf.fitting.config import preset as fit_preset
         from morf.fitting.project_fit import fit_project
 

@@ -5,7 +5,9 @@ read-back (already the renderer's channels-last input) -> int8 renderer + compos
 onnxruntime graph, 2 threads, no spinning; the compositing's share comes from its profiler).
 Without ``--avatar`` it builds synthetic avatars (spectral texture + random-init renderers of
 several sizes; speed does not depend on training). Building needs torch; every measurement runs
-in a fresh process that never imports torch (their thread pools would interfere).
+in a fresh process that never imports torch (their thread pools would interfere). The report also
+names the CPU's features (AMX, AVX512-BF16, VNNI, AVX2) and what onnxruntime ran for the renderer
+graph, from its profiler: which op types ran as int8 kernels, which converted, which stayed float.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import numpy as np
 
 VARIANT_NAMES = ("plain_b16", "stem2_b16", "stem4_b16", "stem4_b24", "stem4_b32")  # see morf.sizing.sweep.RENDERERS
 DEFAULT_VARIANT = "stem2_b16"  # the "cpu" training preset's renderer
+THREADS = 2  # onnxruntime intra-op threads of the measured player
 
 
 def add_arguments(p) -> None:
@@ -32,7 +35,7 @@ def add_arguments(p) -> None:
 
 
 # ---- measurement (child process, torch-free) ------------------------------------------------------
-def _motion(n: int, num_bones: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def bench_motion(n: int, num_bones: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """A smooth random motion: each joint swings on its own sine, the root turns."""
     rng = np.random.default_rng(seed)
     amp, freq, phase = rng.uniform(0, 0.25, (3, num_bones, 3))
@@ -65,13 +68,13 @@ def time_player(p, rot, tr, cams, frames: int, steps: dict | None = None) -> tup
 
 def measure(avatar_dir: str, size: int, frames: int) -> dict:
     """Timings of one avatar (run in a process without torch)."""
-    from morf.playback.camera_paths import front_camera
+    from morf.raster.camera_paths import front_camera
     from morf.playback.player import Player
 
-    rot, tr = _motion(frames + 5, 104)
+    rot, tr = bench_motion(frames + 5, 104)
     cams = [front_camera(size, yaw_deg=10.0 * i) for i in range(len(rot))]
     out: dict = {}
-    with Player(avatar_dir, size=size, background=(255, 255, 255)) as p:
+    with Player(avatar_dir, size=size, background=(255, 255, 255), threads=THREADS) as p:
         for i in list(range(5)) * 3:  # warm-up: shader compile, ORT's first-run allocations and arena growth
             p.render(rot[i], tr[i], cams[i])
         steps: dict[str, list[float]] = {}
@@ -82,13 +85,15 @@ def measure(avatar_dir: str, size: int, frames: int) -> dict:
         out["breakdown_ms"] = {k: float(np.median(v)) for k, v in steps.items()}
         out["renderer_only_ms"] = renderer_ms
         out["peak_rss_mb"] = _peak_rss_mb()  # before the profiling session and the fp32 comparison below
-        share = composite_share(p, p.rasterize(rot[0], tr[0], cams[0]))
+        profile = graph_profile(p, p.rasterize(rot[0], tr[0], cams[0]))
+        out["kernels"] = profile
+        share = profile["composite_share"]
         if share is not None:  # the renderer graph also composites: split its time by the profile
             bd = out["breakdown_ms"]
             bd["composite_ms"] = bd["renderer_ms"] * share
             bd["renderer_ms"] -= bd["composite_ms"]
             out["composite_share_of_graph"] = share
-    out.update(frame_ms=seq * 1e3, fps_end_to_end=1.0 / seq, frame_ms_pipelined=piped * 1e3,
+    out.update(threads=THREADS, frame_ms=seq * 1e3, fps_end_to_end=1.0 / seq, frame_ms_pipelined=piped * 1e3,
                fps_pipelined=1.0 / piped)
     with Player(avatar_dir, size=size, background=(255, 255, 255), precision="fp32") as p32:
         ref = [p32.render(rot[i], tr[i], cams[i]) for i in range(5, 5 + min(5, frames))]
@@ -97,31 +102,94 @@ def measure(avatar_dir: str, size: int, frames: int) -> dict:
     return out
 
 
-def composite_share(player, raster, runs: int = 10) -> float | None:
-    """Share of the renderer graph's kernel time spent in its compositing nodes (onnxruntime's
-    profiler, a separate session), or None for a graph that does not composite."""
+# onnxruntime op types by what they compute in: int8 kernels, the float <-> int8 conversions between them
+INT8_OPS = ("QLinearConv", "ConvInteger", "MatMulInteger", "MatMulIntegerToFloat", "QGemm", "DynamicQuantizeMatMul",
+            "QLinearMatMul", "QLinearAdd", "QLinearMul", "QLinearLeakyRelu", "QLinearSigmoid", "QLinearAveragePool",
+            "QLinearGlobalAveragePool", "QLinearConcat", "QLinearSoftmax", "QLinearReduceMean", "QLinearWhere")
+CONVERSION_OPS = ("QuantizeLinear", "DequantizeLinear", "DynamicQuantizeLinear")
+FLOAT_TYPES = ("float", "float16", "bfloat16", "double")
+
+
+def op_kind(op: str, input_types: list[str]) -> str:
+    """'int8' (an integer kernel), 'conversion' (quantize / dequantize), 'float' (an op left in float:
+    its first input is floating point) or '8-bit data' (copies, resizes, shapes on integer tensors)."""
+    if op in INT8_OPS:
+        return "int8"
+    if op in CONVERSION_OPS:
+        return "conversion"
+    if input_types and input_types[0] in FLOAT_TYPES:
+        return "float"
+    return "8-bit data"
+
+
+def graph_profile(player, raster, runs: int = 10) -> dict:
+    """What onnxruntime ran for the renderer graph, from its profiler (a separate session).
+
+    Returns ``ops``: op type -> {kind (see :func:`op_kind`), nodes, ms a run}, sorted by time;
+    ``kind_share``: kind -> share of the kernel time; ``composite_share``: share of the kernel time
+    in the compositing nodes (None for a graph that does not composite).
+    """
     import onnxruntime as ort
 
     from morf.export.onnx_graph import COMPOSITE_PREFIX
     from morf.playback.onnx_renderer import session_options
 
-    if not player.renderer.composites:
-        return None
     opts = session_options()
     with tempfile.TemporaryDirectory() as tmp:
         opts.enable_profiling = True
         opts.profile_file_prefix = str(Path(tmp) / "profile")
         s = ort.InferenceSession(str(player.avatar.renderer_path(player.precision)), opts,
                                  providers=["CPUExecutionProvider"])
+        feeds = {player.renderer.input_name: raster}
+        if player.renderer.composites:
+            feeds["background"] = player.background_planes
+        outputs = [s.get_outputs()[0].name]
         for _ in range(runs):
-            s.run(["image"], {player.renderer.input_name: raster, "background": player.background_planes})
+            s.run(outputs, feeds)
         events = json.loads(Path(s.end_profiling()).read_text())
+    ops: dict[str, dict] = {}
     total = comp = 0.0
+    nodes: dict[str, set] = {}
     for e in events:
-        if e.get("cat") == "Node" and e.get("name", "").endswith("_kernel_time"):
-            total += e["dur"]
-            comp += e["dur"] if e["name"].startswith(COMPOSITE_PREFIX) else 0.0
-    return comp / total if total else None
+        if e.get("cat") != "Node" or not e.get("name", "").endswith("_kernel_time"):
+            continue
+        a = e.get("args", {})
+        op = a.get("op_name", "?")
+        types = [next(iter(t)) for t in a.get("input_type_shape", []) if t]
+        o = ops.setdefault(op, {"kind": op_kind(op, types), "nodes": 0, "ms": 0.0})
+        nodes.setdefault(op, set()).add(e["name"])
+        o["ms"] += e["dur"] / 1e3 / runs
+        total += e["dur"]
+        comp += e["dur"] if e["name"].startswith(COMPOSITE_PREFIX) else 0.0
+    for op, o in ops.items():
+        o["nodes"] = len(nodes[op])
+    kinds: dict[str, float] = {}
+    for o in ops.values():
+        kinds[o["kind"]] = kinds.get(o["kind"], 0.0) + o["ms"]
+    total_ms = sum(kinds.values()) or 1.0
+    return {"ops": dict(sorted(ops.items(), key=lambda kv: -kv[1]["ms"])),
+            "kind_share": {k: v / total_ms for k, v in sorted(kinds.items(), key=lambda kv: -kv[1])},
+            "composite_share": (comp / total if total else None) if player.renderer.composites else None}
+
+
+def cpu_report(model: str, cores: int | None, features: dict) -> str:
+    """'MODEL, N cores; AMX no, AVX512-BF16 yes, VNNI yes (AVX-512), AVX2 yes'."""
+    flags = set(features.get("flags", ()))
+    yes = (lambda b: "yes" if b else "no")
+    vnni = "yes (AVX-512)" if "avx512_vnni" in flags else ("yes (AVX)" if "avx_vnni" in flags else "no")
+    return (f"{model}, {cores} cores; AMX {yes('amx_int8' in flags or 'amx_bf16' in flags)}, "
+            f"AVX512-BF16 {yes('avx512_bf16' in flags)}, VNNI {vnni}, AVX2 {yes('avx2' in flags)}")
+
+
+def kernel_summary(profile: dict, top: int = 4) -> str:
+    """One line per kind: its share of the renderer graph's time and its costliest op types."""
+    lines = []
+    for kind, share in profile["kind_share"].items():
+        ops = [(op, o) for op, o in profile["ops"].items() if o["kind"] == kind]
+        named = ", ".join(f"{op} x{o['nodes']} {o['ms']:.1f} ms" for op, o in ops[:top])
+        more = f", {len(ops) - top} more" if len(ops) > top else ""
+        lines.append(f"  {kind}: {100 * share:.0f}% ({named}{more})")
+    return "\n".join(lines)
 
 
 def _peak_rss_mb() -> float:
@@ -143,7 +211,8 @@ def _child_main() -> None:
     print(json.dumps(measure(args["avatar"], args["size"], args["frames"])))
 
 
-def _measure_in_child(avatar: Path, size: int, frames: int) -> dict:
+def measure_in_child(avatar: Path, size: int, frames: int) -> dict:
+    """:func:`measure` in a fresh process that never imports torch (its thread pools would interfere)."""
     code = "import sys; sys.modules['torch'] = None\nfrom morf.bench.render import _child_main; _child_main()"
     arg = json.dumps({"avatar": str(avatar), "size": size, "frames": frames})
     r = subprocess.run([sys.executable, "-c", code, arg], capture_output=True, text=True, timeout=1200)
@@ -177,8 +246,10 @@ def run(args) -> int:
     from morf.bench.common import machine_info, markdown_table, write_results
 
     t0 = time.time()
-    result: dict = {"benchmark": "render", "size": args.size, "precision": "int8", "threads": 2,
-                    "frames": args.frames, "machine": machine_info(),
+    from morf.cpu_features import cpu_summary
+
+    result: dict = {"benchmark": "render", "size": args.size, "precision": "int8", "threads": THREADS,
+                    "frames": args.frames, "machine": machine_info(), "cpu_features": cpu_summary(),
                     "command": "morf bench render " + " ".join(sys.argv[3:] if sys.argv[1:3] == ["bench", "render"] else [])}
     rows = []
     with tempfile.TemporaryDirectory() as tmpd:
@@ -192,7 +263,7 @@ def run(args) -> int:
         per = {}
         for key, path in avatars.items():
             print(f"measuring {key}", file=sys.stderr)
-            m = _measure_in_child(path, args.size, args.frames)
+            m = measure_in_child(path, args.size, args.frames)
             man = json.loads((path / "manifest.json").read_text())
             m["int8_psnr_vs_fp32_db"] = man["int8_quality"]["psnr_db"]
             m["int8_ssim_vs_fp32"] = man["int8_quality"]["ssim"]
@@ -208,13 +279,20 @@ def run(args) -> int:
                   pipeline_gain_ms=main["frame_ms"] - main["frame_ms_pipelined"],
                   breakdown_ms=main["breakdown_ms"], peak_rss_mb=main["peak_rss_mb"],
                   int8_psnr_vs_fp32=main["int8_psnr_vs_fp32_db"], int8_ssim_vs_fp32=main["int8_ssim_vs_fp32"],
-                  int8_psnr_vs_fp32_image=main["int8_psnr_vs_fp32_image_db"], avatars=per,
+                  int8_psnr_vs_fp32_image=main["int8_psnr_vs_fp32_image_db"], kernels=main["kernels"], avatars=per,
                   seconds=round(time.time() - t0, 1))
-    md = [f"# Playback speed at {args.size}x{args.size} (int8, onnxruntime 2 threads)\n",
-          f"Avatar: {result['avatar']}. Machine: {result['machine']['cpu']}, {result['machine']['cores']} cores.\n",
+    cpu_line = cpu_report(result["machine"]["cpu"], result["machine"]["cores"], result["cpu_features"])
+    kernels = kernel_summary(main["kernels"])
+    md = [f"# Playback speed at {args.size}x{args.size} (int8, onnxruntime {THREADS} threads)\n",
+          f"Avatar: {result['avatar']}. Machine: {cpu_line}.\n",
           markdown_table(rows, ["avatar", "renderer ms", "frame ms", "fps", "fps pipelined", "int8 PSNR dB", "peak RSS MB"]),
           "\nBreakdown of one frame (median ms, sequential, " + main_key + "):\n",
-          markdown_table([main["breakdown_ms"]], list(main["breakdown_ms"]))]
+          markdown_table([main["breakdown_ms"]], list(main["breakdown_ms"])),
+          f"\nWhat onnxruntime ran for the renderer graph ({main_key}; share of its kernel time):\n",
+          "```\n" + kernels + "\n```\n"]
     path = write_results(args.out, "render", result, "\n".join(md))
+    print(f"CPU: {cpu_line}")
+    print(f"renderer graph kernels ({main_key}; share of its kernel time, op types with node count and ms a run):")
+    print(kernels)
     print(f"{main_key}: {result['fps']:.1f} fps end to end, {result['fps_pipelined']:.1f} fps pipelined; wrote {path}")
     return 0

@@ -102,9 +102,8 @@ def _write_noisy_fits(project, sigma_deg: float, seed: int) -> None:
     rot = gt["rotvecs"] + rng.normal(0, np.deg2rad(sigma_deg), gt["rotvecs"].shape).astype(np.float32)
     n = len(rot)
     nan = np.full(n, np.nan, np.float32)
-    save_fits(project.fits_dir / "fits.npz", BodyFits(rot, gt["transl"], gt["shape"], nan, nan, nan,
-                                                      np.zeros((n, 23, 2), np.float32),
-                                                      {"synthetic_noise_deg": sigma_deg}))
+    save_fits(project.fits_path, BodyFits(rot, gt["transl"], gt["shape"], nan, nan, nan,
+                                          np.zeros((n, 23, 2), np.float32), {"synthetic_noise_deg": sigma_deg}))
 
 
 def _set_hidden_turn(root: Path, hidden_deg: float) -> None:
@@ -122,7 +121,7 @@ def _fit(project, sp: StabilityPreset, model) -> None:
     from morf.fitting import preset as fit_preset
     from morf.fitting.project_fit import fit_project
 
-    if (project.fits_dir / "fits.npz").is_file() and (project.fits_dir / "filter.json").is_file():
+    if project.fits_path.is_file() and (project.fits_dir / "filter.json").is_file():
         return
     cfg = fit_preset("fast").replace(overlays=False)
     stages = tuple(dataclasses.replace(s, iterations=max(5, int(round(s.iterations * sp.fit_scale)))) for s in cfg.stages)
@@ -204,11 +203,11 @@ def breaks_down_at(levels: list, rows: list[dict], threshold: float = BREAKDOWN_
 def run_stability(out, preset: str = "default", series: list[str] | None = None, methods: list[str] | None = None,
                   model=None, repeats: int = 1) -> dict:
     """Run (or resume) the stress series; writes JSON, Markdown and charts; returns the result."""
+    from morf.bench.charts import series_chart
     from morf.bench.common import machine_info, markdown_table, write_results
+    from morf.bench.train_eval import train_and_evaluate
     from morf.errors import InputError
     from morf.io import atomic_write_json
-    from morf.sizing.charts import series_chart
-    from morf.sizing.evaluate import train_and_evaluate
     from morf.train.config import preset as train_preset
 
     out = Path(out)

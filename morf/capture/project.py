@@ -12,9 +12,10 @@ Layout (format "morf-capture", version 1)::
                           detected (N,) bool; source (N,) str: mediapipe | openpose | ground_truth | none
       keypoints_hands_face.npz  OpenPose hand and face points, when imported
       review.json         the user's per-frame decisions: {"drop": [...], "keep": [...]}
-      fits/               body fits and the automatic frame filter (morf fit)
-      runs/               training runs (morf train)
-      avatar/             the exported avatar (morf export)
+      fits/               body fits and the automatic frame filter (morf fit; layout in
+                          morf/fitting/project_fit.py, fits.npz read and written by morf/fitting/fits_io.py)
+      runs/               training runs (morf train; morf/train/run_dir.py)
+      avatar/             the exported avatar (morf export; morf/export/avatar_folder.py)
       dataset/            imported standard datasets only: reference files (not read by the pipeline)
       ground_truth/       synthetic captures only: camera, poses, shape, hold-out set
                           (full layout in morf/synth/capture.py)
@@ -231,7 +232,7 @@ class CaptureProject:
 
     def auto_filter(self) -> dict[int, str]:
         """Frames the automatic filter rejected, with the reason (empty before fitting)."""
-        p = self.root / "fits" / "filter.json"
+        p = self.fits_dir / "filter.json"
         if not p.is_file():
             return {}
         try:
@@ -268,6 +269,11 @@ class CaptureProject:
     @property
     def fits_dir(self) -> Path:
         return self.root / "fits"
+
+    @property
+    def fits_path(self) -> Path:
+        """``fits/fits.npz``: read and written only through :mod:`morf.fitting.fits_io`."""
+        return self.fits_dir / "fits.npz"
 
     @property
     def runs_dir(self) -> Path:

@@ -1,5 +1,6 @@
-"""``morf animate PROJECT --motion FILE --out video.mp4``: play a motion (BVH, AMASS .npz) on the
-project's exported avatar (``PROJECT/avatar``, written by ``morf export``)."""
+"""``morf animate PROJECT --motion FILE --out video.mp4``: play a motion (BVH, AMASS, AIST++ / SMPL,
+another capture's fits, MoRF clips; see docs/formats.md) on the project's exported avatar
+(``PROJECT/avatar``, written by ``morf export``), retargeted to the project's fitted body shape."""
 
 from __future__ import annotations
 
@@ -18,10 +19,12 @@ def add_parser(sub):
 def run(args) -> int:
     from morf.capture.project import CaptureProject
     from morf.errors import ProjectError
+    from morf.motion.capture_fits import project_shape
 
     project = CaptureProject.open(args.project)
     avatar = args.avatar or project.avatar_dir
     if not (project.avatar_dir / "manifest.json").is_file() and args.avatar is None:
         raise ProjectError(f"{project.root} has no exported avatar yet; run 'morf export {project.root}' first")
     args.avatar = str(avatar)
-    return play(args)
+    return play(args, project_shape(project))
+

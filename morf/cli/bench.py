@@ -6,7 +6,10 @@ Each benchmark is a module ``morf/bench/<name>.py`` with ``add_arguments(parser)
 
 from __future__ import annotations
 
+import argparse
 import importlib
+import subprocess
+import sys
 
 BENCHMARKS = {
     "fitting": "mesh fitting against ground truth, with the paper's ablation",
@@ -15,6 +18,11 @@ BENCHMARKS = {
     "pareto": "speed against accuracy over model sizes",
     "stability": "quality as nuisances grow, per method",
     "step": "seconds per training step with bfloat16 autocast on and off (what this CPU gets)",
+}
+# Benchmarks of the desktop app: name -> (module run with ``python -m``, help). They run in their own
+# process, so the library never imports studio/ (and the app gets a fresh GLFW and GL state).
+APP_BENCHMARKS = {
+    "studio": ("studio.bench", "the studio window playing an avatar: live render fps, UI frame times, CPU split"),
 }
 
 
@@ -31,11 +39,17 @@ def add_parser(sub):
         bp = bsub.add_parser(name, help=help_text)
         module.add_arguments(bp)
         bp.set_defaults(_bench_run=module.run)
+    for name, (module_name, help_text) in APP_BENCHMARKS.items():
+        # every argument (--help too) goes to the app's own parser: '+' keeps argparse from reading '-' options here
+        bp = bsub.add_parser(name, help=help_text, add_help=False, prefix_chars="+")
+        bp.add_argument("app_args", nargs=argparse.REMAINDER)
+        bp.set_defaults(_bench_run=lambda args, m=module_name: subprocess.call([sys.executable, "-m", m,
+                                                                                *args.app_args]))
     return p
 
 
 def run(args) -> int:
     if not getattr(args, "_bench_run", None):
-        print("usage: morf bench {" + ",".join(BENCHMARKS) + "} --out DIR")
+        print("usage: morf bench {" + ",".join([*BENCHMARKS, *APP_BENCHMARKS]) + "} --out DIR")
         return 1
     return int(args._bench_run(args) or 0)

@@ -71,7 +71,7 @@ def run(args) -> int:
     steps = [
         ("synthetic capture", not CaptureProject.is_project(project),
          ["synth", str(project), "--preset", preset.synth]),
-        ("body fits", not (project / "fits" / "fits.npz").is_file(),
+        ("body fits", not (CaptureProject.is_project(project) and CaptureProject.open(project).fits_path.is_file()),
          ["fit", str(project), "--preset", preset.fit]),
         ("avatar training", True, train),
         ("int8 export", True, ["export", str(project), "--run", f"demo-{args.preset}"]),

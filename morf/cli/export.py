@@ -1,7 +1,9 @@
-"""``morf export PROJECT [--run NAME] [--out DIR]``: the trained avatar as a portable folder
-(uint8 neural texture, shaped render mesh, skeleton, fp32 + int8 ONNX renderers, manifest).
+"""``morf export PROJECT [--run NAME] [--out DIR] [--gltf FILE.glb [--motion FILE]]``: the trained
+avatar as a portable folder (uint8 neural texture, shaped render mesh, skeleton, fp32 + int8 ONNX
+renderers, manifest); with ``--gltf`` also as a rigged glTF 2.0 binary whose folder sits beside it.
 
-A thin wrapper over :func:`morf.export.project_export.export_project`, which the studio calls too.
+A thin wrapper over :func:`morf.export.project_export.export_project` (which the studio calls too)
+and :func:`morf.export.gltf_project.export_gltf`.
 """
 
 from __future__ import annotations
@@ -21,27 +23,46 @@ def add_parser(sub):
     p.add_argument("--calibration-views", type=int, default=32, help="training views used to calibrate int8")
     p.add_argument("--fits", choices=("auto", "fits", "ground-truth"), default="auto",
                    help="body fits that pose the calibration views (as for 'morf train')")
+    p.add_argument("--gltf", default=None, metavar="FILE.glb",
+                   help="also write a rigged glTF 2.0 binary (mesh, skeleton, skin weights, colour texture baked "
+                        "from the renderer); the avatar folder goes beside it (FILE/) unless --out is given")
+    p.add_argument("--motion", default=None, metavar="FILE",
+                   help="with --gltf: add this motion (BVH, AMASS or clip .npz) to the .glb as an animation")
     return p
 
 
 def run(args) -> int:
     from morf.capture.project import CaptureProject
+    from morf.errors import InputError
     from morf.export.project_export import ProjectExportConfig, export_project
     from morf.pipeline.control import StageControl, StopRequested
 
+    if args.motion and not args.gltf:
+        raise InputError("--motion goes into the glTF file: give --gltf FILE.glb too")
     project = CaptureProject.open(args.project)
     cfg = ProjectExportConfig(run=args.run, out=args.out, input_layout=args.layout,
                               calibration_views=args.calibration_views, fits=args.fits)
     control = StageControl()
     previous = signal.signal(signal.SIGINT, lambda *_: control.stop())
     try:
-        manifest = export_project(project, cfg, control)
+        if args.gltf:
+            from morf.export.gltf_project import export_gltf
+
+            result = export_gltf(project, args.gltf, cfg, motion=args.motion, control=control)
+            manifest = result.manifest
+        else:
+            manifest = export_project(project, cfg, control)
     except StopRequested:
-        print("morf export: stopped; the previous avatar folder (if any) is unchanged", file=sys.stderr)
+        what = ".glb" if args.gltf else "avatar folder"
+        print(f"morf export: stopped; the previous {what} (if any) is unchanged", file=sys.stderr)
         return 130
     finally:
         signal.signal(signal.SIGINT, previous)
-    out = Path(args.out) if args.out else project.avatar_dir
+    if args.gltf:
+        anim = f", animation of {result.animation_frames} frames" if result.animation_frames else ""
+        print(f"wrote {result.path} ({result.bytes / 1e6:.1f} MB): {result.vertices} vertices, {result.joints} joints, "
+              f"{result.texture_size}x{result.texture_size} colour texture{anim}")
+    out = Path(args.out) if args.out else (result.avatar_dir if args.gltf else project.avatar_dir)
     q = manifest["int8_quality"]
     size = sum(f["bytes"] for f in manifest["files"].values()) / 1e6
     print(f"exported {out} ({size:.1f} MB) from run {manifest['source']['run']}; int8 vs fp32 on "

@@ -25,7 +25,7 @@ def run(args) -> int:
         "fps": project.fps,
         "source": project.manifest.get("source"),
         "synthetic": project.is_synthetic,
-        "has_fits": (project.fits_dir / "fits.npz").is_file(),
+        "has_fits": project.fits_path.is_file(),
         "runs": sorted(p.name for p in project.runs_dir.iterdir()) if project.runs_dir.is_dir() else [],
         "has_avatar": (project.avatar_dir / "manifest.json").is_file(),
         "training_frames": len(decisions) - len(dropped),

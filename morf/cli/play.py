@@ -31,9 +31,16 @@ def add_parser(sub):
 
 def add_playback_options(p) -> None:
     """Options shared by ``morf play`` and ``morf animate``."""
-    p.add_argument("--motion", required=True, help=".npz (rotvecs (T,104,3), transl (T,3), fps) or a BVH file")
+    p.add_argument("--motion", required=True,
+                   help="motion file, told by its content: BVH; AMASS SMPL-H / SMPL-X .npz; AIST++ or SMPL .npz "
+                        "(poses (T,72)); a capture's fits/fits.npz; Anny poses .npz (rotvecs (T,104,3), transl "
+                        "(T,3), fps) (docs/formats.md)")
     p.add_argument("--out", required=True, help="output .mp4 file or a folder for PNG frames")
     p.add_argument("--fps", type=float, default=30.0, help="output frame rate (the motion is resampled)")
+    p.add_argument("--motion-fps", type=float, default=None,
+                   help="frame rate of a motion file that stores none (AIST++ / SMPL .npz, fits.npz outside its "
+                        "project, Anny poses without fps); default 60 for AIST++ (smpl_poses), else 30; a rate "
+                        "stored in the file wins")
     p.add_argument("--camera", choices=("follow", "orbit", "front"), default="follow")
     p.add_argument("--size", type=int, default=640, help="square output size in pixels")
     p.add_argument("--precision", choices=("int8", "fp32"), default="int8")
@@ -43,9 +50,10 @@ def add_playback_options(p) -> None:
                    help="play int8 even when the export measured it far from fp32")
 
 
-def run(args) -> int:
+def run(args, shape=None) -> int:
+    """Render ``args.motion``; ``shape`` (1, 6) is the body the motion is retargeted to (default Anny's)."""
     from morf.errors import InputError
-    from morf.playback.camera_paths import front_camera, orbit_camera
+    from morf.raster.camera_paths import front_camera, orbit_camera
     from morf.playback.motion_input import load_playback_motion, resample
     from morf.playback.player import open_player
     from morf.playback.video_sink import VideoSink
@@ -58,6 +66,8 @@ def run(args) -> int:
         raise InputError(f"--background must be R,G,B, got {args.background!r}") from None
     if args.fps <= 0:
         raise InputError("--fps must be positive")
+    if args.motion_fps is not None and args.motion_fps <= 0:
+        raise InputError("--motion-fps must be positive")
     precision = args.precision
     quality = _int8_psnr(args.avatar)
     if precision == "int8" and not args.force_int8 and quality is not None and quality < INT8_MIN_PSNR_DB:
@@ -65,7 +75,7 @@ def run(args) -> int:
               f"{INT8_MIN_PSNR_DB:.0f} dB); playing fp32 instead (--force-int8 to override)", file=sys.stderr)
         precision = "fp32"
     with open_player(args.avatar, size=args.size, precision=precision, background=bg) as player:
-        clip = load_playback_motion(args.motion, player.avatar.skeleton.num_bones)
+        clip = load_playback_motion(args.motion, player.avatar.skeleton.num_bones, shape, args.motion_fps)
         rotvecs, transl = resample(clip, args.fps)
         if args.max_frames > 0:
             rotvecs, transl = rotvecs[:args.max_frames], transl[:args.max_frames]

@@ -44,12 +44,24 @@ def add_parser(sub):
                    help="renderer size instead of the preset's: stem2_b8, stem2_b16 (cpu), stem2_b24, stem4_b16, "
                         "stem4_b24, stem4_b32, stem4_b48, plain_b16 (see docs/benchmarks.md for speed against quality)")
     p.add_argument("--device", default="auto", help="auto (CUDA when present), cpu or cuda")
+    p.add_argument("--config", default=None, metavar="JSON",
+                   help="start from a config file (a run's config.json) instead of a preset")
+    p.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                   help="set any config field, e.g. --set texture_size=512 --set renderer.width=24 (repeatable; "
+                        "applied last)")
     p.add_argument("--restart", action="store_true", help="delete an existing run of that name and start over")
     return p
 
 
 def resolve_config(args, project=None):
     """The run's TrainConfig, and the reasons for an automatic size choice (empty otherwise)."""
+    cfg, reasons = _base_config(args, project)
+    if getattr(args, "set", None):
+        cfg = cfg.with_settings(args.set)
+    return cfg, reasons
+
+
+def _base_config(args, project=None):
     import torch
 
     from morf.train.config import preset
@@ -60,6 +72,22 @@ def resolve_config(args, project=None):
                                    ("lr_decay_start", getattr(args, "lr_decay_start", None)),
                                    ("ema_decay", getattr(args, "ema", None)),
                                    ("holdout", getattr(args, "holdout", None))) if v is not None}
+    if getattr(args, "config", None):
+        import json
+
+        from morf.errors import InputError
+        from morf.train.config import TrainConfig
+
+        if args.preset or getattr(args, "renderer", None):
+            raise InputError("--config gives the whole config; use --set to change fields, not --preset/--renderer")
+        try:
+            d = json.loads(open(args.config, encoding="utf-8").read())
+        except (OSError, json.JSONDecodeError) as e:
+            raise InputError(f"cannot read config {args.config}: {e}") from None
+        if not isinstance(d, dict):
+            raise InputError(f"{args.config} is not a training config (a JSON object)")
+        d.update(method=args.method if args.method != "morf" else d.get("method", "morf"), device=args.device, **overrides)
+        return TrainConfig.from_dict(d), []
     if getattr(args, "renderer", None):
         import dataclasses
 

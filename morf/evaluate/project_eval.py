@@ -112,8 +112,8 @@ def evaluate_project(project, cfg: EvalConfig = EvalConfig(), model=None,
                      say: Callable[[str], None] = lambda line: None) -> dict:
     """Evaluate, write everything into the output folder, and return the eval.json content."""
     from morf.avatar.lpips import find_lpips
-    from morf.avatar.trained import load_trained_avatar
     from morf.train.data import load_body_fits
+    from morf.train.trained_avatar import load_trained_avatar
 
     load_body_fits(project, "auto")  # a project without fits fails here, in one line
     metric = find_lpips(cfg.lpips, cfg.vgg)  # None without weights; bad files fail here, before any work

@@ -27,9 +27,9 @@ import numpy as np
 
 from morf.errors import InputError
 from morf.export.skeleton import Skeleton
-from morf.export.texture_quant import QuantizedTexture
 from morf.io import atomic_write_json, load_npz, save_npz
-from morf.playback.neural_raster import SkinnedMesh
+from morf.raster.neural_raster import SkinnedMesh
+from morf.raster.texture_quant import QuantizedTexture
 
 FORMAT = "morf-avatar"
 VERSION = 1

@@ -27,7 +27,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from morf.export.texture_quant import ZERO_POINT
+from morf.raster.texture_quant import ZERO_POINT
 
 
 def _max_abs(renderer, modules: dict[str, nn.Module], inputs: list[torch.Tensor], per_channel: bool = False):

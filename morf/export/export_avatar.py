@@ -19,9 +19,9 @@ import numpy as np
 from morf.export.avatar_folder import RENDERERS, replace_folder, write_arrays, write_manifest
 from morf.export.onnx_renderer import OPSET, export_fp32, export_int8
 from morf.export.skeleton import Skeleton, skeleton_from_body_model
-from morf.export.texture_quant import QuantizedTexture, quantize_texture
 from morf.pipeline.control import Progress, StageControl
-from morf.playback.neural_raster import NUM_CHANNELS, NeuralRasterizer, SkinnedMesh, create_headless_context, to_layout
+from morf.raster.neural_raster import NUM_CHANNELS, NeuralRasterizer, SkinnedMesh, create_headless_context, to_layout
+from morf.raster.texture_quant import QuantizedTexture, quantize_texture
 
 
 @dataclass(frozen=True)
@@ -41,7 +41,7 @@ class View:
 class ExportConfig:
     """Choices of the exporter."""
 
-    input_layout: str = "nhwc"  # see morf.export.onnx_graph.LAYOUTS; nhwc is the GL read-back as it is
+    input_layout: str = "nhwc"  # see morf.raster.neural_raster.LAYOUTS; nhwc is the GL read-back as it is
     max_calibration_views: int = 32  # int8 calibration rasterizations (more: slower export, same ranges)
     max_heldout_views: int = 8  # views for the int8-vs-fp32 quality report
     extra: dict = field(default_factory=dict)  # free-form facts copied into the manifest

@@ -13,8 +13,8 @@ import numpy as np
 import onnx
 from onnx import TensorProto, helper, numpy_helper
 
-from morf.export.texture_quant import ZERO_POINT
-from morf.playback.neural_raster import LAYOUTS
+from morf.raster.neural_raster import LAYOUTS
+from morf.raster.texture_quant import ZERO_POINT
 
 
 def _initializers(model: onnx.ModelProto) -> dict[str, onnx.TensorProto]:

@@ -29,7 +29,7 @@ import numpy as np
 import onnx
 
 from morf.export.onnx_graph import append_composite, downstream_nodes, fold_input_scale, uint8_input
-from morf.export.texture_quant import ZERO_POINT
+from morf.raster.texture_quant import ZERO_POINT
 
 FLOAT_INPUT = "x"
 OPSET = 17

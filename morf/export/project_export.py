@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from morf.errors import ProjectError
-from morf.playback.neural_raster import LAYOUTS
 from morf.pipeline.control import Progress, StageControl
+from morf.raster.neural_raster import LAYOUTS
 
 
 
@@ -27,7 +27,7 @@ class ProjectExportConfig:
 
     run: str | None = None  # run name under PROJECT/runs (None: the newest finished run)
     out: str | None = None  # output folder (None: PROJECT/avatar)
-    input_layout: str = "nhwc"  # renderer input layout (morf.export.onnx_graph.LAYOUTS)
+    input_layout: str = "nhwc"  # renderer input layout (morf.raster.neural_raster.LAYOUTS)
     calibration_views: int = 32  # training views used to calibrate int8 (spread over the capture)
     heldout_every: int = 8  # every this-many-th training view is held out of calibration for the report
     fits: str = "auto"  # body fits to pose the views: auto | fits | ground-truth (as 'morf train --fits')
@@ -116,8 +116,8 @@ def export_project(project, cfg: ProjectExportConfig = ProjectExportConfig(), co
         control: progress reports and pause / stop points (``morf.pipeline.control``).
         body_model: a loaded body model (optional; loaded on demand).
     """
-    from morf.avatar.trained import load_trained_avatar
     from morf.export.export_avatar import ExportConfig, export_avatar
+    from morf.train.trained_avatar import load_trained_avatar
 
     cfg.validate()
     control = control or StageControl()

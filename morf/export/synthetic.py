@@ -12,12 +12,12 @@ from types import SimpleNamespace
 import numpy as np
 
 from morf.export.export_avatar import ExportConfig, View, export_avatar
-from morf.export.texture_quant import spectral_texture
+from morf.raster.texture_quant import spectral_texture
 
 
 def turntable_views(num: int, size: int, seed: int = 0, num_bones: int = 104, pose_scale: float = 0.15) -> list[View]:
     """``num`` views of the body turning in place (yaw on the root) with small random joint angles."""
-    from morf.playback.camera_paths import front_camera
+    from morf.raster.camera_paths import front_camera
 
     rng = np.random.default_rng(seed)
     views = []

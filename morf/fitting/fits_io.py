@@ -1,4 +1,5 @@
-"""Body fits on disk (PROJECT/fits/fits.npz) and the loader later stages call."""
+"""Body fits on disk (``CaptureProject.fits_path``, PROJECT/fits/fits.npz): the one reader and
+writer of that file; later stages call :func:`load_fits`."""
 
 from __future__ import annotations
 
@@ -11,7 +12,6 @@ import numpy as np
 from morf.errors import ProjectError
 from morf.io import load_npz, save_npz
 
-FITS_FILE = "fits.npz"
 CHECKPOINT_FILE = "checkpoint.npz"
 
 
@@ -56,6 +56,7 @@ class BodyFits:
 
 
 def save_fits(path: str | Path, fits: BodyFits) -> None:
+    """Atomically write ``fits`` (a project's is ``project.fits_path``)."""
     extra = {k: getattr(fits, k).astype(np.float32) for k in ("silhouette_iou_body", "offsets")
              if getattr(fits, k) is not None}
     save_npz(path, rotvecs=fits.rotvecs.astype(np.float32), transl=fits.transl.astype(np.float32),
@@ -67,6 +68,7 @@ def save_fits(path: str | Path, fits: BodyFits) -> None:
 
 
 def read_fits(path: str | Path) -> BodyFits:
+    """The fits file at ``path``, checked for missing fields and inconsistent shapes."""
     d = load_npz(path)
     try:
         fits = BodyFits(rotvecs=d["rotvecs"], transl=d["transl"], shape=d["shape"],
@@ -86,7 +88,7 @@ def read_fits(path: str | Path) -> BodyFits:
 
 def load_fits(project) -> BodyFits:
     """The body fits of a :class:`~morf.capture.project.CaptureProject` (run ``morf fit`` first)."""
-    path = project.fits_dir / FITS_FILE
+    path = project.fits_path
     if not path.is_file():
         raise ProjectError(f"{project.root} has no body fits yet; run 'morf fit {project.root}'")
     fits = read_fits(path)

@@ -22,7 +22,7 @@ from morf.errors import InputError
 from morf.fitting.config import FitConfig
 from morf.fitting.evaluate import posed_chunks, silhouettes
 from morf.fitting.fit import FitState, cpu_threads, default_device, finalize, fit_sequence
-from morf.fitting.fits_io import CHECKPOINT_FILE, FITS_FILE, BodyFits, read_checkpoint, save_checkpoint, save_fits
+from morf.fitting.fits_io import CHECKPOINT_FILE, BodyFits, read_checkpoint, read_fits, save_checkpoint, save_fits
 from morf.fitting.inputs import load_fit_inputs
 from morf.fitting.offsets import dressed_vertices
 from morf.fitting.overlays import draw_overlay
@@ -96,15 +96,13 @@ def fit_project(project, cfg: FitConfig, *, model=None, focal: float | None = No
                         offsets=state.offsets.numpy())
 
     complete = start is not None and start.stage >= len(cfg.stages)
-    if complete and (out / FITS_FILE).is_file() and (out / "filter.json").is_file():
-        from morf.fitting.fits_io import read_fits
-
-        return FitReport(read_fits(out / FITS_FILE), project.auto_filter(), time.perf_counter() - t0, resumed, True)
+    if complete and project.fits_path.is_file() and (out / "filter.json").is_file():
+        return FitReport(read_fits(project.fits_path), project.auto_filter(), time.perf_counter() - t0, resumed, True)
     state = start if complete else fit_sequence(model, inputs, cfg, control=control, start=start, device=device,
                                                 on_stage=save)
     control.report(Progress(stage="fit", message="evaluating fits and filtering frames"))
     fits, rejected = finalize(model, inputs, cfg, state)
-    save_fits(out / FITS_FILE, fits)
+    save_fits(project.fits_path, fits)
     atomic_write_json(out / "filter.json", {
         "rejected": {str(k): v for k, v in rejected.items()},
         "frames": inputs.num_frames,

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from morf.errors import ProjectError
+from morf.errors import MorfError, ProjectError
 from morf.io.atomic import atomic_path
 
 
@@ -25,13 +25,36 @@ def save_npz(target: str | os.PathLike, **arrays: np.ndarray) -> None:
             np.savez_compressed(f, **clean)
 
 
-def load_npz(path: str | os.PathLike) -> dict[str, np.ndarray]:
-    """Load every array of an .npz into memory with ``allow_pickle=False``."""
+def load_npz(path: str | os.PathLike, *, error: type[MorfError] = ProjectError,
+             skip_pickled: bool = False) -> dict[str, np.ndarray]:
+    """Load every array of an .npz into memory with ``allow_pickle=False``: the one .npz reader.
+
+    Strings stored as text (``np.array('male')``) or bytes (``np.array(b'male')``) load as they
+    are; arrays of Python objects are never unpickled.
+
+    Args:
+        error: the :class:`~morf.errors.MorfError` raised for a missing or unreadable file
+            (ProjectError for project files, InputError for files a user brings).
+        skip_pickled: leave arrays of Python objects out of the result instead of refusing the
+            file (public motion files carry such metadata beside plain arrays).
+    Returns:
+        name -> array, in the file's order.
+    """
     path = Path(path)
     if not path.is_file():
-        raise ProjectError(f"missing file: {path}")
+        raise error(f"missing file: {path}")
+    out = {}
     try:
         with np.load(path, allow_pickle=False) as z:
-            return {k: z[k] for k in z.files}
+            for k in z.files:
+                try:
+                    out[k] = z[k]
+                except ValueError as e:
+                    if "pickle" not in str(e).lower():
+                        raise
+                    if not skip_pickled:
+                        raise error(f"{path}: array {k!r} holds Python objects (pickled), which are not "
+                                    "loaded for safety") from None
     except (ValueError, OSError, zipfile.BadZipFile, EOFError) as e:
-        raise ProjectError(f"cannot read {path}: {e}") from None
+        raise error(f"cannot read {path}: not a readable .npz file ({e})") from None
+    return out

@@ -1,6 +1,8 @@
 """AMASS motion files (.npz): SMPL-H (``poses`` (T, 156)) or SMPL-X (``poses`` (T, 165), or the
 split ``root_orient`` / ``pose_body`` keys), ``trans`` (T, 3), ``mocap_framerate`` or
-``mocap_frame_rate``, ``gender`` as str or bytes, ``betas``. Stored Z-up.
+``mocap_frame_rate``, ``gender`` as str or bytes, ``betas``. Stored Z-up. Other arrays
+(``dmpls``, ``marker_data``, SMPL-X marker metadata, which may be pickled and is never loaded)
+are ignored. Also the SMPL skeleton shared with :mod:`morf.motion.smpl`.
 
 The SMPL body models themselves are licensed and are not needed: retargeting uses only rest bone
 directions and leg length, taken from the approximate neutral rest joints below.
@@ -13,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from morf.errors import InputError
+from morf.io import load_npz
 from morf.motion.skeleton import Skeleton, SourceMotion
 from morf.motion.so3 import rotvec_to_matrix
 
@@ -53,28 +56,73 @@ def smpl_skeleton() -> Skeleton:
     return Skeleton(names, parents, offsets, "y")
 
 
-def _text(value: np.ndarray) -> str:
+# Keys under which motion .npz files store their frame rate (AMASS SMPL-H, AMASS SMPL-X, ours).
+FPS_KEYS = ("mocap_framerate", "mocap_frame_rate", "fps")
+
+
+def text_value(value: np.ndarray) -> str:
+    """A string stored in an .npz as text (``np.array('male')``) or bytes (``np.array(b'male')``)."""
     v = value.item() if value.ndim == 0 else value.reshape(-1)[0]
     return v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
 
 
-def read_amass(path: str | Path, arrays: dict[str, np.ndarray] | None = None) -> SourceMotion:
+def stored_fps(arrays: dict[str, np.ndarray], path: str | Path) -> float | None:
+    """The frame rate a motion .npz stores (AMASS ``mocap_framerate`` / ``mocap_frame_rate``, or
+    ``fps``), or None when it stores none. InputError for a rate that is not a positive number."""
+    key = next((k for k in FPS_KEYS if k in arrays), None)
+    if key is None:
+        return None
+    try:
+        fps = float(np.asarray(arrays[key]).reshape(-1)[0])
+    except (ValueError, TypeError, IndexError):
+        raise InputError(f"{path}: '{key}' is not a frame rate") from None
+    if not np.isfinite(fps) or fps <= 0:
+        raise InputError(f"{path}: bad frame rate {fps}")
+    return fps
+
+
+
+def smpl_source_motion(body: np.ndarray, trans: np.ndarray, fps: float, up_axis: str, path: Path, source: str,
+                       kind: str) -> SourceMotion:
+    """A :class:`SourceMotion` on the SMPL body joints.
+
+    Args:
+        body: (T, 66) axis-angle of the 22 body joints (root first), SMPL order.
+        trans: (T, 3) SMPL translation, metres (the pelvis lands at trans + its rest position).
+        up_axis: "y" or "z", the world's up axis.
+    """
+    T = body.shape[0]
+    if T == 0:
+        raise InputError(f"{path}: no frames")
+    if trans.shape != (T, 3):
+        raise InputError(f"{path}: translation has shape {trans.shape}; expected ({T}, 3)")
+    if not np.all(np.isfinite(body)) or not np.all(np.isfinite(trans)):
+        raise InputError(f"{path}: poses or translations contain NaN or inf")
+    sk = smpl_skeleton()
+    local = np.broadcast_to(np.eye(3), (T, sk.num_joints, 3, 3)).copy()
+    local[:, :22] = rotvec_to_matrix(body.reshape(T, 22, 3))
+    # SMPL rotates the body about the rest pelvis and then adds trans: the pelvis lands at trans + J_pelvis.
+    root = trans + SMPL_REST[0]
+    return SourceMotion(sk, local, root, fps, up_axis=up_axis, name=path.stem, source=source, kind=kind)
+
+
+def read_amass(path: str | Path, arrays: dict[str, np.ndarray] | None = None, fps: float | None = None) -> SourceMotion:
     """Read an AMASS .npz (SMPL-H or SMPL-X) into a Z-up :class:`SourceMotion` on the SMPL body joints.
 
-    Finger, jaw and eye rotations are not used (Anny keeps its rest hands and face).
+    ``fps`` is used only when the file stores no frame rate (default then 30). Finger, jaw and eye
+    rotations are not used (Anny keeps its rest hands and face).
     Raises:
         InputError: missing keys or wrong shapes.
     """
     path = Path(path)
     if arrays is None:
-        from morf.motion.library import read_npz
-
-        arrays = read_npz(path)
+        arrays = load_npz(path, error=InputError, skip_pickled=True)
     if "poses" in arrays:
         poses = np.asarray(arrays["poses"], dtype=np.float64)
-        if poses.ndim != 2 or poses.shape[1] not in (72, 156, 165):
-            raise InputError(f"{path}: 'poses' has shape {poses.shape}; expected (T, 156) SMPL-H or (T, 165) SMPL-X")
-        kind = {72: "smpl", 156: "smplh", 165: "smplx"}[poses.shape[1]]
+        if poses.ndim != 2 or poses.shape[1] not in (156, 165):
+            raise InputError(f"{path}: 'poses' has shape {poses.shape}; expected (T, 156) SMPL-H, (T, 165) SMPL-X "
+                             "or (T, 72) SMPL")
+        kind = {156: "smplh", 165: "smplx"}[poses.shape[1]]
         body = poses[:, :66]
     elif "root_orient" in arrays and "pose_body" in arrays:
         body = np.concatenate([arrays["root_orient"], arrays["pose_body"]], axis=1).astype(np.float64)
@@ -83,24 +131,7 @@ def read_amass(path: str | Path, arrays: dict[str, np.ndarray] | None = None) ->
         kind = "smplx"
     else:
         raise InputError(f"{path}: not an AMASS motion (no 'poses' or 'root_orient'/'pose_body' arrays)")
-    T = body.shape[0]
-    if T == 0:
-        raise InputError(f"{path}: no frames")
-    trans = np.asarray(arrays.get("trans", np.zeros((T, 3))), dtype=np.float64)
-    if trans.shape != (T, 3):
-        raise InputError(f"{path}: 'trans' has shape {trans.shape}; expected ({T}, 3)")
-    fps_key = next((k for k in ("mocap_framerate", "mocap_frame_rate") if k in arrays), None)
-    fps = float(np.asarray(arrays[fps_key]).reshape(-1)[0]) if fps_key else 30.0
-    if not np.isfinite(fps) or fps <= 0:
-        raise InputError(f"{path}: bad frame rate {fps}")
-    if not np.all(np.isfinite(body)) or not np.all(np.isfinite(trans)):
-        raise InputError(f"{path}: poses or trans contain NaN or inf")
-    gender = _text(np.asarray(arrays["gender"])) if "gender" in arrays else "neutral"
-
-    sk = smpl_skeleton()
-    local = np.broadcast_to(np.eye(3), (T, sk.num_joints, 3, 3)).copy()
-    local[:, :22] = rotvec_to_matrix(body.reshape(T, 22, 3))
-    # SMPL rotates the body about the rest pelvis and then adds trans: the pelvis lands at trans + J_pelvis.
-    root = trans + SMPL_REST[0]
-    return SourceMotion(sk, local, root, fps, up_axis="z", name=path.stem,
-                        source=f"amass:{path.name} ({kind}, {gender})", kind=kind)
+    trans = np.asarray(arrays.get("trans", np.zeros((body.shape[0], 3))), dtype=np.float64)
+    fps = stored_fps(arrays, path) or fps or 30.0
+    gender = text_value(np.asarray(arrays["gender"])) if "gender" in arrays else "neutral"
+    return smpl_source_motion(body, trans, fps, "z", path, f"amass:{path.name} ({kind}, {gender})", kind)

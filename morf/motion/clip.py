@@ -11,7 +11,7 @@ import torch
 
 from morf.body.model import BodyPose
 from morf.errors import InputError
-from morf.io import save_npz
+from morf.io import load_npz, save_npz
 from morf.motion.so3 import slerp_rotvecs
 
 CLIP_FORMAT_VERSION = 1
@@ -112,6 +112,4 @@ def clip_from_arrays(arrays: dict[str, np.ndarray], path: str | os.PathLike = ""
 
 def load_clip(path: str | os.PathLike) -> MotionClip:
     """Read a clip written by :func:`save_clip`."""
-    from morf.motion.library import read_npz
-
-    return clip_from_arrays(read_npz(Path(path)), path)
+    return clip_from_arrays(load_npz(path, error=InputError), path)

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import os
 import threading
-import zipfile
 from pathlib import Path
 
-import numpy as np
-
 from morf.errors import InputError
+from morf.io import load_npz
 from morf.motion.clip import MotionClip, clip_from_arrays
+from morf.motion.formats import not_a_motion, npz_motion_kind, player_clip
 
 MOTION_SUFFIXES = (".bvh", ".npz")
 BUILTIN_MOTIONS = Path(__file__).resolve().parents[2] / "resources" / "motions"
@@ -19,22 +18,8 @@ _MODEL_LOCK = threading.Lock()
 _MODEL = None
 
 
-def read_npz(path: Path) -> dict[str, np.ndarray]:
-    """All arrays of an .npz, without pickle; InputError for a missing or unreadable file."""
-    if not path.is_file():
-        raise InputError(f"no such motion file: {path}")
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            return {k: z[k] for k in z.files}
-    except ValueError as e:
-        if "pickle" in str(e).lower():
-            raise InputError(f"{path}: holds Python objects (pickled arrays), which are not loaded for safety") from None
-        raise InputError(f"{path}: cannot read: {e}") from None
-    except (OSError, zipfile.BadZipFile, EOFError) as e:
-        raise InputError(f"{path}: not a readable .npz file ({e})") from None
-
-
-def _default_model():
+def shared_body_model():
+    """The Anny body model shared by motion loading (loaded once, on first use)."""
     global _MODEL
     with _MODEL_LOCK:
         if _MODEL is None:
@@ -44,15 +29,21 @@ def _default_model():
         return _MODEL
 
 
-def load_motion(path: str | os.PathLike, model=None, shape=None, config=None) -> MotionClip:
-    """Open a motion as an Anny :class:`MotionClip`, whatever its kind (by suffix and content):
+def load_motion(path: str | os.PathLike, model=None, shape=None, config=None,
+                source_fps: float | None = None) -> MotionClip:
+    """Open a motion as an Anny :class:`MotionClip`, whatever its kind (by suffix, then content;
+    :mod:`morf.motion.formats`):
 
     - ``.bvh``: read and retargeted (:func:`morf.motion.convert.retarget`);
-    - ``.npz`` written by :func:`morf.motion.clip.save_clip`: loaded as it is;
-    - ``.npz`` from AMASS (SMPL-H / SMPL-X): read and retargeted.
+    - ``.npz`` written by :func:`morf.motion.clip.save_clip`, or Anny poses (``rotvecs``,
+      ``transl``, ``fps``): loaded as they are;
+    - ``.npz`` from AMASS (SMPL-H / SMPL-X), AIST++ or plain SMPL: read and retargeted;
+    - a capture's ``fits/fits.npz``: turned upright and put on the ground for ``shape``.
 
     ``model`` (Anny) and ``shape`` (1, 6) are only needed for retargeting; a shared Anny model
     is loaded when none is given. ``config`` is a :class:`~morf.motion.convert.RetargetConfig`.
+    ``source_fps`` is the frame rate of files that store none (AIST++ and plain SMPL, fits outside
+    a project, Anny poses without ``fps``); each kind has its default otherwise.
     Raises:
         InputError: missing file, unknown suffix, or a file of the right suffix but wrong content.
     """
@@ -64,22 +55,35 @@ def load_motion(path: str | os.PathLike, model=None, shape=None, config=None) ->
         raise InputError(f"{path}: not a motion file (expected .bvh or .npz)")
     if not path.is_file():
         raise InputError(f"no such motion file: {path}")
+    if source_fps is not None and not source_fps > 0:
+        raise InputError(f"the motion's frame rate must be positive, got {source_fps}")
     config = config or RetargetConfig()
     if suffix == ".bvh":
         from morf.motion.bvh import read_bvh
 
         source = read_bvh(path)
     else:
-        arrays = read_npz(path)
-        if "morf_motion_version" in arrays:
+        arrays = load_npz(path, error=InputError, skip_pickled=True)
+        kind = npz_motion_kind(arrays)
+        if kind == "clip":
             return clip_from_arrays(arrays, path)
-        if not ({"poses", "trans"} <= set(arrays) or {"root_orient", "pose_body"} <= set(arrays)):
-            raise InputError(f"{path}: not a motion: expected a MoRF motion clip or AMASS arrays "
-                             f"('poses' and 'trans'); found {', '.join(sorted(arrays)) or 'nothing'}")
-        from morf.motion.amass import read_amass
+        if kind == "player":
+            return player_clip(path, arrays, source_fps)
+        if kind == "fits":
+            from morf.motion.capture_fits import clip_from_fits
 
-        source = read_amass(path, arrays)
-    return retarget(source, model if model is not None else _default_model(), shape, config)
+            return clip_from_fits(path, model if model is not None else shared_body_model(), shape, source_fps, config)
+        if kind == "amass":
+            from morf.motion.amass import read_amass
+
+            source = read_amass(path, arrays, source_fps)
+        elif kind == "smpl":
+            from morf.motion.smpl import read_smpl
+
+            source = read_smpl(path, arrays, source_fps)
+        else:
+            raise not_a_motion(path, arrays)
+    return retarget(source, model if model is not None else shared_body_model(), shape, config)
 
 
 def motion_library(folder: str | os.PathLike | None = None) -> list[tuple[str, Path]]:

@@ -159,14 +159,19 @@ def source_clearance(X: np.ndarray, rest: np.ndarray, feet: list[int], fps: floa
     return np.clip(sole - floor - deadband, 0.0, None)
 
 
+def heading_turn(root: np.ndarray) -> np.ndarray:
+    """(3, 3) the turn about Z that makes an Anny root rotation ``root`` (3, 3) face -Y."""
+    fwd = root @ np.array([0.0, -1.0, 0.0])
+    yaw = np.degrees(np.arctan2(fwd[0], -fwd[1]))  # angle from -Y towards +X
+    return axis_rotation("z", -yaw)  # turns fwd back onto -Y
+
+
 def turn_and_shift(r: Retargeted, face_forward: bool, center: bool) -> Retargeted:
     """Turn the whole motion about Z so frame 0 faces -Y, and shift it so frame 0's root is at x = y = 0."""
     rotvecs, transl, pos = r.rotvecs.copy(), r.transl.copy(), r.source_positions.copy()
     if face_forward:
         R0 = rotvec_to_matrix(rotvecs[:, 0])
-        fwd = R0[0] @ np.array([0.0, -1.0, 0.0])
-        yaw = np.degrees(np.arctan2(fwd[0], -fwd[1]))  # angle from -Y towards +X
-        Rz = axis_rotation("z", -yaw)  # turns fwd back onto -Y
+        Rz = heading_turn(R0[0])
         rotvecs[:, 0] = matrix_to_rotvec(Rz @ R0)
         transl, pos = transl @ Rz.T, pos @ Rz.T
     if center:

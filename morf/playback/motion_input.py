@@ -1,4 +1,4 @@
-"""Motions for playback: a MotionClip-like .npz, or anything morf.motion can read (BVH, ...)."""
+"""Motions for playback: every motion file :func:`morf.motion.load_motion` reads, as Anny poses."""
 
 from __future__ import annotations
 
@@ -27,28 +27,22 @@ class PlaybackMotion:
         return int(self.rotvecs.shape[0])
 
 
-def load_playback_motion(path: str | Path, num_bones: int) -> PlaybackMotion:
-    """Read ``path``: ``.npz`` with ``rotvecs`` (T, J, 3), ``transl`` (T, 3), ``fps``; other
-    formats go through ``morf.motion.load_motion`` when it is available."""
+def load_playback_motion(path: str | Path, num_bones: int, shape=None, source_fps: float | None = None) -> PlaybackMotion:
+    """Read any motion :func:`morf.motion.load_motion` reads (detected by content: Anny poses
+    ``rotvecs`` (T, J, 3) + ``transl`` (T, 3) + ``fps``, MoRF clips, AMASS SMPL-H / SMPL-X,
+    AIST++ / SMPL, a capture's ``fits/fits.npz``, BVH), retargeted onto Anny with phenotype
+    ``shape`` (1, 6) (default: Anny's default body). ``source_fps``: the rate of files that store none.
+
+    Raises:
+        InputError: unreadable, of no known kind, or not ``num_bones`` bones.
+    """
+    from morf.motion import load_motion
+
     path = Path(path)
     if not path.is_file():
         raise InputError(f"motion file not found: {path}")
-    if path.suffix.lower() == ".npz":
-        from morf.io import load_npz
-
-        a = load_npz(path)
-        missing = {"rotvecs", "transl"} - set(a)
-        if missing:
-            raise InputError(f"{path} lacks {', '.join(sorted(missing))} (need rotvecs (T, J, 3), transl (T, 3), fps)")
-        clip = PlaybackMotion(a["rotvecs"].astype(np.float32), a["transl"].astype(np.float32),
-                              float(a["fps"]) if "fps" in a else 30.0)
-    else:
-        try:
-            from morf.motion import load_motion
-        except ImportError:
-            raise InputError(f"cannot read {path.suffix} motions in this build; give a .npz with rotvecs, transl, fps") from None
-        m = load_motion(path)
-        clip = PlaybackMotion(np.asarray(m.rotvecs, np.float32), np.asarray(m.transl, np.float32), float(m.fps))
+    m = load_motion(path, shape=shape, source_fps=source_fps)
+    clip = PlaybackMotion(np.asarray(m.rotvecs, np.float32), np.asarray(m.transl, np.float32), float(m.fps))
     T = clip.rotvecs.shape[0]
     if clip.rotvecs.ndim != 3 or clip.rotvecs.shape[1:] != (num_bones, 3) or clip.transl.shape != (T, 3) or T == 0:
         raise InputError(f"{path}: motion must be rotvecs (T, {num_bones}, 3) and transl (T, 3), "

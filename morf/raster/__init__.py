@@ -1,10 +1,12 @@
 """Rasterization: posed render meshes to per-pixel UVs (training input) and textured frames.
 
 OpenGL through a headless EGL context (``gl_*`` modules, one context per thread);
-``soft_silhouette`` is the differentiable silhouette used by fitting.
+``soft_silhouette`` is the differentiable silhouette used by fitting; ``neural_raster`` (GPU
+skinning + uint8 neural texture lookup) and ``texture_quant`` (that texture's quantisation) are
+what export and playback draw an avatar with.
 
 Names are loaded on first use so that torch-free code (the exported-avatar player) can import
-``morf.raster.gl_context`` without pulling in torch through the other modules.
+``morf.raster.neural_raster`` without pulling in torch through the other modules.
 """
 
 import importlib

@@ -1,16 +1,15 @@
-"""Right-sized avatars: the speed/accuracy sweep's building blocks and the automatic size choice.
+"""Right-sized avatars: the automatic size choice of ``--preset auto`` and the named sizes it picks from.
 
 ``morf.sizing.choose.choose_train_config(project, base_preset)`` -> (TrainConfig, reasons) is
-what ``--preset auto`` calls; :mod:`morf.sizing.sweep`, :mod:`morf.sizing.evaluate` and
-:mod:`morf.sizing.charts` are shared by ``morf bench pareto`` and ``morf bench stability``.
+what ``--preset auto`` calls; it measures the capture (:mod:`morf.sizing.features`) and picks from
+the renderer sizes of :mod:`morf.sizing.sweep`, whose points ``morf bench pareto`` trains. A
+training feature: nothing here imports the benchmarks (``morf.bench`` measures these choices).
 
-Nothing is imported eagerly: the torch-free playback timing child imports
-:mod:`morf.sizing.evaluate` and must not pull in torch.
+Nothing is imported eagerly, so ``import morf.sizing`` pulls in neither torch nor the body model.
 """
 
 _LAZY = {"SizingRule": "choose", "choose_from_features": "choose", "choose_train_config": "choose",
-         "CaptureFeatures": "features", "capture_features": "features", "near_front": "front",
-         "pareto_front": "front"}
+         "CaptureFeatures": "features", "capture_features": "features"}
 
 
 def __getattr__(name):

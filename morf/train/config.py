@@ -36,6 +36,11 @@ class TrainConfig:
     renderer: RendererConfig = field(default_factory=RendererConfig)  # U-Net size
     warp: WarpConfig = field(default_factory=WarpConfig)  # warp network sizes (method morf only)
     lr_texture: float = 2e-3  # small, so the spectral init is not washed out
+    # With ``renderer.rgb_skip``: texture channels 0-2 keep the projected frame colours they start
+    # from (their gradient is zeroed); the renderer learns the mask, the fill and a residual. Trained,
+    # Adam moved each colour texel by noise from misaligned frames: on the default capture's held-out
+    # frames the trained colours scored 0.8 dB below the projected ones (docs/avatar.md).
+    freeze_colour: bool = False
     lr_renderer: float = 1e-3  # Adam on the renderer
     lr_warp: float = 5e-4  # Adam on W, E, F (1e-4 left offsets at ~0.1 texel after 400 cpu steps)
     lr_latent: float = 1e-3  # Adam on the per-frame latents
@@ -99,6 +104,33 @@ class TrainConfig:
         cfg.validate()
         return cfg
 
+    def with_settings(self, settings: list[str] | tuple[str, ...]) -> "TrainConfig":
+        """This config with ``FIELD=VALUE`` settings applied (``renderer.width=24``: a nested field).
+
+        VALUE is read as JSON when it parses (numbers, true/false, lists), else as a string; an
+        unknown field is an InputError naming the known ones.
+        """
+        import json
+
+        d = self.to_dict()
+        for item in settings:
+            key, sep, text = item.partition("=")
+            if not sep or not key:
+                raise InputError(f"--set wants FIELD=VALUE, got {item!r}")
+            try:
+                value = json.loads(text)
+            except json.JSONDecodeError:
+                value = text
+            node, parts = d, key.split(".")
+            for part in parts[:-1]:
+                if not isinstance(node.get(part), dict):
+                    raise InputError(f"unknown config section {part!r} in {key!r}")
+                node = node[part]
+            if parts[-1] not in node:
+                raise InputError(f"unknown config field {key!r}; known here: {', '.join(sorted(node))}")
+            node[parts[-1]] = value
+        return TrainConfig.from_dict(d)
+
     def replace(self, **changes) -> "TrainConfig":
         cfg = dataclasses.replace(self, **changes)
         cfg.validate()
@@ -116,6 +148,8 @@ class TrainConfig:
                              f"and be a multiple of {m}")
         if self.crop > self.resolution:
             raise InputError("crop must not exceed resolution")
+        if self.freeze_colour and not self.renderer.rgb_skip:
+            raise InputError("freeze_colour needs a renderer with rgb_skip (texture channels 0-2 as colour)")
         if self.renderer.in_channels != self.texture_channels:
             raise InputError("renderer input channels must equal texture channels")
         if self.batch_size < 1 or self.steps < 0:
@@ -141,7 +175,7 @@ PRESETS: dict[str, TrainConfig] = {
     "tiny": TrainConfig(
         preset="tiny", resolution=64, batch_size=2, steps=30, texture_channels=8, texture_size=64,
         renderer=RendererConfig(in_channels=8, width=8, depth=2, stem=2, skip_hidden=8, rgb_skip=True),
-        w_ssim=1.0, w_gan=0.0,
+        w_ssim=1.0, w_gan=0.0, freeze_colour=True,
         warp=WarpConfig(latent_dim=8, style_dim=16, mlp_layers=2, fourier_freqs=3, base_resolution=16, width=8, levels=2),
         disc_width=8, disc_scales=1, disc_layers=2, inpaint_steps=5, inpaint_views=2,
         checkpoint_minutes=1.0, report_every=5, log_every=5),
@@ -155,7 +189,7 @@ PRESETS: dict[str, TrainConfig] = {
         # stood in for the perceptual loss, outweighed the L1 six to one and pulled the colours
         # (person PSNR 10.4 dB after 300 steps, mean error +0.34 green); without it 17.9 dB
         # (docs/avatar.md, "Why the avatar had the wrong colours").
-        w_ssim=1.0, w_gan=0.0,
+        w_ssim=1.0, w_gan=0.0, freeze_colour=True,
         warp=WarpConfig(latent_dim=16, style_dim=64, mlp_layers=3, fourier_freqs=5, base_resolution=32, width=16, levels=3),
         disc_width=16, disc_scales=1, disc_layers=3, inpaint_steps=200, inpaint_views=16,
         channels_last=True, bf16=True),

@@ -18,6 +18,7 @@ import torch
 
 from morf.camera import PinholeCamera
 from morf.errors import ProjectError
+from morf.fitting.fits_io import BodyFits, load_fits
 from morf.io import load_npz, save_npz
 from morf.pipeline.control import Progress, StageControl
 from morf.train.frames import UV_SCALE, FrameSet
@@ -33,6 +34,8 @@ class BodyFitArrays:
     Fields:
         rotvecs: (N, J, 3) float32; transl: (N, 3) float32; shape: (1, S) float32;
         valid: (N,) bool frames the fit covers; source: "fits" | "ground-truth".
+        offsets: (V,) float32 clothing offsets of the fits (``BodyFits.offsets``), or None. The
+            training frames are rasterized from the body without them.
     """
 
     rotvecs: np.ndarray
@@ -40,34 +43,46 @@ class BodyFitArrays:
     shape: np.ndarray
     valid: np.ndarray
     source: str
+    offsets: np.ndarray | None = None
 
 
-def _from_npz(path: Path, source: str) -> BodyFitArrays:
+def _mean_shape(shape: np.ndarray) -> np.ndarray:
+    """(1, S) float32: per-frame shapes (N, S) become their mean, which the avatar uses."""
+    shape = shape.astype(np.float32)
+    if shape.ndim == 2 and shape.shape[0] > 1:
+        shape = shape.mean(0, keepdims=True)
+    return shape.reshape(1, -1)
+
+
+def _from_fits(fits: BodyFits) -> BodyFitArrays:
+    # Every frame has a fit; the frames the filter rejected are left out by the project's decisions.
+    return BodyFitArrays(fits.rotvecs.astype(np.float32), fits.transl.astype(np.float32), _mean_shape(fits.shape),
+                         np.ones(fits.num_frames, bool), "fits", fits.offsets)
+
+
+def _from_ground_truth(path: Path) -> BodyFitArrays:
     d = load_npz(path)
     for k in ("rotvecs", "transl", "shape"):
         if k not in d:
             raise ProjectError(f"{path} lacks {k!r}")
     rot = d["rotvecs"].astype(np.float32)
-    shape = d["shape"].astype(np.float32)
-    if shape.ndim == 2 and shape.shape[0] > 1:  # per-frame shapes: the avatar uses their mean
-        shape = shape.mean(0, keepdims=True)
     valid = d["valid"].astype(bool) if "valid" in d else np.ones(len(rot), bool)
-    return BodyFitArrays(rot, d["transl"].astype(np.float32), shape.reshape(1, -1), valid, source)
+    return BodyFitArrays(rot, d["transl"].astype(np.float32), _mean_shape(d["shape"]), valid, "ground-truth")
 
 
 def load_body_fits(project, source: str = "auto") -> BodyFitArrays:
-    """The project's body fits (``fits/fits.npz``), or the synthetic ground truth
-    (``ground_truth/gt.npz``) when asked for or when no fits exist on a synthetic project."""
+    """The project's body fits (:func:`morf.fitting.fits_io.load_fits`), or the synthetic ground
+    truth (``ground_truth/gt.npz``) when asked for or when no fits exist on a synthetic project."""
     if source not in FIT_SOURCES:
         raise ProjectError(f"unknown fits source {source!r}; choose one of {', '.join(FIT_SOURCES)}")
-    fits = project.fits_dir / "fits.npz"
+    has_fits = project.fits_path.is_file()
     gt = project.ground_truth_dir / "gt.npz"
-    if source == "fits" or (source == "auto" and fits.is_file()):
-        if not fits.is_file():
+    if source == "fits" or (source == "auto" and has_fits):
+        if not has_fits:
             raise ProjectError(f"no body fits in {project.root}; run 'morf fit {project.root}' first")
-        return _from_npz(fits, "fits")
+        return _from_fits(load_fits(project))
     if gt.is_file():
-        return _from_npz(gt, "ground-truth")
+        return _from_ground_truth(gt)
     if source == "ground-truth":
         raise ProjectError(f"{project.root} has no ground truth (only synthetic captures do)")
     raise ProjectError(f"no body fits in {project.root}; run 'morf fit {project.root}' first")

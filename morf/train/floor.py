@@ -58,12 +58,12 @@ def train_floor(project, cfg: TrainConfig, name: str | None = None, fits_source:
     """
     from morf.avatar.passthrough import PassthroughRenderer
     from morf.avatar.spectral import body_uv_atlas
-    from morf.avatar.trained import save_trained_avatar
     from morf.body import load_body_model
     from morf.train.data import build_frames
     from morf.train.floor_texture import choose_floor_size, floor_texture
     from morf.train.loop import TrainResult
     from morf.train.run_dir import RunDir
+    from morf.train.trained_avatar import save_trained_avatar
 
     if cfg.method != "rgb":
         raise InputError(f"the RGB floor needs method 'rgb', got {cfg.method!r}")

@@ -18,7 +18,6 @@ from typing import Callable
 import numpy as np
 import torch
 
-from morf.avatar.trained import save_trained_avatar
 from morf.avatar.warp import offsets_to_rgb, warp_texture
 from morf.errors import InputError, TrainingDiverged
 from morf.pipeline.control import Progress, StageControl
@@ -26,6 +25,7 @@ from morf.train.config import TrainConfig
 from morf.train.frames import FrameSet
 from morf.train.health import CollapseMonitor
 from morf.train.run_dir import RunDir
+from morf.train.trained_avatar import save_trained_avatar
 from morf.train.trainer import Trainer
 
 SNAPSHOT_EVERY = 100  # steps between in-memory snapshots of a healthy state (rollback targets)

@@ -56,6 +56,8 @@ class Trainer:
             if poses.shape[1] != cfg.warp.pose_dim:
                 raise ValueError(f"pose vector has {poses.shape[1]} values, warp expects {cfg.warp.pose_dim}")
             self.model.warp.set_pose_statistics(poses)
+        if cfg.freeze_colour:  # Adam leaves a parameter entry whose gradient is always zero where it is
+            self.model.texture.texture.register_hook(_without_colour)
         groups = [{"params": [self.model.texture.texture], "lr": cfg.lr_texture, "name": "texture"},
                   {"params": list(self.model.renderer.parameters()), "lr": cfg.lr_renderer, "name": "renderer"}]
         if self.model.warp is not None:
@@ -202,3 +204,10 @@ class Trainer:
 
 def finite(values: dict[str, float]) -> bool:
     return all(math.isfinite(v) for v in values.values())
+
+
+def _without_colour(grad: torch.Tensor) -> torch.Tensor:
+    """The texture's gradient with channels 0-2 (the projected colours) zeroed."""
+    grad = grad.clone()
+    grad[:3] = 0
+    return grad

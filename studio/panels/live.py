@@ -8,6 +8,7 @@ never the UI's.
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 
 from imgui_bundle import ImVec2, imgui
@@ -56,6 +57,7 @@ def _sync_motion(state: AppState, ui: UiContext) -> None:
         if state.motion_file is not None:
             bones = (ui.live_render.num_bones if ui.live_render is not None else 0) or ANNY_BONES
             live["clip_loading"] = load_motion_async(Path(state.motion_file), bones)
+            live["clip_loading"].add_done_callback(lambda _: ui.redraw_within(0.0))  # show it as soon as it loads
     loading = live.get("clip_loading")
     if loading is not None and loading.done():
         live["clip"], live["clip_note"] = loading.result()
@@ -80,7 +82,10 @@ def _request(state: AppState, ui: UiContext, side: int) -> int | None:
     camera = o.camera(side, side)
     key = (state.motion_file if pose is not None else None, index, o.yaw_deg, o.pitch_deg, o.distance_m,
            tuple(o.target), o.fov_y_deg, side)
-    ui.live_render.request(LiveRequest(pose, camera, key))
+    if not ui.live_render.request(LiveRequest(pose, camera, key)) and state.playing and clip is not None and len(clip):
+        # this motion frame is on its way or on screen: the next one is due at the clip's rate
+        # (a new request wakes the UI through the render thread's finished frame instead)
+        ui.redraw_within((math.floor(state.motion_time * clip.fps) + 1) / clip.fps - state.motion_time)
     return index
 
 

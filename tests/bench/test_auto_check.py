@@ -5,8 +5,8 @@ import json
 
 import pytest
 
+from morf.bench.auto_check import auto_check
 from morf.errors import InputError
-from morf.sizing.check import auto_check
 
 
 @pytest.mark.gl
@@ -70,7 +70,7 @@ def test_auto_check_rejects_bad_scene_lists(tmp_path):
 
 
 def test_scene_projects_forms():
-    from morf.sizing.check import scene_projects
+    from morf.bench.auto_check import scene_projects
 
     assert scene_projects(["plain", "print"], None) == {"plain": None, "print": None}
     assert scene_projects(["print"], "/cap") == {"print": "/cap"}

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from morf.sizing.front import near_front, pareto_front
+from morf.bench.front import near_front, pareto_front
 
 
 def test_front_of_known_points():
@@ -41,7 +41,7 @@ def test_near_front_counts_differences_inside_the_margin_as_equal():
 
 
 def test_quality_gap_and_its_standard_error():
-    from morf.sizing.front import quality_gap
+    from morf.bench.front import quality_gap
 
     runs = {"base": [21.0, 22.0, 23.0], "small": [20.0, 21.0, 22.0], "fast": [30.0, None], "auto": [20.5, 21.5]}
     fps = {"base": 25.0, "small": 26.0, "fast": 10.0, "auto": 24.0}

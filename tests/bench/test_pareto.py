@@ -53,8 +53,8 @@ def test_tiny_sweep_writes_results_and_resumes(tmp_path, body_model, gl):
 
 @pytest.mark.gl
 def test_a_resolution_point_is_scored_at_the_base_resolution(tmp_path, body_model, gl):
+    from morf.bench.train_eval import holdout_quality
     from morf.capture.project import CaptureProject
-    from morf.sizing.evaluate import holdout_quality
     from morf.sizing.sweep import PRESETS, SweepPoint, resolve
 
     sweep = PRESETS["tiny"]
@@ -73,7 +73,7 @@ def test_a_resolution_point_is_scored_at_the_base_resolution(tmp_path, body_mode
 
 
 def test_crowded_chart_labels_move_apart():
-    from morf.sizing.charts import _label_offsets
+    from morf.bench.charts import _label_offsets
 
     # the second and fourth points sit on top of earlier ones: each moves down one line per neighbour
     off = _label_offsets([20.0, 20.05, 30.0, 20.02], [18.0, 18.01, 17.0, 18.0])

@@ -17,7 +17,7 @@ class FakeProject:
         self.root = root
         self.num_frames = n
         self.image_size = (size, size)
-        self.fits_dir = root / "fits"
+        self.fits_path = root / "fits" / "fits.npz"
         self.ground_truth_dir = root / "ground_truth"
         y, x = np.mgrid[0:size, 0:size]
         k = size / 128

@@ -54,3 +54,33 @@ def test_holdout_and_the_rgb_floor_are_train_options():
     assert resolve_config(_args())[0].holdout == 0
     with pytest.raises(InputError, match="holdout"):
         resolve_config(_args(holdout=1))
+
+
+def test_set_changes_any_field_nested_ones_too():
+    cfg, _ = resolve_config(_args(set=["texture_size=512", "renderer.width=24", "w_ssim=0.5", "bf16=false"]))
+    assert (cfg.texture_size, cfg.renderer.width, cfg.w_ssim, cfg.bf16) == (512, 24, 0.5, False)
+    with pytest.raises(InputError, match="unknown config field 'nope'"):
+        resolve_config(_args(set=["nope=1"]))
+    with pytest.raises(InputError, match="unknown config section"):
+        resolve_config(_args(set=["steps.x=1"]))
+    with pytest.raises(InputError, match="FIELD=VALUE"):
+        resolve_config(_args(set=["steps"]))
+    with pytest.raises(InputError, match="resolution"):  # validated like every other config
+        resolve_config(_args(set=["resolution=100"]))
+
+
+def test_a_run_can_start_from_its_config_file(tmp_path):
+    from morf.cli.main import build_parser
+
+    first, _ = resolve_config(_args(set=["texture_size=128", "steps=7"]))
+    path = tmp_path / "config.json"
+    path.write_text(__import__("json").dumps(first.to_dict()))
+    args = build_parser().parse_args(["train", "p", "--config", str(path), "--set", "steps=9", "--device", "cpu"])
+    cfg, _ = resolve_config(args)
+    assert cfg == first.replace(steps=9)
+    path.write_text("[1, 2]")
+    with pytest.raises(InputError, match="not a training config"):
+        resolve_config(args)
+    args = build_parser().parse_args(["train", "p", "--config", str(path), "--preset", "cpu"])
+    with pytest.raises(InputError, match="--set"):
+        resolve_config(args)

@@ -61,9 +61,9 @@ def test_held_out_frames_never_reach_training(evaluated):
 
 
 def test_floor_is_reused_and_options_apply(evaluated, tmp_path, body_model):
-    from morf.avatar.trained import load_trained_avatar
     from morf.train.data import crop_of
     from morf.train.floor import floor_request, train_floor
+    from morf.train.trained_avatar import load_trained_avatar
 
     project, run = evaluated["project"], evaluated["run"]
     again = train_floor(project, floor_request(64, 3), "rgb-holdout3", model=body_model)

@@ -68,7 +68,7 @@ def test_int8_of_an_imbalanced_renderer_stays_close_to_fp32(tmp_path, monkeypatc
 
     import morf.export.equalize as eq
     from morf.export.onnx_renderer import export_fp32, export_int8
-    from morf.export.texture_quant import quantize_texture, spectral_texture
+    from morf.raster.texture_quant import quantize_texture, spectral_texture
 
     r = _imbalanced(2)
     q = quantize_texture(spectral_texture(16, 32, seed=4))

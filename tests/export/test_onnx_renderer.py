@@ -10,9 +10,9 @@ import torch
 
 from morf.avatar.renderer import RendererConfig, UNetRenderer
 from morf.export.onnx_renderer import export_fp32, export_int8
-from morf.export.texture_quant import quantize_texture, spectral_texture
 from morf.playback.composite import composite
-from morf.playback.neural_raster import to_layout
+from morf.raster.neural_raster import to_layout
+from morf.raster.texture_quant import quantize_texture, spectral_texture
 
 H = W = 32
 

@@ -10,8 +10,7 @@ SCRIPT = textwrap.dedent("""
     import numpy as np
     from morf.export.avatar_folder import load_exported_avatar
     from morf.playback.player import Player
-
-    from morf.playback.camera_paths import front_camera
+    from morf.raster.camera_paths import front_camera
 
     av = load_exported_avatar(sys.argv[1], verify=True)
     with Player(av, size=64, background=(0, 0, 0)) as p:
@@ -63,7 +62,7 @@ def test_playback_cameras_need_no_torch():
     script = textwrap.dedent("""
         import sys
         sys.modules["torch"] = None
-        from morf.playback.camera_paths import front_camera
+        from morf.raster.camera_paths import front_camera
         cam = front_camera(96, yaw_deg=33)
         assert cam.position[1] < 0  # in front of the person (Anny faces -Y)
         print(cam.gl_projection().shape)

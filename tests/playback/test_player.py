@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from morf.errors import InputError
-from morf.playback.camera_paths import front_camera
 from morf.playback.player import Player
+from morf.raster.camera_paths import front_camera
 
 SIZE = 128  # as in conftest.py
 

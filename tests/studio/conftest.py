@@ -70,3 +70,17 @@ def make_tiny_project(root, *, with_fit: bool = True) -> CaptureProject:
 @pytest.fixture
 def tiny_project(tmp_path) -> CaptureProject:
     return make_tiny_project(tmp_path / "capture")
+
+
+@pytest.fixture(scope="session")
+def tiny_avatar_dir(tmp_path_factory, body_model):
+    """A tiny exported avatar: a renderer whose mask is the body's coverage + a spectral texture."""
+    from types import SimpleNamespace
+
+    from morf.export.synthetic import build_synthetic_avatar, coverage_renderer, coverage_texture
+
+    out = tmp_path_factory.mktemp("avatar") / "avatar"
+    build_synthetic_avatar(out, body_model, renderer=coverage_renderer(), texture=coverage_texture(),
+                           renderer_cfg=SimpleNamespace(in_channels=16), image_size=64,
+                           calibration_views=4, heldout_views=1, seed=3)
+    return out

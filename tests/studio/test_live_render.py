@@ -48,7 +48,7 @@ def test_requests_are_newest_wins_and_the_player_is_released_on_its_thread():
     player = GatedPlayer()
     lr = LiveRenderer(lambda: (player, None)).start()
     assert lr.wait_open(5) and lr.ready and lr.size == 32
-    lr.request(LiveRequest("a", CAM, "a"))
+    assert lr.request(LiveRequest("a", CAM, "a"))
     assert player.entered.wait(5) and not lr.idle()
     for k in "bcd":  # posted while "a" renders: only the newest survives
         lr.request(LiveRequest(k, CAM, k))
@@ -58,7 +58,7 @@ def test_requests_are_newest_wins_and_the_player_is_released_on_its_thread():
     assert player.keys == ["a", "d"]
     frame = lr.latest()
     assert frame.seq == 2 and frame.image.shape == (32, 32, 3) and not frame.image.flags.writeable
-    lr.request(LiveRequest("d", CAM, "d"))  # same key: not rendered again
+    assert not lr.request(LiveRequest("d", CAM, "d"))  # same key: not rendered again
     assert _wait(lr.idle) and player.keys == ["a", "d"]
     assert lr.close() and player.released and not lr.alive
 
@@ -80,20 +80,6 @@ def test_a_player_that_cannot_open_or_fails_is_reported_not_raised():
     assert _wait(lr.idle)
     assert lr.note == "the player failed: RuntimeError: bad pose" and lr.latest() is None and lr.alive
     lr.close()
-
-
-@pytest.fixture(scope="module")
-def tiny_avatar_dir(tmp_path_factory, body_model):
-    """A tiny exported avatar: a renderer whose mask is the body's coverage + a spectral texture."""
-    from types import SimpleNamespace
-
-    from morf.export.synthetic import build_synthetic_avatar, coverage_renderer, coverage_texture
-
-    out = tmp_path_factory.mktemp("avatar") / "avatar"
-    build_synthetic_avatar(out, body_model, renderer=coverage_renderer(), texture=coverage_texture(),
-                           renderer_cfg=SimpleNamespace(in_channels=16), image_size=64,
-                           calibration_views=4, heldout_views=1, seed=3)
-    return out
 
 
 @pytest.mark.gl

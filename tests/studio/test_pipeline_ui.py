@@ -169,8 +169,8 @@ def test_fit_train_export_and_live_render_from_the_ui(make_app, project_copy, tm
     app.press(K._5)
     app.frame()
     app.click_item(f"motion:{motion.name}")
-    run_until(app, lambda: app._live.get("clip") is not None or app._live.get("clip_note"), 60)
-    assert app._live.get("clip") is not None, app._live.get("clip_note")
+    run_until(app, lambda: app.live_panel.get("clip") is not None or app.live_panel.get("clip_note"), 60)
+    assert app.live_panel.get("clip") is not None, app.live_panel.get("clip_note")
     app.press(K.space)
     assert app.state.playing
     keys = set()

@@ -6,10 +6,10 @@ import torch
 
 from morf.avatar.passthrough import PassthroughRenderer
 from morf.avatar.texture import texel_centre_uvs
-from morf.avatar.trained import load_trained_avatar, save_trained_avatar
 from morf.train.floor import floor_config, floor_request
 from morf.train.floor_texture import choose_floor_size, floor_texture
 from morf.train.frames import FrameSet
+from morf.train.trained_avatar import load_trained_avatar, save_trained_avatar
 
 S = 16  # texture side of the hand-made case
 

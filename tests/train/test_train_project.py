@@ -23,10 +23,10 @@ def tiny_capture(tmp_path_factory, body_model):
 
 
 def test_train_project_end_to_end(tiny_capture, body_model, tmp_path, monkeypatch):
-    from morf.avatar.trained import load_trained_avatar
     from morf.train.config import preset
     from morf.train.data import build_frames, build_holdout_frames
     from morf.train.project_run import evaluate_frames, train_project
+    from morf.train.trained_avatar import load_trained_avatar
 
     monkeypatch.setenv("MORF_CACHE_DIR", str(tmp_path))
     cfg = preset("tiny", "morf", steps=3, resolution=64, texture_size=64, inpaint_steps=2, inpaint_views=2,

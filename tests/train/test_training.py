@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 import torch
 
-from morf.avatar.trained import load_trained_avatar
 from morf.errors import InputError, TrainingDiverged
 from morf.pipeline.control import StageControl, StopRequested
 from morf.train.config import preset
 from morf.train.loop import train_avatar
 from morf.train.run_dir import RunDir
+from morf.train.trained_avatar import load_trained_avatar
 from morf.train.trainer import Trainer
 
 

@@ -7,7 +7,9 @@ cleared to 128 (= 0). Reading it back gives the int8 renderer's channels-last in
 without any float conversion or re-layout. (Four RGBA8 attachments were the first design: they
 need an interleaving copy on the CPU, and drawing into them was slower on Mesa llvmpipe.)
 
-Torch-free on purpose (numpy + moderngl): an exported avatar plays without torch.
+Torch-free on purpose (numpy + moderngl): an exported avatar plays without torch. Export draws
+its calibration views with it (:mod:`morf.export.export_avatar`) and playback every frame
+(:mod:`morf.playback.player`), so it sits below both.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from morf.export.texture_quant import ZERO_POINT, QuantizedTexture
+from morf.raster.texture_quant import ZERO_POINT, QuantizedTexture
 
 SHADER_DIR = Path(__file__).resolve().parents[2] / "resources" / "shaders"
 NEAR, FAR = 0.05, 100.0  # the same clip planes as the training rasterizer (morf.raster.gl_buffers)

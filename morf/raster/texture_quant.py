@@ -1,4 +1,5 @@
-"""Neural texture quantisation to uint8 for the exported avatar and the GL rasterizer.
+"""Neural texture quantisation to uint8: the texture the GL neural rasterizer samples
+(:mod:`morf.raster.neural_raster`) and the exported avatar stores (``texture.npz``).
 
 Per-channel symmetric scales with one common zero point 128: ``value = (q - 128) * scale[c]``.
 A value of 0 (the renderer's background) is exactly 128 in every channel, so the GL framebuffer

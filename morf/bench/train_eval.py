@@ -3,7 +3,8 @@
 Quality is the hold-out evaluation of ``morf bench quality`` (the synthetic novel-pose sequence
 rendered with the trained torch renderer: PSNR / SSIM over the image and over the person, and
 temporal flicker). Speed is the playback benchmark's measurement (``morf.bench.render``) of the
-trained avatar exported at the measured size, in a separate torch-free process.
+trained avatar exported at the measured size, in a separate torch-free process. Used by
+``morf bench pareto`` (and its ``--auto-check``) and ``morf bench stability``.
 """
 
 from __future__ import annotations
@@ -22,9 +23,9 @@ def holdout_quality(project, run_dir, model, resolution: int | None = None) -> d
     synthetic hold-out sequence (the same evaluation as ``morf bench quality``), rendered and
     scored at ``resolution`` px (default: the run's training resolution; runs trained at
     different resolutions are only comparable at one common resolution)."""
-    from morf.avatar.trained import load_trained_avatar
     from morf.train.data import build_holdout_frames
     from morf.train.project_run import evaluate_frames
+    from morf.train.trained_avatar import load_trained_avatar
 
     avatar = load_trained_avatar(run_dir)
     working = avatar.camera
@@ -63,8 +64,8 @@ def train_and_evaluate(project, cfg, run_name: str, model, fits_source: str = "g
 
 def export_for_speed(run_dir, out_dir: Path, size: int, body_model) -> dict:
     """Export the trained avatar of ``run_dir`` (texture + renderer) with views at ``size``^2."""
-    from morf.avatar.trained import load_trained_avatar
     from morf.export.synthetic import build_synthetic_avatar
+    from morf.train.trained_avatar import load_trained_avatar
 
     av = load_trained_avatar(run_dir)
     return build_synthetic_avatar(out_dir, body_model=body_model, renderer_cfg=av.renderer.cfg,
@@ -79,12 +80,12 @@ def measure_speed(avatar_dir: Path, size: int, frames: int, precision: str) -> d
     Returns fps (end to end, sequential), frame_ms and renderer_ms.
     """
     if precision == "int8":
-        from morf.bench.render import _measure_in_child
+        from morf.bench.render import measure_in_child
 
-        m = _measure_in_child(Path(avatar_dir), size, frames)
+        m = measure_in_child(Path(avatar_dir), size, frames)
         return {"fps": m["fps_end_to_end"], "frame_ms": m["frame_ms"], "renderer_ms": m["renderer_only_ms"],
                 "int8_psnr_vs_fp32_image_db": m.get("int8_psnr_vs_fp32_image_db")}
-    code = "import sys; sys.modules['torch'] = None\nfrom morf.sizing.evaluate import _fp32_child; _fp32_child()"
+    code = "import sys; sys.modules['torch'] = None\nfrom morf.bench.train_eval import _fp32_child; _fp32_child()"
     arg = json.dumps({"avatar": str(avatar_dir), "size": size, "frames": frames})
     r = subprocess.run([sys.executable, "-c", code, arg], capture_output=True, text=True, timeout=1200)
     if r.returncode != 0:
@@ -94,13 +95,13 @@ def measure_speed(avatar_dir: Path, size: int, frames: int, precision: str) -> d
 
 def _fp32_child() -> None:
     """Child process: time the fp32 player like morf.bench.render.measure times the int8 one."""
-    from morf.bench.render import _motion, time_player
-    from morf.playback.camera_paths import front_camera
+    from morf.bench.render import bench_motion, time_player
     from morf.playback.player import Player
+    from morf.raster.camera_paths import front_camera
 
     a = json.loads(sys.argv[1])
     size, frames = a["size"], a["frames"]
-    rot, tr = _motion(frames + 5, 104)
+    rot, tr = bench_motion(frames + 5, 104)
     cams = [front_camera(size, yaw_deg=10.0 * i) for i in range(len(rot))]
     with Player(a["avatar"], size=size, background=(255, 255, 255), precision="fp32") as p:
         for i in list(range(5)) * 3:  # warm-up, as morf.bench.render.measure

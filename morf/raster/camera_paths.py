@@ -1,4 +1,5 @@
-"""Cameras for playback: a fixed front camera, an orbit around the avatar, a follow camera.
+"""Cameras around the avatar: a fixed front camera, an orbit, a follow camera. Playback and
+animation view the avatar through them, and export draws its calibration views with them.
 
 Anny is Z-up and faces -Y, so "front" is on the -Y side. All cameras look at the body's middle
 (the pelvis sits at the origin of the rest pose, about 0.9 m above the feet).

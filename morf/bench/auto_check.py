@@ -6,14 +6,14 @@ choice is made from the capture, trained and measured beside the sweep's sizing 
 ``SizingRule.quality_margin_db`` better on the person's PSNR while at most
 ``SizingRule.fps_margin_frac`` slower (the fps measurement's noise) or faster, nor more than that
 share faster while at most the quality margin worse or better
-(:func:`morf.sizing.front.near_front`). Writes ``OUT/auto_check.json`` and ``OUT/auto_check.md``;
+(:func:`morf.bench.front.near_front`). Writes ``OUT/auto_check.json`` and ``OUT/auto_check.md``;
 each scene's sweep is in ``OUT/<scene>/`` (resumable like any sweep).
 
 One training per point resolves about 1 dB at default size, coarser than the margin; with
 ``seeds`` > 1 every point (the automatic choice included) is trained again with further seeds
 (``OUT/<scene>/points/<name>-seed<k>.json``) and the verdict compares the means. Each scene's row
 then also says whether the verdict is beyond that noise: the gap to the best point at most the fps
-margin slower, with its standard error over the seeds (:func:`morf.sizing.front.quality_gap`).
+margin slower, with its standard error over the seeds (:func:`morf.bench.front.quality_gap`).
 """
 
 from __future__ import annotations
@@ -63,10 +63,10 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
     (names as in ``--points``); ``seeds``: trainings per point, the verdict on their means.
     """
     from morf.bench.common import machine_info, markdown_table, write_results
+    from morf.bench.front import near_front, quality_gap
     from morf.bench.pareto import QUALITY, make_capture, run_sweep
     from morf.errors import InputError
     from morf.sizing.choose import SizingRule, choose_train_config
-    from morf.sizing.front import near_front, quality_gap
     from morf.sizing.sweep import PRESETS, SweepPoint
 
     unknown = [s for s in scenes if s not in SCENE_ORDER]

@@ -3,8 +3,8 @@
 import torch
 
 from morf.avatar.renderer import RendererConfig, UNetRenderer
-from morf.avatar.trained import load_trained_avatar, save_trained_avatar
 from morf.train.config import preset
+from morf.train.trained_avatar import load_trained_avatar, save_trained_avatar
 
 
 def test_files_without_a_renderer_kind_load_as_unet(tmp_path):

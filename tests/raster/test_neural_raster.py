@@ -1,6 +1,7 @@
 """GL neural rasterization against the training path: rasterize_uv + torch grid_sample."""
 
 import numpy as np
+import pytest
 import torch
 
 from morf.avatar.texture import sample_texture
@@ -8,10 +9,20 @@ from morf.body import BodyPose
 from morf.body.render_mesh import render_mesh_for
 from morf.export.export_avatar import skinned_mesh_from_body_model
 from morf.export.skeleton import skeleton_from_body_model
-from morf.export.texture_quant import quantize_texture, spectral_texture
-from morf.playback.camera_paths import front_camera
-from morf.playback.neural_raster import NeuralRasterizer, create_headless_context
 from morf.raster import rasterize_uv
+from morf.raster.camera_paths import front_camera
+from morf.raster.neural_raster import NeuralRasterizer, create_headless_context
+from morf.raster.texture_quant import quantize_texture, spectral_texture
+
+pytestmark = pytest.mark.gl
+
+
+@pytest.fixture()
+def still_pose():
+    rng = np.random.default_rng(7)
+    rot = (rng.normal(size=(104, 3)) * 0.1).astype(np.float32)
+    rot[0] = (0, 0, 0.4)
+    return rot, np.array([0.02, 0.0, 0.0], np.float32)
 
 
 def test_gl_matches_torch_sampling(body_model, still_pose):

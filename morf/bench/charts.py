@@ -23,7 +23,7 @@ def front_chart(points: list[dict], x: str, y: str, front: np.ndarray, path: Pat
     """Scatter of ``points[i][x]`` against ``points[i][y]`` with the Pareto front drawn as a step line.
 
     Args:
-        front: (N,) bool, points on the front (from :func:`morf.sizing.front.pareto_front`).
+        front: (N,) bool, points on the front (from :func:`morf.bench.front.pareto_front`).
         target_x: draws a vertical line there (e.g. the paper's 30 fps), labelled ``target_label``.
         note: a footnote under the axes (what is comparable with the paper and what is not).
         spread: (x, low, high): the base point's range over training seeds, drawn as a bar at x.

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from morf.export.texture_quant import ZERO_POINT, dequantize_texture, quantize_texture, spectral_texture
+from morf.raster.texture_quant import ZERO_POINT, dequantize_texture, quantize_texture, spectral_texture
 
 
 def test_round_trip_within_half_step():

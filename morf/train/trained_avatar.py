@@ -1,4 +1,4 @@
-"""The trained avatar handed to export and playback: a baked (static) neural texture and the
+"""The trained avatar handed to export and evaluation: a baked (static) neural texture and the
 renderer, nothing of the warp networks.
 
 Stored as ``runs/<name>/avatar.pt`` (torch.save of tensors, state dicts and plain values;
@@ -21,6 +21,8 @@ from morf.avatar.passthrough import PassthroughConfig, PassthroughRenderer
 from morf.avatar.renderer import RendererConfig, UNetRenderer
 from morf.camera import PinholeCamera
 from morf.errors import ProjectError
+from morf.train.config import TrainConfig
+from morf.train.run_dir import load_torch_file
 
 FORMAT = "morf-avatar"
 VERSION = 1
@@ -45,7 +47,7 @@ class TrainedAvatar:
 
     texture: torch.Tensor
     renderer: nn.Module
-    config: "object"
+    config: TrainConfig
     shape: torch.Tensor
     camera: PinholeCamera | None
     method: str
@@ -79,9 +81,6 @@ def save_trained_avatar(path: str | Path, texture: torch.Tensor, renderer: nn.Mo
 
 def load_trained_avatar(run_dir: str | Path) -> TrainedAvatar:
     """Load ``run_dir/avatar.pt`` (written when ``morf train`` finishes)."""
-    from morf.train.config import TrainConfig
-    from morf.train.run_dir import load_torch_file
-
     run_dir = Path(run_dir)
     path = run_dir / "avatar.pt" if run_dir.is_dir() else run_dir
     if not path.is_file():

@@ -1,0 +1,75 @@
+"""SMPL pose sequences on the 24-joint SMPL body (``(T, 72)`` axis-angle), as .npz:
+
+- AIST++ layout: ``smpl_poses`` (T, 72), ``smpl_trans`` (T, 3), optional ``smpl_scaling`` (1,)
+  (translations are divided by it, giving metres); no frame rate is stored: AIST++ is 60 fps;
+- plain SMPL: ``poses`` (T, 72), ``trans`` (T, 3) (optional: in place), optionally a frame rate
+  under one of :data:`morf.motion.amass.FPS_KEYS`; 30 fps when it stores none.
+
+Such files come from several sources with different world axes (AIST++ and most SMPL tools Y up,
+AMASS Z up, camera-space estimates Y down), so the up axis is found from the data: the world axis
+along which the pelvis's own up axis points on most frames. The two hand joints (22, 23) are
+not used.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from morf.errors import InputError
+from morf.motion.amass import SMPL_REST, smpl_source_motion, stored_fps
+from morf.motion.skeleton import SourceMotion
+from morf.motion.so3 import matrix_to_rotvec, rotvec_to_matrix
+
+AIST_FPS = 60.0  # AIST++ motions are 60 fps and store no rate
+SMPL_DEFAULT_FPS = 30.0  # other SMPL sequences that store no rate
+
+
+def world_up(root_rotvecs: np.ndarray) -> tuple[str, int]:
+    """(axis, sign) of the world's up direction, from (T, 3) SMPL root rotations.
+
+    The SMPL rest body is Y up, so R_root @ (0, 1, 0) is the pelvis's up direction; its median
+    over frames points along the world's up axis for anyone mostly upright.
+    """
+    up = np.median(rotvec_to_matrix(root_rotvecs)[:, :, 1], axis=0)
+    k = int(np.argmax(np.abs(up[1:]))) + 1  # Y or Z: no motion file stands people along X
+    return "yz"[k - 1], 1 if up[k] >= 0 else -1
+
+
+def read_smpl(path: str | Path, arrays: dict[str, np.ndarray], fps: float | None = None) -> SourceMotion:
+    """An AIST++ or plain SMPL .npz (see the module docstring) as a :class:`SourceMotion`.
+
+    ``fps`` is used when the file stores no frame rate (default: 60 for AIST++, else 30).
+    Raises:
+        InputError: missing arrays or wrong shapes.
+    """
+    path = Path(path)
+    aist = "smpl_poses" in arrays
+    pose_key, trans_key = ("smpl_poses", "smpl_trans") if aist else ("poses", "trans")
+    if pose_key not in arrays:
+        raise InputError(f"{path}: no '{pose_key}' array")
+    poses = np.asarray(arrays[pose_key], dtype=np.float64)
+    if poses.ndim != 2 or poses.shape[1] != 72:
+        raise InputError(f"{path}: '{pose_key}' has shape {poses.shape}; expected (T, 72) SMPL")
+    T = poses.shape[0]
+    if aist and trans_key not in arrays:
+        raise InputError(f"{path}: AIST++ motion without 'smpl_trans'")
+    trans = np.asarray(arrays.get(trans_key, np.zeros((T, 3))), dtype=np.float64)
+    if aist and "smpl_scaling" in arrays:
+        scaling = float(np.asarray(arrays["smpl_scaling"], dtype=np.float64).reshape(-1)[0])
+        if not np.isfinite(scaling) or scaling <= 0:
+            raise InputError(f"{path}: bad 'smpl_scaling' {scaling}")
+        trans = trans / scaling
+    rate = stored_fps(arrays, path) or fps or (AIST_FPS if aist else SMPL_DEFAULT_FPS)
+    body = poses[:, :66].copy()
+    if T and trans.shape == (T, 3) and np.all(np.isfinite(body)):
+        axis, sign = world_up(body[:, :3])
+        if sign < 0:  # upside down (camera space, Y down): half a turn about X puts it upright
+            flip = np.diag([1.0, -1.0, -1.0])
+            body[:, :3] = matrix_to_rotvec(flip @ rotvec_to_matrix(body[:, :3]))
+            trans = (trans + SMPL_REST[0]) @ flip.T - SMPL_REST[0]
+    else:
+        axis = "y"  # smpl_source_motion reports what is wrong
+    layout = "aist++" if aist else "smpl"
+    return smpl_source_motion(body, trans, rate, axis, path, f"{layout}:{path.name} ({axis}-up)", "smpl")

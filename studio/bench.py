@@ -1,0 +1,285 @@
+"""``morf bench studio --avatar DIR``: the real studio window playing an avatar, timed.
+
+Opens the studio (a window when DISPLAY is set, else GLFW's null platform with EGL), plays a
+motion in the live render panel through the app's own frame loop, and reports the live render's
+fps, the UI's frame times and redraw rate, and how the CPU time split between the UI thread, the
+live render (its thread, onnxruntime's and software GL's) and the rest. Then it times the same avatar with
+``morf bench render``'s measurement (a fresh process) and compares. ``--with-training PROJECT``
+trains a copy of PROJECT in the studio's worker meanwhile.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+DEFAULT_MOTION = Path(__file__).resolve().parents[1] / "resources" / "motions" / "walk_forward.npz"
+LIVE_PANEL = 4  # index of "Live render" in studio.state.PANELS
+TARGET_LIVE_RATIO = 0.85  # live panel fps / bench render fps
+TARGET_UI_P95_MS = 33.0
+WARMUP_TIMEOUT_S = 120.0  # longest wait, after the warm-up, for the player and the motion
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="morf bench studio", description="The studio window playing an avatar in its "
+                                "live render panel, timed, and compared with 'morf bench render' on the same avatar.")
+    p.add_argument("--avatar", required=True, help="an exported avatar folder to play")
+    p.add_argument("--seconds", type=float, default=20.0, help="timed seconds of playback (after the warm-up)")
+    p.add_argument("--warmup", type=float, default=5.0,
+                   help="seconds before timing starts (the player opens, the motion loads)")
+    p.add_argument("--with-training", metavar="PROJECT", default=None,
+                   help="train a copy of this fitted project in the worker meanwhile")
+    p.add_argument("--preset", default="cpu",
+                   help="with --with-training: the training preset (tiny ends within seconds)")
+    p.add_argument("--motion", default=str(DEFAULT_MOTION), help="a .bvh / .npz motion to play")
+    p.add_argument("--size", default="1280x800", help="window size WxH")
+    p.add_argument("--max-fps", type=float, default=None,
+                   help="the studio's cap on UI redraws per second (default: the studio's; 0: redraw continuously)")
+    p.add_argument("--live-threads", type=int, default=None,
+                   help="onnxruntime threads of the live render (default: the studio's)")
+    p.add_argument("--headless", action="store_true", help="off-screen (EGL) even when DISPLAY is set")
+    p.add_argument("--screenshot", metavar="PNG", default=None, help="save the window's last frame")
+    p.add_argument("--no-compare", action="store_true", help="skip the 'morf bench render' measurement")
+    p.add_argument("--compare-frames", type=int, default=60, help="timed frames of the 'morf bench render' measurement")
+    p.add_argument("--out", default=None, help="folder for studio.json and studio.md")
+    return p
+
+
+# ---- CPU time per thread (Linux /proc) -------------------------------------------------------------
+def thread_cpu_seconds() -> dict[int, tuple[str, int, float]]:
+    """Native thread id -> (name, nice value, CPU seconds) for every thread of this process; empty off Linux."""
+    tick = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+    out = {}
+    try:
+        tids = os.listdir("/proc/self/task")
+    except OSError:
+        return out
+    for tid in tids:
+        try:
+            stat = Path(f"/proc/self/task/{tid}/stat").read_text()
+        except OSError:
+            continue  # the thread ended
+        name = stat[stat.index("(") + 1:stat.rindex(")")]
+        fields = stat[stat.rindex(")") + 2:].split()
+        out[int(tid)] = (name, int(fields[16]), (int(fields[11]) + int(fields[12])) / tick)  # nice, utime + stime
+    return out
+
+
+def cpu_shares(before: dict, after: dict, seconds: float, roles: dict[int, str],
+               helper_nice: int | None = None) -> dict[str, float]:
+    """Percent of one core per group of threads over ``seconds``.
+
+    Threads in ``roles`` (tid -> name) are their own group. The live render's helpers (its
+    onnxruntime pool and its software GL threads) are created by the render thread and inherit
+    its nice value, ``helper_nice``; the other software GL threads draw the UI.
+    """
+    shares: dict[str, float] = {}
+    for tid, (name, nice, cpu) in after.items():
+        used = cpu - before.get(tid, (name, nice, 0.0))[2]
+        gl = name.startswith("llvmpipe")
+        if tid in roles:
+            group = roles[tid]
+        elif helper_nice is not None and nice == helper_nice:
+            group = "live render: software GL" if gl else "live render: onnxruntime threads"
+        else:
+            group = "UI: software GL" if gl else "other threads"
+        shares[group] = shares.get(group, 0.0) + 100.0 * used / seconds
+    return shares
+
+
+# ---- the run -------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Window:
+    """What the studio did in the timed window. All rates per second of wall time."""
+
+    seconds: float
+    ui_frames: int
+    ui_frame_ms: np.ndarray  # (N,) each UI frame's own time (UI work + its GL rasterization)
+    live_frames: int  # frames the live render thread finished
+    live_shown: int  # of those, frames the UI put on screen
+    live_render_ms: np.ndarray  # (M,) render thread's time per shown frame
+    cpu: dict[str, float]  # group -> percent of one core
+    train_steps: int | None
+
+
+def _minimal_project(root: Path) -> Path:
+    """A one-frame capture project: the live panel needs an open project around it."""
+    from morf.capture.project import CaptureProject
+
+    project = CaptureProject.create(root, num_frames=1, width=64, height=64, fps=10.0, source={"kind": "bench"})
+    project.save_frame(0, np.full((64, 64, 3), 96, np.uint8))
+    project.save_mask(0, np.zeros((64, 64), bool))
+    return root
+
+
+def _prepare_project(tmp: Path, avatar: Path, training_project: str | None) -> Path:
+    if training_project:
+        root = tmp / Path(training_project).name
+        shutil.copytree(training_project, root, symlinks=True)
+    else:
+        root = _minimal_project(tmp / "bench_project")
+    link = root / "avatar"
+    if link.is_symlink() or link.is_file():
+        link.unlink()
+    elif link.is_dir():
+        shutil.rmtree(link)
+    link.symlink_to(avatar, target_is_directory=True)
+    return root
+
+
+def _playing(app) -> bool:
+    """The player opened, rendered a frame, and the motion loaded."""
+    live = app.live
+    return live is not None and live.ready and live.latest() is not None and app.live_panel.get("clip") is not None
+
+
+def _step(app) -> int | None:
+    progress = app.worker.latest().progress
+    return progress.step if progress is not None else None
+
+
+def run_studio(args, avatar: Path, tmp: Path) -> tuple[Window, dict]:
+    """Open the studio, play the motion in the live panel, time ``args.seconds`` of it."""
+    from studio.app import StudioApp, _parse_size
+    from studio.commands import StartStage
+
+    project = _prepare_project(tmp, avatar, args.with_training)
+    motion = Path(args.motion).resolve()
+    headless = args.headless or not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    kw = {} if args.max_fps is None else {"max_fps": args.max_fps}
+    if args.live_threads is not None:
+        from studio.player import open_player
+
+        kw["player_opener"] = lambda d: open_player(d, threads=args.live_threads)
+    from studio.player import LIVE_RENDER_THREADS
+
+    info: dict = {"window": "headless EGL" if headless else f"X display {os.environ.get('DISPLAY', '')}",
+                  "live_threads": args.live_threads or LIVE_RENDER_THREADS}
+    with StudioApp(project, size=_parse_size(args.size), headless=headless, deterministic=False,
+                   motion_dir=motion.parent, **kw) as app:
+        info["max_fps"], info["idle_fps"] = app.pacer.max_fps, app.pacer.idle_fps
+        app.state.select_panel(LIVE_PANEL)
+        app.state.motion_file = str(motion)
+        app.state.playing = True
+        if args.with_training:
+            app.send(StartStage("train", {"preset": args.preset}))
+        app.run(seconds=args.warmup)
+        end = time.perf_counter() + WARMUP_TIMEOUT_S
+        while not _playing(app) and time.perf_counter() < end and (app.live is None or not app.live.note):
+            app.run(seconds=0.5)
+        live = app.live
+        if live is None or not live.ready or live.latest() is None:
+            why = live.note if live is not None else "no live render"
+            raise RuntimeError(f"the live render did not start: {why}")
+        if app.live_panel.get("clip") is None:
+            raise RuntimeError(f"the motion did not load: {app.live_panel.get('clip_note')}")
+        ui_tid = threading.main_thread().native_id
+        roles = {ui_tid: "UI thread", live.native_id: "live render thread", app.worker.native_id: "worker thread"}
+        n0, s0, seq0, step0 = len(app.frame_times), len(app.live_stats), live.latest().seq, _step(app)
+        cpu0, t0 = thread_cpu_seconds(), time.perf_counter()
+        nice = {tid: v[1] for tid, v in cpu0.items()}
+        helper_nice = nice.get(live.native_id) if nice.get(live.native_id) != nice.get(ui_tid) else None
+        app.run(seconds=args.seconds)
+        t1, cpu1 = time.perf_counter(), thread_cpu_seconds()
+        seq1, step1 = live.latest().seq, _step(app)
+        stats = app.live_stats[s0:]
+        window = Window(seconds=t1 - t0, ui_frames=len(app.frame_times) - n0,
+                        ui_frame_ms=1e3 * np.asarray(app.frame_times[n0:]), live_frames=seq1 - seq0,
+                        live_shown=len(stats), live_render_ms=np.asarray([ms for _, ms in stats]),
+                        cpu=cpu_shares(cpu0, cpu1, t1 - t0, roles, helper_nice),
+                        train_steps=None if not args.with_training or step1 is None else step1 - (step0 or 0))
+        if args.with_training:  # where training stood at the end (a tiny preset may finish early)
+            snap = app.worker.latest()
+            info["training"] = {"state": snap.state, "stage": snap.stage, "error": snap.error,
+                                "step": snap.progress.step if snap.progress else None,
+                                "total": snap.progress.total if snap.progress else None}
+        if args.screenshot:
+            from morf.io import write_image
+
+            write_image(args.screenshot, app.frame(capture=True))
+    return window, info
+
+
+def summarize(w: Window) -> dict:
+    pct = (lambda a, q: float(np.percentile(a, q)) if len(a) else None)
+    return {"seconds": round(w.seconds, 2), "live_fps": w.live_frames / w.seconds,
+            "live_shown_fps": w.live_shown / w.seconds,
+            "live_render_ms_p50": pct(w.live_render_ms, 50), "ui_fps": w.ui_frames / w.seconds,
+            "ui_frame_ms_p50": pct(w.ui_frame_ms, 50), "ui_frame_ms_p95": pct(w.ui_frame_ms, 95),
+            "ui_frame_ms_max": float(w.ui_frame_ms.max()) if len(w.ui_frame_ms) else None,
+            "cpu_percent_of_one_core": {k: round(v, 1) for k, v in sorted(w.cpu.items(), key=lambda kv: -kv[1])},
+            "train_steps_per_s": None if w.train_steps is None else w.train_steps / w.seconds}
+
+
+def report(result: dict) -> str:
+    s = result["studio"]
+    lines = [f"studio ({result['window']}, UI cap {result['max_fps'] or 'none'} fps, idle {result['idle_fps']} fps), "
+             f"{s['seconds']:.0f} s of {Path(result['motion']).name}:",
+             f"  live panel: {s['live_fps']:.1f} fps rendered, {s['live_shown_fps']:.1f} fps shown, "
+             f"render p50 {s['live_render_ms_p50'] or 0:.0f} ms a frame ({result['live_threads']} onnxruntime threads)",
+             f"  UI: {s['ui_fps']:.1f} redraws/s, frame time p50 {s['ui_frame_ms_p50'] or 0:.1f} ms, "
+             f"p95 {s['ui_frame_ms_p95'] or 0:.1f} ms, max {s['ui_frame_ms_max'] or 0:.1f} ms",
+             "  CPU (% of one core): " + ", ".join(f"{k} {v:.0f}" for k, v in s["cpu_percent_of_one_core"].items())]
+    if result.get("training"):
+        t = result["training"]
+        rate = f"{s['train_steps_per_s']:.2f} steps/s; " if s["train_steps_per_s"] is not None else ""
+        lines.append(f"  training ({result['preset']} preset): {rate}at the end {t['stage']} {t['state']}, "
+                     f"step {t['step']} of {t['total']}" + (f", error: {t['error']}" if t["error"] else ""))
+    b = result.get("bench_render")
+    if b:
+        lines.append(f"  morf bench render on the same avatar: {b['fps']:.1f} fps end to end "
+                     f"({b['threads']} onnxruntime threads); live panel at {100 * result['live_vs_bench']:.0f}% of it")
+    lines.append(f"  targets: live >= {100 * TARGET_LIVE_RATIO:.0f}% of bench render: {result['targets']['live_fps']}; "
+                 f"UI p95 < {TARGET_UI_P95_MS:.0f} ms: {result['targets']['ui_p95']}")
+    return "\n".join(lines)
+
+
+def run(args) -> int:
+    avatar = Path(args.avatar).resolve()
+    if not (avatar / "manifest.json").is_file():
+        print(f"morf bench studio: error: not an exported avatar (no manifest.json): {avatar}", file=sys.stderr)
+        return 2
+    with tempfile.TemporaryDirectory(prefix="morf-bench-studio-") as tmp:
+        window, info = run_studio(args, avatar, Path(tmp))
+    from morf.bench.common import machine_info
+
+    result: dict = {"benchmark": "studio", "avatar": str(avatar), "motion": str(Path(args.motion).resolve()),
+                    "size": args.size, "with_training": args.with_training, "preset": args.preset,
+                    **info, "studio": summarize(window), "machine": machine_info(),
+                    "command": "morf bench studio " + " ".join(sys.argv[1:])}
+    if not args.no_compare:
+        from morf.bench.render import measure_in_child
+        from studio.player import LIVE_RENDER_SIZE
+
+        m = measure_in_child(avatar, LIVE_RENDER_SIZE, args.compare_frames)
+        result["bench_render"] = {"fps": m["fps_end_to_end"], "frame_ms": m["frame_ms"], "threads": m.get("threads", 2),
+                                  "size": LIVE_RENDER_SIZE}
+        result["live_vs_bench"] = result["studio"]["live_fps"] / m["fps_end_to_end"]
+    ratio, p95 = result.get("live_vs_bench"), result["studio"]["ui_frame_ms_p95"]
+    result["targets"] = {"live_fps": "n/a" if ratio is None else ("met" if ratio >= TARGET_LIVE_RATIO else "missed"),
+                         "ui_p95": "n/a" if p95 is None else ("met" if p95 < TARGET_UI_P95_MS else "missed")}
+    text = report(result)
+    print(text)
+    if args.out:
+        from morf.bench.common import write_results
+
+        path = write_results(args.out, "studio", result, "# Studio live render\n\n```\n" + text + "\n```\n")
+        print(f"wrote {path}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run(build_parser().parse_args(argv))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

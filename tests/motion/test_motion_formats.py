@@ -1,0 +1,128 @@
+"""Every motion .npz kind is told by its content and read into the same Anny clip."""
+
+import numpy as np
+import pytest
+
+from morf.errors import InputError
+from morf.motion import RetargetConfig, load_motion, save_clip
+from morf.motion.formats import npz_motion_kind
+from morf.motion.smpl import world_up
+from morf.motion.so3 import rotvec_to_matrix
+from motion_files import (Z_TO_Y_UP, smpl_body_motion, write_aist, write_amass_smplh, write_amass_smplx,
+                          write_capture_fits)
+
+RAW = RetargetConfig(fps=None, keep_feet_on_ground=False)
+
+
+def _kind(path):
+    from morf.io import load_npz
+
+    return npz_motion_kind(load_npz(path, skip_pickled=True))
+
+
+def test_kinds_are_told_by_content(tmp_path):
+    assert _kind(write_amass_smplh(tmp_path / "a_poses.npz")) == "amass"
+    assert _kind(write_amass_smplx(tmp_path / "b_stageii.npz")) == "amass"
+    assert _kind(write_aist(tmp_path / "c.npz")) == "smpl"
+    np.savez(tmp_path / "d.npz", poses=np.zeros((3, 72)), trans=np.zeros((3, 3)))
+    assert _kind(tmp_path / "d.npz") == "smpl"
+    np.savez(tmp_path / "e.npz", rotvecs=np.zeros((3, 104, 3)), transl=np.zeros((3, 3)), fps=np.array(24.0))
+    assert _kind(tmp_path / "e.npz") == "player"
+    rot = np.zeros((4, 104, 3), np.float32)
+    project = write_capture_fits(tmp_path / "cap", rot, np.zeros((4, 3), np.float32))
+    assert _kind(project.fits_dir / "fits.npz") == "fits"
+    np.savez(tmp_path / "f.npz", weights=np.zeros(3))
+    assert _kind(tmp_path / "f.npz") is None
+
+
+def test_the_same_motion_in_every_smpl_layout_gives_the_same_clip(tmp_path, body_model):
+    ref = load_motion(write_amass_smplh(tmp_path / "h.npz", fps=60.0), body_model, config=RAW)
+    assert ref.fps == 60.0 and "smplh, male" in ref.source  # gender stored as bytes
+    smplx = load_motion(write_amass_smplx(tmp_path / "x.npz", fps=60.0), body_model, config=RAW)
+    assert "smplx, female" in smplx.source  # gender as text; the pickled marker dict is not loaded
+    aist = load_motion(write_aist(tmp_path / "a.npz"), body_model, config=RAW)
+    assert aist.fps == 60.0 and "aist++" in aist.source and "y-up" in aist.source  # AIST++'s own rate
+    for clip in (smplx, aist):
+        assert clip.num_frames == ref.num_frames
+        np.testing.assert_allclose(clip.rotvecs, ref.rotvecs, atol=2e-5)
+        np.testing.assert_allclose(clip.transl, ref.transl, atol=2e-5)
+
+
+@pytest.mark.parametrize("world", ["z", "y", "-y"])
+def test_plain_smpl_up_axis_is_found_from_the_data(tmp_path, body_model, world):
+    body, trans = smpl_body_motion(12)
+    ref = load_motion(write_amass_smplh(tmp_path / "h.npz", T=12, fps=30.0), body_model, config=RAW)
+    from morf.motion.amass import SMPL_REST
+    from morf.motion.so3 import matrix_to_rotvec
+
+    W = {"z": np.eye(3), "y": Z_TO_Y_UP, "-y": np.diag([1.0, -1.0, -1.0]) @ Z_TO_Y_UP}[world]
+    root = matrix_to_rotvec(W @ rotvec_to_matrix(body[:, :3]))
+    pelvis = (trans + SMPL_REST[0]) @ W.T
+    poses = np.concatenate([root, body[:, 3:], np.zeros((12, 6))], axis=1)
+    np.savez(tmp_path / "s.npz", poses=poses, trans=pelvis - SMPL_REST[0], gender=np.array("neutral"))
+    assert world_up(root) == (world[-1], -1 if world.startswith("-") else 1)
+    clip = load_motion(tmp_path / "s.npz", body_model, config=RAW, source_fps=30.0)
+    np.testing.assert_allclose(clip.rotvecs, ref.rotvecs, atol=2e-5)
+    np.testing.assert_allclose(clip.transl, ref.transl, atol=2e-5)
+
+
+def test_frame_rates(tmp_path, body_model):
+    aist = write_aist(tmp_path / "a.npz", T=13)
+    assert load_motion(aist, body_model, config=RAW).fps == 60.0  # AIST++ default
+    assert load_motion(aist, body_model, config=RAW, source_fps=25.0).fps == 25.0  # stated
+    smplh = write_amass_smplh(tmp_path / "h.npz", T=13, fps=120.0)
+    assert load_motion(smplh, body_model, config=RAW, source_fps=25.0).fps == 120.0  # the file's own wins
+    clip = load_motion(smplh, body_model)  # default output: 30 fps, feet on the ground
+    assert clip.fps == 30.0 and clip.num_frames == 4
+    with pytest.raises(InputError, match="positive"):
+        load_motion(aist, body_model, source_fps=0.0)
+
+
+def test_capture_fits_from_the_camera_world(tmp_path, body_model):
+    from morf.motion import motion_library
+
+    walk = load_motion(dict(motion_library())["walk_forward"])
+    rot, transl = walk.rotvecs[:20], walk.transl[:20]
+    cam = write_capture_fits(tmp_path / "cam", rot, transl, fps=25.0)
+    up = write_capture_fits(tmp_path / "up", rot, transl, fps=25.0, camera_world=False)
+    a = load_motion(cam.fits_dir / "fits.npz", body_model, config=RAW)
+    b = load_motion(up.fits_dir / "fits.npz", body_model, config=RAW)
+    assert a.fps == 25.0 and a.num_frames == 20 and a.name == "cam"  # the capture project's rate
+    np.testing.assert_allclose(a.rotvecs, b.rotvecs, atol=1e-5)
+    np.testing.assert_allclose(a.transl[:, :2], b.transl[:, :2], atol=1e-5)
+    dz = a.transl[:, 2] - b.transl[:, 2]  # the camera's height is still in (the ground sets it below)
+    assert np.ptp(dz) < 1e-5
+    # Only the root turns: upright and facing -Y; every other bone keeps its fitted rotation.
+    np.testing.assert_allclose(a.rotvecs[:, 1:], rot[:, 1:], atol=1e-6)
+    R0 = rotvec_to_matrix(a.rotvecs[:, 0])
+    assert np.median(R0[:, 2, 2]) > 0.99  # body up along +Z
+    assert np.allclose(a.transl[0, :2], 0.0, atol=1e-6)
+    # With the default config the feet land on the floor of the target body.
+    from morf.motion.anny_rest import FootPointEvaluator
+
+    grounded = load_motion(cam.fits_dir / "fits.npz", body_model)
+    feet = FootPointEvaluator(body_model)(grounded.poses(np.arange(grounded.num_frames)))
+    assert float(feet[..., 2].min(dim=1).values.abs().max()) < 0.01
+
+
+def test_clip_and_player_npz_load_as_they_are(tmp_path):
+    from morf.motion import MotionClip
+
+    clip = MotionClip(np.zeros((4, 104, 3), np.float32), np.zeros((4, 3), np.float32), 24.0, "still", "test")
+    save_clip(clip, tmp_path / "c.npz")
+    assert load_motion(tmp_path / "c.npz").fps == 24.0
+    np.savez(tmp_path / "p.npz", rotvecs=np.zeros((5, 104, 3)), transl=np.zeros((5, 3)))
+    assert load_motion(tmp_path / "p.npz").fps == 30.0
+    assert load_motion(tmp_path / "p.npz", source_fps=50.0).fps == 50.0
+
+
+def test_unknown_npz_names_what_it_found(tmp_path):
+    np.savez(tmp_path / "w.npz", weights=np.zeros((3, 4)), bias=np.zeros(4))
+    with pytest.raises(InputError) as e:
+        load_motion(tmp_path / "w.npz")
+    msg = str(e.value)
+    assert "\n" not in msg and "weights (3, 4)" in msg and "bias (4,)" in msg
+    assert "AMASS" in msg and "AIST++" in msg and "fits" in msg
+    np.savez(tmp_path / "p.npz", poses=np.zeros((4, 100)), trans=np.zeros((4, 3)))
+    with pytest.raises(InputError, match=r"\(4, 100\)"):
+        load_motion(tmp_path / "p.npz")
