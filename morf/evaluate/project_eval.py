@@ -84,25 +84,26 @@ def _clean(metrics: dict) -> dict:
 
 
 def ensure_floors(project, runs: list[RunInfo], model, say: Callable[[str], None]) -> list[RunInfo]:
-    """The RGB floor of every hold-out setting among ``runs`` not already among them: the newest
-    existing one, else one built now (at the largest training side of the runs with that setting,
-    on their fits)."""
+    """The RGB floor of every (hold-out setting, fits) pair among ``runs`` not already among them:
+    the newest existing one, else one built now (at the largest training side of the runs with that
+    setting, on their fits). A run trained on fitted bodies is never compared with a floor built on
+    ground-truth bodies, or the other way round."""
     from morf.train.floor import floor_request, train_floor
 
     out = []
-    for k in sorted({r.holdout for r in runs if not r.is_floor}):
-        if any(r.is_floor and r.holdout == k for r in runs):
+    for k, source in sorted({(r.holdout, r.fits_source) for r in runs if not r.is_floor}):
+        if any(r.is_floor and r.holdout == k and r.fits_source == source for r in runs):
             continue
-        found = find_floor(project, k)
+        found = find_floor(project, k, source)
         if found is None:
-            group = [r for r in runs if r.holdout == k]
+            group = [r for r in runs if r.holdout == k and r.fits_source == source]
             side = max(r.config.resolution for r in group)
-            name = floor_run_name(k)
+            name = floor_run_name(project, k, source)
             if not free_for_floor(project.runs_dir / name):
                 raise ProjectError(f"{project.runs_dir / name} exists and is not an RGB floor; rename it, or pass "
                                    "--no-floor")
             say(f"building the RGB floor with hold-out {k} at {side} px ...")
-            res = train_floor(project, floor_request(side, k), name, group[0].fits_source, model, restart=True)
+            res = train_floor(project, floor_request(side, k), name, source, model, restart=True)
             found = read_run(res.run_dir)
         out.append(found)
     return out

@@ -83,9 +83,10 @@ def select_runs(project, names: tuple[str, ...] | list[str] = ()) -> list[RunInf
     return out
 
 
-def find_floor(project, holdout: int) -> RunInfo | None:
-    """The newest finished RGB floor run with this hold-out setting, if any."""
-    floors = [r for r in finished_runs(project) if r.is_floor and r.holdout == holdout]
+def find_floor(project, holdout: int, fits_source: str | None = None) -> RunInfo | None:
+    """The newest finished RGB floor run with this hold-out setting (and these fits, when given), if any."""
+    floors = [r for r in finished_runs(project) if r.is_floor and r.holdout == holdout
+              and (fits_source is None or r.fits_source == fits_source)]
     return floors[-1] if floors else None
 
 
@@ -100,6 +101,11 @@ def free_for_floor(run_dir: Path) -> bool:
         return False
 
 
-def floor_run_name(holdout: int) -> str:
-    """The name ``morf eval`` gives a floor it builds."""
-    return f"rgb-holdout{holdout}"
+def floor_run_name(project, holdout: int, fits_source: str) -> str:
+    """The name ``morf eval`` gives a floor it builds: ``rgb-holdout<K>``, with the fits source
+    appended when that name holds a floor built on other fits."""
+    name = f"rgb-holdout{holdout}"
+    d = Path(project.runs_dir) / name
+    if (d / "avatar.pt").is_file() and run_fits_source(d) != fits_source:
+        name += f"-{fits_source}"
+    return name

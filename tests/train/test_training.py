@@ -1,3 +1,4 @@
+import dataclasses
 import json
 
 import numpy as np
@@ -29,7 +30,8 @@ def texture_init(cfg):
 def test_tiny_run_loss_decreases(method, frames_factory):
     torch.manual_seed(0)
     frames = frames_factory()
-    cfg = tiny(method, steps=100, w_gan=0.0, lr_renderer=3e-3)
+    # random texture init (no projected colours here), so its channels 0-2 are free to learn
+    cfg = tiny(method, steps=100, w_gan=0.0, lr_renderer=3e-3, freeze_colour=False)
     tr = Trainer(cfg, frames, texture_init(cfg))
     hist = [tr.train_step()[0]["l1"] for _ in range(cfg.steps)]
     assert np.mean(hist[-10:]) < 0.8 * np.mean(hist[:5])
@@ -37,6 +39,18 @@ def test_tiny_run_loss_decreases(method, frames_factory):
         assert tr.model.warp is not None
     else:
         assert tr.model.warp is None
+
+
+def test_frozen_colour_stays_as_it_started(frames_factory):
+    cfg = tiny("morf", w_gan=0.0, freeze_colour=True)
+    tr = Trainer(cfg, frames_factory(), texture_init(cfg))
+    tex0 = tr.model.texture.texture.detach().clone()
+    for _ in range(5):
+        tr.train_step()
+    tex = tr.model.texture.texture.detach()
+    assert torch.equal(tex[:3], tex0[:3]) and not torch.equal(tex[3:], tex0[3:])
+    with pytest.raises(InputError, match="rgb_skip"):
+        cfg.replace(renderer=dataclasses.replace(cfg.renderer, rgb_skip=False))
 
 
 def test_anr_alternates_texture_and_renderer(frames_factory):
