@@ -36,7 +36,7 @@ class TrainConfig:
     renderer: RendererConfig = field(default_factory=RendererConfig)  # U-Net size
     warp: WarpConfig = field(default_factory=WarpConfig)  # warp network sizes (method morf only)
     lr_texture: float = 2e-3  # small, so the spectral init is not washed out
-    # With ``renderer.rgb_skip``: texture channels 0-2 keep the projected frame colours they start
+    # With ``renderer.rgb_skip`` (ignored without it): texture channels 0-2 keep the projected frame colours they start
     # from (their gradient is zeroed); the renderer learns the mask, the fill and a residual. Trained,
     # Adam moved each colour texel by noise from misaligned frames: on the default capture's held-out
     # frames the trained colours scored 0.8 dB below the projected ones (docs/avatar.md).
@@ -148,8 +148,6 @@ class TrainConfig:
                              f"and be a multiple of {m}")
         if self.crop > self.resolution:
             raise InputError("crop must not exceed resolution")
-        if self.freeze_colour and not self.renderer.rgb_skip:
-            raise InputError("freeze_colour needs a renderer with rgb_skip (texture channels 0-2 as colour)")
         if self.renderer.in_channels != self.texture_channels:
             raise InputError("renderer input channels must equal texture channels")
         if self.batch_size < 1 or self.steps < 0:

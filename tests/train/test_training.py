@@ -49,8 +49,11 @@ def test_frozen_colour_stays_as_it_started(frames_factory):
         tr.train_step()
     tex = tr.model.texture.texture.detach()
     assert torch.equal(tex[:3], tex0[:3]) and not torch.equal(tex[3:], tex0[3:])
-    with pytest.raises(InputError, match="rgb_skip"):
-        cfg.replace(renderer=dataclasses.replace(cfg.renderer, rgb_skip=False))
+    plain = cfg.replace(renderer=dataclasses.replace(cfg.renderer, rgb_skip=False))  # no colour channels: all learn
+    tr = Trainer(plain, frames_factory(), texture_init(plain))
+    tex0 = tr.model.texture.texture.detach().clone()
+    tr.train_step()
+    assert not torch.equal(tr.model.texture.texture[:3], tex0[:3])
 
 
 def test_anr_alternates_texture_and_renderer(frames_factory):
