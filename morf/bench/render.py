@@ -211,14 +211,21 @@ def _child_main() -> None:
     print(json.dumps(measure(args["avatar"], args["size"], args["frames"])))
 
 
-def measure_in_child(avatar: Path, size: int, frames: int) -> dict:
-    """:func:`measure` in a fresh process that never imports torch (its thread pools would interfere)."""
-    code = "import sys; sys.modules['torch'] = None\nfrom morf.bench.render import _child_main; _child_main()"
-    arg = json.dumps({"avatar": str(avatar), "size": size, "frames": frames})
-    r = subprocess.run([sys.executable, "-c", code, arg], capture_output=True, text=True, timeout=1200)
+def run_torch_free(module: str, entry: str, payload: dict, what: str) -> dict:
+    """Run ``module.entry()`` in a fresh process that never imports torch (its thread pools would
+    interfere), with ``payload`` as JSON in argv[1]; its last stdout line, parsed as JSON."""
+    code = f"import sys; sys.modules['torch'] = None\nfrom {module} import {entry}; {entry}()"
+    r = subprocess.run([sys.executable, "-c", code, json.dumps(payload)], capture_output=True, text=True,
+                       timeout=1200)
     if r.returncode != 0:
-        raise RuntimeError(f"measurement of {avatar} failed:\n{r.stderr[-3000:]}")
+        raise RuntimeError(f"{what} failed:\n{r.stderr[-3000:]}")
     return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def measure_in_child(avatar: Path, size: int, frames: int) -> dict:
+    """:func:`measure` in a fresh process that never imports torch."""
+    return run_torch_free("morf.bench.render", "_child_main", {"avatar": str(avatar), "size": size, "frames": frames},
+                          f"measurement of {avatar}")
 
 
 # ---- orchestration ----------------------------------------------------------------------------------

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
 import sys
 from pathlib import Path
 
@@ -79,18 +78,15 @@ def measure_speed(avatar_dir: Path, size: int, frames: int, precision: str) -> d
     int8 uses the playback benchmark's own measurement; fp32 the same loop with the fp32 renderer.
     Returns fps (end to end, sequential), frame_ms and renderer_ms.
     """
-    if precision == "int8":
-        from morf.bench.render import measure_in_child
+    from morf.bench.render import measure_in_child, run_torch_free
 
+    if precision == "int8":
         m = measure_in_child(Path(avatar_dir), size, frames)
         return {"fps": m["fps_end_to_end"], "frame_ms": m["frame_ms"], "renderer_ms": m["renderer_only_ms"],
                 "int8_psnr_vs_fp32_image_db": m.get("int8_psnr_vs_fp32_image_db")}
-    code = "import sys; sys.modules['torch'] = None\nfrom morf.bench.train_eval import _fp32_child; _fp32_child()"
-    arg = json.dumps({"avatar": str(avatar_dir), "size": size, "frames": frames})
-    r = subprocess.run([sys.executable, "-c", code, arg], capture_output=True, text=True, timeout=1200)
-    if r.returncode != 0:
-        raise RuntimeError(f"fp32 measurement of {avatar_dir} failed:\n{r.stderr[-3000:]}")
-    return json.loads(r.stdout.strip().splitlines()[-1])
+    return run_torch_free("morf.bench.train_eval", "_fp32_child",
+                          {"avatar": str(avatar_dir), "size": size, "frames": frames},
+                          f"fp32 measurement of {avatar_dir}")
 
 
 def _fp32_child() -> None:
