@@ -159,6 +159,12 @@ class TrainConfig:
         if not 0.0 <= self.ema_decay < 1.0:
             raise InputError(f"ema_decay must lie in [0, 1), got {self.ema_decay}")
 
+    @property
+    def colour_frozen(self) -> bool:
+        """Whether texture channels 0-2 stay the projected colours (``freeze_colour`` on a renderer
+        with colour channels)."""
+        return self.freeze_colour and self.renderer.rgb_skip
+
     def lr_factor(self, step: int) -> float:
         """The learning-rate multiplier of ``step`` under the decay schedule (1.0 before it starts)."""
         start = self.lr_decay_start * self.steps

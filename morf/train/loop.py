@@ -221,7 +221,7 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
     if trainer.use_averaged_weights():
         run.log(f"avatar made from the moving average of the weights (decay {cfg.ema_decay})")
     texture = trainer.model.bake()
-    if cfg.freeze_colour and cfg.renderer.rgb_skip:  # the projected colours as they were trained: unwarped (the bake's resampling blurred them)
+    if cfg.colour_frozen:  # the projected colours as they were trained: unwarped (the bake's resampling blurred them)
         texture[:3] = trainer.model.texture.texture.detach()[:3]
     renderer = trainer.model.renderer
     extra = {"steps": trainer.step}

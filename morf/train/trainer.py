@@ -56,7 +56,7 @@ class Trainer:
             if poses.shape[1] != cfg.warp.pose_dim:
                 raise ValueError(f"pose vector has {poses.shape[1]} values, warp expects {cfg.warp.pose_dim}")
             self.model.warp.set_pose_statistics(poses)
-        if cfg.freeze_colour and cfg.renderer.rgb_skip:  # Adam leaves a parameter entry whose gradient is always zero where it is
+        if cfg.colour_frozen:  # Adam leaves a parameter entry whose gradient is always zero where it is
             self.model.texture.texture.register_hook(_without_colour)
         groups = [{"params": [self.model.texture.texture], "lr": cfg.lr_texture, "name": "texture"},
                   {"params": list(self.model.renderer.parameters()), "lr": cfg.lr_renderer, "name": "renderer"}]
