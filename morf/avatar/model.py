@@ -27,12 +27,15 @@ class AvatarOutput:
         mask_logit: (B, 1, H, W) person mask logits.
         features: (B, C, H, W) the neural rasterization fed to the renderer.
         offsets: (B, 2, Ht, Wt) texture offsets, or None without warping.
+        residual: (B, 3, H, W) the part of ``rgb`` the renderer adds over the texture's colour
+            channels (``RendererConfig.rgb_skip``), or None without them.
     """
 
     rgb: torch.Tensor
     mask_logit: torch.Tensor
     features: torch.Tensor
     offsets: torch.Tensor | None
+    residual: torch.Tensor | None = None
 
     @property
     def mask(self) -> torch.Tensor:
@@ -83,9 +86,10 @@ class AvatarModel(nn.Module):
         if self.renderer.stem[0].weight.is_contiguous(memory_format=torch.channels_last):
             x = feats.contiguous(memory_format=torch.channels_last)
         with torch.autocast(feats.device.type, dtype=torch.bfloat16, enabled=bf16):
-            out = self.renderer(x)
+            out, residual = self.renderer.forward_parts(x)
         out = out.float().contiguous()
-        return AvatarOutput(out[:, :3], out[:, 3:], feats, offsets)
+        residual = None if residual is None else residual.float()
+        return AvatarOutput(out[:, :3], out[:, 3:], feats, offsets, residual)
 
     @torch.no_grad()
     def bake(self) -> torch.Tensor:

@@ -41,6 +41,11 @@ class TrainConfig:
     # Adam moved each colour texel by noise from misaligned frames: on the default capture's held-out
     # frames the trained colours scored 0.8 dB below the projected ones (docs/avatar.md).
     freeze_colour: bool = False
+    # L1 on what the renderer adds over the texture's colour channels (``renderer.rgb_skip``), in
+    # the units of ``w_l1``: the residual stays zero wherever the frames do not agree on a change
+    # (at weight w, an L1-optimal residual moves only where more than (1 + w) / 2 of the frames
+    # seeing a pixel agree on its sign), so it corrects consistent errors, not per-frame misfits.
+    w_residual: float = 0.0
     lr_renderer: float = 1e-3  # Adam on the renderer
     lr_warp: float = 5e-4  # Adam on W, E, F (1e-4 left offsets at ~0.1 texel after 400 cpu steps)
     lr_latent: float = 1e-3  # Adam on the per-frame latents

@@ -32,7 +32,8 @@ def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=Non
                      gan_on: bool = False, bf16: bool | None = None) -> dict[str, torch.Tensor]:
     """Unweighted loss terms of the generator side (texture, warp, renderer).
 
-    Keys: l1, dice, tv_rgb, and when applicable perceptual, warp_l2, warp_tv, gan, feature_matching.
+    Keys: l1, dice, tv_rgb, and when applicable ssim, residual, perceptual, warp_l2, warp_tv, gan,
+    feature_matching.
     The RGB target is the frame premultiplied by its person mask (the renderer's convention).
     """
     bf16 = cfg.bf16 if bf16 is None else bf16
@@ -41,6 +42,8 @@ def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=Non
     if cfg.w_ssim > 0:  # around the person: the real mask grown by the SSIM window's radius
         near = F.max_pool2d(batch.mask, 11, 1, 5)
         L["ssim"] = ssim_loss(out.rgb, target, near)
+    if cfg.w_residual > 0 and out.residual is not None:
+        L["residual"] = out.residual.abs().mean()
     if perceptual is not None:
         L["perceptual"] = perceptual(out.rgb, target)
     if out.offsets is not None:
@@ -57,7 +60,8 @@ def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=Non
 
 
 WEIGHTS = {"l1": "w_l1", "ssim": "w_ssim", "dice": "w_dice", "tv_rgb": "w_tv_rgb", "perceptual": "w_perceptual",
-           "warp_l2": "w_warp_l2", "warp_tv": "w_warp_tv", "gan": "w_gan", "feature_matching": "w_feature_matching"}
+           "warp_l2": "w_warp_l2", "warp_tv": "w_warp_tv", "gan": "w_gan", "feature_matching": "w_feature_matching",
+           "residual": "w_residual"}
 
 
 def weighted_total(cfg: TrainConfig, losses: dict[str, torch.Tensor]) -> torch.Tensor:

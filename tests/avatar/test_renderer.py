@@ -123,3 +123,19 @@ def test_rgb_skip_starts_at_the_texture_colour():
     out = r(x)
     torch.testing.assert_close(out[:, :3, 4:], x[:, :3, 4:])
     assert out[:, :3, :4].abs().sum() > 0  # off the mesh: filled from the neighbours, not black
+
+
+def test_forward_parts_residual_is_what_the_network_adds_over_the_colour():
+    """output RGB = (texture colour + residual) x mask, and the residual is returned premultiplied."""
+    torch.manual_seed(0)
+    r = UNetRenderer(RendererConfig(in_channels=8, width=8, depth=2, stem=2, skip_hidden=8, rgb_skip=True))
+    with torch.no_grad():
+        r.last.weight.normal_(0, 0.1)  # a trained-looking head, so the residual is not zero
+    x = torch.rand(2, 8, 32, 32) * 0.8 + 0.1
+    out, residual = r.forward_parts(x)
+    prob = torch.sigmoid(out[:, 3:])
+    torch.testing.assert_close(out[:, :3], r.colour(x) * prob + residual)
+    assert residual.abs().mean() > 1e-3
+    torch.testing.assert_close(r(x), out)
+    plain = UNetRenderer(RendererConfig(in_channels=8, width=8, depth=2, stem=2, skip_hidden=8))
+    assert plain.forward_parts(x)[1] is None
