@@ -20,6 +20,7 @@ import cv2
 import numpy as np
 
 from morf.camera import PinholeCamera
+from morf.capture.frame_times import FrameTiming, frame_timing
 from morf.capture.labelling import FrameLabel, FrameLabeller
 from morf.capture.matching import FileMatch, list_files, match_files
 from morf.capture.openpose import HandsFace
@@ -146,6 +147,10 @@ def ingest(project: str | Path, config: IngestConfig, control: StageControl | No
 
     labeller = FrameLabeller(kp_match, mask_match, (source.width, source.height), scale, config.tracker)
     rows: list[tuple[int, FrameLabel]] = []
+    times: list[float | None] = []
+    if source.rotation:
+        turn = "clockwise" if source.rotation < 0 else "counter-clockwise"
+        log(f"turning frames {abs(source.rotation)} degrees {turn}, as the video's rotation metadata says")
     try:
         with staged_folder(root) as staging:
             bar = progress(total=total, desc="ingest", unit="frame")
@@ -160,6 +165,7 @@ def ingest(project: str | Path, config: IngestConfig, control: StageControl | No
                     write_image(staging / "frames" / f"{n:06d}{ext}", rgb)
                     write_image(staging / "masks" / f"{n:06d}.png", label.mask.astype(np.uint8) * 255)
                     rows.append((frame.index, replace(label, mask=None)))  # masks are on disk: memory stays flat
+                    times.append(frame.time)
                     bar.update(1)
                     control.report(Progress("ingest", n + 1, total, f"ingesting frame {n + 1}", frame=n))
             finally:
@@ -171,8 +177,10 @@ def ingest(project: str | Path, config: IngestConfig, control: StageControl | No
                 None if config.max_frames and len(rows) == config.max_frames else source.decoded)
             labeller.check_complete(len(rows), source_total, source.ended_early)
             people = _people_record(labeller, rows, config)
-            _write_outputs(staging, rows, labeller, scale, source, config, camera, focal_source, ext, people)
-            for line in _people_sentences(people):
+            timing = frame_timing(times, config.fps or source.fps, config.fps is not None) \
+                if source.kind == "video" else FrameTiming(None, "fps" if config.fps else "none")
+            _write_outputs(staging, rows, labeller, scale, source, config, camera, focal_source, ext, people, timing)
+            for line in _people_sentences(people) + ([timing.sentence()] if timing.sentence() else []):
                 log(line)
     except OSError as e:
         raise ProjectError(f"writing the project {root} failed: {e}") from None
@@ -200,7 +208,8 @@ def _people_sentences(people: dict) -> list[str]:
 
 
 def _write_outputs(staging: Path, rows, labeller: FrameLabeller, scale: float, source: FrameSource,
-                   config: IngestConfig, camera: PinholeCamera, focal_source: str, ext: str, people: dict) -> None:
+                   config: IngestConfig, camera: PinholeCamera, focal_source: str, ext: str, people: dict,
+                   timing: FrameTiming) -> None:
     labels = [lab for _, lab in rows]
     kp = Keypoints2D(np.stack([lab.points for lab in labels]).astype(np.float32),
                      np.array([lab.found for lab in labels], bool),
@@ -218,13 +227,18 @@ def _write_outputs(staging: Path, rows, labeller: FrameLabeller, scale: float, s
         "masks_from": "import" if config.masks else "mediapipe",
         "openpose_layouts": sorted(labeller.layouts), "focal_source": focal_source,
         "people": people, "warnings": source.warnings + labeller.warnings,
-        "source_frames": [i for i, _ in rows], **extras,
+        "source_frames": [i for i, _ in rows], "timing": timing.record(), **extras,
     }
+    if source.kind == "video":
+        record.update(decoder=source.decoder, rotation=source.rotation)
+    top = {"frame_ext": ext, "ingest": record}
+    if timing.times is not None:
+        top["frame_times"] = [round(float(t), 6) for t in timing.times]  # microseconds are plenty
     project = CaptureProject.create(
         staging, num_frames=len(rows), width=camera.width, height=camera.height,
         fps=None if fps is None else fps / config.every,
         source={"kind": source.kind, "path": str(source.path.resolve()), "fps": fps,
                 "frames_decoded": source.decoded},
-        camera=camera, extra={"frame_ext": ext, "ingest": record})
+        camera=camera, extra=top)
     project.save_keypoints(kp)
     project.save_manifest()  # last, so a manifest always describes complete outputs

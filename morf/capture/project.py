@@ -4,8 +4,11 @@ Layout (format "morf-capture", version 1)::
 
     PROJECT/
       morf_project.json   manifest: version, source, frame count, image size, fps, camera,
-                          frame_ext (".png" or ".jpg"), and an "ingest" section (source frames,
-                          scale, people seen, where the focal length came from, warnings)
+                          frame_ext (".png" or ".jpg"), frame_times (optional: seconds of each
+                          frame since the video's first, its presentation times; absent in
+                          projects made from images, before PyAV decoding, or with --fps), and an
+                          "ingest" section (source frames, scale, people seen, where the focal
+                          length came from, timing, rotation, warnings)
       frames/000000.png   RGB frames (PNG; JPEG for long videos)
       masks/000000.png    person masks, 0 or 255
       keypoints.npz       keypoints (N, 23, 3) x, y, confidence (COCO-17 + 6 feet);
@@ -148,6 +151,22 @@ class CaptureProject:
     @property
     def fps(self) -> float | None:
         return self.manifest.get("fps")
+
+    def frame_times(self) -> np.ndarray | None:
+        """(N,) float64 seconds of each frame since the source's first: the video's presentation
+        times when ingest recorded them (variable frame rate clips), else index / fps; None when
+        the project knows neither (images without --fps)."""
+        times = self.manifest.get("frame_times")
+        if times is not None:
+            try:
+                t = np.asarray(times, np.float64)
+            except (TypeError, ValueError):
+                t = None
+            if t is None or t.shape != (self.num_frames,) or not np.isfinite(t).all():
+                raise ProjectError(f"damaged project manifest {self.root / MANIFEST}: bad 'frame_times'")
+            return t
+        fps = self.fps
+        return np.arange(self.num_frames, dtype=np.float64) / fps if fps else None
 
     @property
     def is_synthetic(self) -> bool:

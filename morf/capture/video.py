@@ -4,6 +4,11 @@ Frames are decoded one at a time (a minute of 1080p would not fit in memory), op
 subsampled (``every``) and capped (``max_frames``). Every problem a user can cause (missing
 file, not a video, no decodable frame, absurd resolution, unreadable image, frames of mixed
 sizes) raises :class:`~morf.errors.InputError` with one line naming the file.
+
+Videos are decoded with PyAV when it is installed (:mod:`morf.capture.video_pyav`): every frame
+then carries its presentation time (variable frame rate clips keep their real timing) and is
+turned upright as the container's display matrix says. Without PyAV, OpenCV decodes (it turns
+frames upright itself where its FFmpeg build reads the rotation; frame times are then unknown).
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ from typing import Iterator
 import cv2
 import numpy as np
 
+from morf.capture.video_pyav import quarter_turns
 from morf.errors import InputError
 from morf.io import read_image
 
@@ -36,12 +42,15 @@ class SourceFrame:
     Fields:
         index: position in the source (0-based, counting every frame, kept or not).
         name: the image file's stem, or "" for video frames.
-        rgb: (H, W, 3) uint8 at the source's own resolution.
+        rgb: (H, W, 3) uint8 at the source's own resolution, upright.
+        time: seconds since the video's first frame (its presentation time stamp); None for
+            images and for videos decoded without PyAV.
     """
 
     index: int
     name: str
     rgb: np.ndarray
+    time: float | None = None
 
 
 @dataclass
@@ -56,6 +65,8 @@ class FrameSource:
     fps: float | None
     frame_count: int | None
     files: tuple[Path, ...] = ()  # image files in order (images / image)
+    decoder: str = ""  # "pyav" | "opencv" for videos
+    rotation: int = 0  # counter-clockwise degrees the stored video frames were turned to stand upright
     decoded: int = 0  # frames decoded so far
     ended_early: bool = False  # the video stopped before its stated length
     warnings: list[str] = field(default_factory=list)
@@ -93,6 +104,9 @@ class FrameSource:
             yield SourceFrame(i, self.files[i].stem, rgb)
 
     def _video_frames(self, every: int, max_frames: int | None) -> Iterator[SourceFrame]:
+        if self.decoder == "pyav":
+            yield from self._pyav_frames(every, max_frames)
+            return
         cap = _open_capture(self.path)
         try:
             n, i = 0, 0
@@ -120,6 +134,32 @@ class FrameSource:
         finally:
             cap.release()
 
+    def _pyav_frames(self, every: int, max_frames: int | None) -> Iterator[SourceFrame]:
+        from morf.capture.video_pyav import decode
+
+        n, i = 0, 0
+        frames = decode(self.path, lambda j: j % every == 0)
+        try:
+            for frame in frames:
+                if max_frames is not None and n >= max_frames:
+                    return  # the rest of the video is not read
+                i = frame.index + 1
+                self.decoded = i
+                if frame.rgb is None:
+                    continue
+                if frame.rgb.shape[:2] != (self.height, self.width):
+                    self.warnings.append(f"frame {frame.index} changes size to {frame.rgb.shape[1]}x"
+                                         f"{frame.rgb.shape[0]}; stopped there")
+                    return
+                n += 1
+                yield SourceFrame(frame.index, "", frame.rgb, frame.time)
+        finally:
+            frames.close()
+        if self.frame_count and i < self.frame_count:
+            self.ended_early = True
+            self.warnings.append(f"{self.path.name}: only {i} of {self.frame_count} frames could be decoded "
+                                 f"(truncated or damaged file); using those")
+
 
 def natural_key(name: str) -> list:
     """Sort key that orders "f2" before "f10"."""
@@ -142,12 +182,37 @@ def _open_capture(path: Path) -> cv2.VideoCapture:
 
 
 def open_video(path: str | os.PathLike, resize: int | None = None) -> FrameSource:
-    """Open a video file and check that a first frame decodes."""
+    """Open a video file and check that a first frame decodes (with PyAV when installed)."""
     path = Path(path)
     if not path.exists():
         raise InputError(f"video not found: {path}")
     if not path.is_file():
         raise InputError(f"not a video file: {path}")
+    source = _open_pyav(path)
+    if source is None:
+        source = _open_opencv(path)
+    check_size(source.width, source.height, f"video {path.name}", resize)
+    return source
+
+
+def _open_pyav(path: Path) -> FrameSource | None:
+    """The video through PyAV; None without PyAV or when FFmpeg cannot open it (OpenCV then tries,
+    and words the error)."""
+    from morf.capture.video_pyav import probe, pyav_available
+
+    if not pyav_available():
+        return None
+    import av
+
+    try:
+        info = probe(path)
+    except (av.FFmpegError, StopIteration, IndexError, ValueError):
+        return None
+    return FrameSource("video", path, info.width, info.height, info.fps, info.frame_count, decoder="pyav",
+                       rotation=info.rotation)
+
+
+def _open_opencv(path: Path) -> FrameSource:
     cap = _open_capture(path)
     try:
         ok, bgr = cap.read()
@@ -155,12 +220,14 @@ def open_video(path: str | os.PathLike, resize: int | None = None) -> FrameSourc
             raise InputError(f"no frames could be decoded from {path} (empty or damaged video)")
         fps = cap.get(cv2.CAP_PROP_FPS)
         count = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+        # OpenCV's FFmpeg backend turns frames upright itself; its figure is clockwise degrees
+        turned = -int(cap.get(cv2.CAP_PROP_ORIENTATION_META)) if cap.get(cv2.CAP_PROP_ORIENTATION_AUTO) else 0
     finally:
         cap.release()
     h, w = bgr.shape[:2]
-    check_size(w, h, f"video {path.name}", resize)
     return FrameSource("video", path, w, h, float(fps) if fps and 0 < fps < 1000 else None,
-                       count if count > 0 else None)
+                       count if count > 0 else None, decoder="opencv",
+                       rotation=(0, 90, 180, -90)[quarter_turns(turned)])
 
 
 def open_images(path: str | os.PathLike, resize: int | None = None) -> FrameSource:

@@ -1,8 +1,9 @@
 """``morf demo DIR``: the whole pipeline on a built-in synthetic capture.
 
 synth (a person turning in place, with ground truth) -> fit -> train -> export (int8) -> animate a
-motion -> DIR/animation.mp4. Every step is the same sub-command a user would run; finished steps are
-skipped and a killed training run resumes, so running it again continues where it stopped.
+motion -> DIR/animation.mp4. Every step is the same sub-command a user would run, chained as
+``morf run`` chains them (:mod:`morf.pipeline.chain`); finished steps are skipped and a killed fit
+or training run resumes, so running it again continues where it stopped.
 """
 
 from __future__ import annotations
@@ -60,36 +61,36 @@ def default_motion() -> Path:
 def run(args) -> int:
     from morf.capture.project import CaptureProject
     from morf.cli.main import main
+    from morf.cli.project_steps import export_plan, fit_plan, train_plan
+    from morf.pipeline.chain import Plan, Step, run_steps
 
     preset = PRESETS[args.preset]
     root = Path(args.dir)
     project = root / "capture"
     motion = Path(args.motion) if args.motion else default_motion()
-    train = ["train", str(project), "--preset", preset.train, "--name", f"demo-{args.preset}"]
+    name = f"demo-{args.preset}"
+    train = ("train", str(project), "--preset", preset.train, "--name", name)
     if preset.train_steps:
-        train += ["--steps", str(preset.train_steps)]
+        train += ("--steps", str(preset.train_steps))
+    animate = ("animate", str(project), "--motion", str(motion), "--out", str(root / "animation.mp4"),
+               "--size", str(preset.size), "--max-frames", str(preset.max_frames), "--camera", "follow")
+
+    def synth() -> Plan:
+        if CaptureProject.is_project(project):
+            return Plan("skip")
+        return Plan("run", ("synth", str(project), "--preset", preset.synth))
+
     steps = [
-        ("synthetic capture", not CaptureProject.is_project(project),
-         ["synth", str(project), "--preset", preset.synth]),
-        ("body fits", not (CaptureProject.is_project(project) and CaptureProject.open(project).fits_path.is_file()),
-         ["fit", str(project), "--preset", preset.fit]),
-        ("avatar training", True, train),
-        ("int8 export", True, ["export", str(project), "--run", f"demo-{args.preset}"]),
-        ("animation", True, ["animate", str(project), "--motion", str(motion), "--out", str(root / "animation.mp4"),
-                             "--size", str(preset.size), "--max-frames", str(preset.max_frames), "--camera", "follow"]),
+        Step("synthetic capture", synth),
+        Step("body fits", lambda: fit_plan(project, preset.fit)),
+        Step("avatar training", lambda: train_plan(project, name, train)),
+        Step("int8 export", lambda: export_plan(project, name)),
+        Step("animation", lambda: Plan("run", animate)),  # the motion may differ from the last run's
     ]
     t_all = time.perf_counter()
-    for i, (what, needed, argv) in enumerate(steps, 1):
-        if not needed:
-            print(f"[{i}/{len(steps)}] {what}: already done")
-            continue
-        print(f"[{i}/{len(steps)}] {what}: morf {' '.join(argv)}", flush=True)
-        t0 = time.perf_counter()
-        rc = main(argv)
-        if rc != 0:
-            print(f"morf demo: step '{what}' failed (exit {rc}); fix it and run 'morf demo {root}' again to continue")
-            return rc
-        print(f"      done in {time.perf_counter() - t0:.0f} s", flush=True)
+    rc = run_steps(steps, main, "demo", f"morf demo {root}")
+    if rc != 0:
+        return rc
     print(f"demo finished in {(time.perf_counter() - t_all) / 60:.1f} min: video {root / 'animation.mp4'}, "
           f"avatar {project / 'avatar'}; open the capture in the studio with: morf-studio {project}")
     return 0

@@ -1,4 +1,5 @@
-"""``morf play AVATAR_DIR --motion FILE --out video.mp4|frames/``: render a motion with an exported avatar."""
+"""``morf play AVATAR_DIR --motion FILE --out video.mp4|video.webm|frames/``: render a motion with an
+exported avatar."""
 
 from __future__ import annotations
 
@@ -35,7 +36,9 @@ def add_playback_options(p) -> None:
                    help="motion file, told by its content: BVH; AMASS SMPL-H / SMPL-X .npz; AIST++ or SMPL .npz "
                         "(poses (T,72)); a capture's fits/fits.npz; Anny poses .npz (rotvecs (T,104,3), transl "
                         "(T,3), fps) (docs/formats.md)")
-    p.add_argument("--out", required=True, help="output .mp4 file or a folder for PNG frames")
+    p.add_argument("--out", required=True,
+                   help="output video (.mp4: H.264 with PyAV installed, else mp4v; .webm: VP9, needs PyAV) or a "
+                        "folder for PNG frames")
     p.add_argument("--fps", type=float, default=30.0, help="output frame rate (the motion is resampled)")
     p.add_argument("--motion-fps", type=float, default=None,
                    help="frame rate of a motion file that stores none (AIST++ / SMPL .npz, fits.npz outside its "
@@ -102,5 +105,6 @@ def run(args, shape=None) -> int:
         finally:
             sink.close(ok)
         dt = time.perf_counter() - t0
-    print(f"wrote {sink.count} frames to {args.out} ({sink.count / max(dt, 1e-9):.1f} fps)")
+    codec = f"{sink.codec.label}, " if sink.codec else ""
+    print(f"wrote {sink.count} frames to {args.out} ({codec}{sink.count / max(dt, 1e-9):.1f} fps)")
     return 0

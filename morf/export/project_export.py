@@ -81,6 +81,20 @@ def pick_run(project, name: str | None) -> Path:
     return done[-1]
 
 
+def exported_run(project) -> str | None:
+    """The run ``PROJECT/avatar`` was exported from, when that export is current (written after the
+    run's avatar.pt); None without an avatar folder, or when the run was trained again since."""
+    from morf.export.avatar_folder import MANIFEST
+
+    path = Path(project.avatar_dir) / MANIFEST
+    try:
+        run = json.loads(path.read_text())["source"]["run"]
+        trained = (Path(project.runs_dir) / run / "avatar.pt").stat().st_mtime
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    return run if path.stat().st_mtime >= trained else None
+
+
 def project_views(project, camera, num_bones: int, fits_source: str = "auto", heldout_every: int = 8):
     """(calibration, held-out) :class:`~morf.export.export_avatar.View` lists from the body fits.
 

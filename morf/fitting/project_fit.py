@@ -18,7 +18,7 @@ import numpy as np
 import torch
 
 from morf.camera import PinholeCamera
-from morf.errors import InputError
+from morf.errors import InputError, MorfError
 from morf.fitting.config import FitConfig
 from morf.fitting.evaluate import posed_chunks, silhouettes
 from morf.fitting.fit import FitState, cpu_threads, default_device, finalize, fit_sequence
@@ -46,6 +46,43 @@ class FitReport:
     seconds: float
     resumed_from: int
     up_to_date: bool = False
+
+
+@dataclass(frozen=True)
+class FitProgress:
+    """How far the fit of a project has come, read from PROJECT/fits/ without fitting anything.
+
+    Fields:
+        complete: fits.npz and filter.json are written (``fit_project`` then reports up to date,
+            unless asked for another configuration).
+        stages_done: fit stages the checkpoint holds (0: none).
+        stages_total: stages of the fit that wrote fit_config.json (None: no fit started).
+        config: that fit's configuration (None when there is none, or it is unreadable).
+    """
+
+    complete: bool
+    stages_done: int = 0
+    stages_total: int | None = None
+    config: FitConfig | None = None
+
+    @property
+    def started(self) -> bool:
+        """A fit stopped part-way: resuming it with the same configuration skips the stages done."""
+        return not self.complete and self.stages_done > 0
+
+
+def fit_progress(project) -> FitProgress:
+    """Where the fit of ``project`` (a CaptureProject) stands."""
+    out = project.fits_dir
+    config = None
+    try:
+        config = FitConfig.from_dict(json.loads((out / "fit_config.json").read_text()))
+    except (OSError, ValueError, TypeError, MorfError):
+        pass
+    ckpt = read_checkpoint(out / CHECKPOINT_FILE)
+    done = ckpt["stage"] if ckpt is not None else 0
+    complete = project.fits_path.is_file() and (out / "filter.json").is_file()
+    return FitProgress(complete, done, None if config is None else len(config.stages), config)
 
 
 def _resume_key(cfg: FitConfig, camera: PinholeCamera) -> dict:

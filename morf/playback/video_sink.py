@@ -1,4 +1,8 @@
-"""Where rendered frames go: an .mp4 (OpenCV, mp4v) and/or a folder of PNGs."""
+"""Where rendered frames go: a video file (.mp4 / .m4v / .mov / .webm) and/or a folder of PNGs.
+
+Which codec a video gets is decided in :mod:`morf.playback.video_writer` (H.264 or VP9 with PyAV,
+else OpenCV's mp4v); ``VideoSink.codec`` says which, for the command to tell the user.
+"""
 
 from __future__ import annotations
 
@@ -8,43 +12,50 @@ import numpy as np
 
 from morf.errors import InputError
 from morf.io import atomic_path, write_image
+from morf.playback.video_writer import VIDEO_SUFFIXES, Codec, choose_codec, open_video_writer
 
 
 class VideoSink:
-    """Write (H, W, 3) uint8 RGB frames to ``out``: a path ending in .mp4 (written atomically:
-    the video appears only when complete) or a folder (frames 000000.png, ...)."""
+    """Write (H, W, 3) uint8 RGB frames to ``out``: a video file (written atomically: the video
+    appears only when complete) or a folder (frames 000000.png, ...)."""
 
     def __init__(self, out: str | Path, fps: float, size: tuple[int, int]):
         self.out = Path(out)
-        self.is_video = self.out.suffix.lower() in (".mp4", ".m4v", ".mov")
+        self.is_video = self.out.suffix.lower() in VIDEO_SUFFIXES
         self.count = 0
+        self.codec: Codec | None = None  # the video's codec (None for a PNG folder)
         self._writer = None
         self._ctx = None
         if self.is_video:
-            import cv2
-
+            self.codec = choose_codec(self.out)
             self._ctx = atomic_path(self.out)
             tmp = self._ctx.__enter__()
-            self._writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), float(fps), tuple(size))
-            if not self._writer.isOpened():
-                self._ctx.__exit__(InputError, None, None)
-                raise InputError(f"cannot open a video writer for {self.out}")
+            try:
+                self._writer = open_video_writer(tmp, fps, size, self.codec)
+            except BaseException as e:
+                self._ctx.__exit__(type(e), e, None)
+                raise
         else:
             if self.out.suffix:
-                raise InputError(f"output must be a .mp4 file or a folder, got {self.out}")
+                raise InputError(f"output must be a video file ({', '.join(VIDEO_SUFFIXES)}) or a folder, "
+                                 f"got {self.out}")
             self.out.mkdir(parents=True, exist_ok=True)
 
     def write(self, rgb: np.ndarray) -> None:
         if self.is_video:
-            self._writer.write(np.ascontiguousarray(rgb[..., ::-1]))
+            self._writer.write(rgb)
         else:
             write_image(self.out / f"{self.count:06d}.png", rgb)
         self.count += 1
 
     def close(self, ok: bool = True) -> None:
         if self._writer is not None:
-            self._writer.release()
-            self._writer = None
+            writer, self._writer = self._writer, None
+            try:
+                writer.close()
+            except BaseException as e:
+                self._ctx.__exit__(type(e), e, None)
+                raise
             if ok:
                 self._ctx.__exit__(None, None, None)
                 self.out.chmod(0o644)  # the temporary file was private; a finished video is not

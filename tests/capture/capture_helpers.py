@@ -68,3 +68,30 @@ def write_openpose(folder: Path, n: int, people_boxes, hands: bool = False,
         (folder / pattern.format(i=i)).write_text(json.dumps({"version": 1.3, "people": people}))
     return folder
 
+
+
+def write_timed_video(path: Path, frames_bgr: list[np.ndarray], times: list[float], rotation: int = 0) -> Path:
+    """An H.264 .mp4 written with PyAV: frame i shown at ``times[i]`` seconds (any spacing: a
+    variable frame rate clip), and a display matrix turning it ``rotation`` degrees
+    counter-clockwise (a phone's ``rotate=90`` tag is -90)."""
+    from fractions import Fraction
+
+    import av
+
+    h, w = frames_bgr[0].shape[:2]
+    tb = Fraction(1, 1000)
+    with av.open(str(path), "w") as container:
+        stream = container.add_stream("libx264", rate=30)
+        stream.width, stream.height, stream.pix_fmt = w, h, "yuv420p"
+        stream.codec_context.time_base = tb
+        stream.options = {"crf": "10"}
+        if rotation:
+            stream.set_display_rotation(rotation)
+        for bgr, t in zip(frames_bgr, times):
+            frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(bgr[..., ::-1]), format="rgb24")
+            frame.pts, frame.time_base = int(round(t / tb)), tb
+            for packet in stream.encode(frame):
+                container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+    return path

@@ -21,11 +21,13 @@ def test_demo_tiny_runs_every_stage_and_resumes(tmp_path, capsys):
     assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 8
     ok, frame = video.read()
     assert ok and frame.std() > 1.0  # something was drawn
-    # a second run skips the finished capture and fits
+    # a second run skips every finished stage and renders the animation again
     capsys.readouterr()
     assert main(["demo", str(root), "--preset", "tiny"]) == 0
     out = capsys.readouterr().out
-    assert "synthetic capture: already done" in out and "body fits: already done" in out
+    for stage in ("synthetic capture", "body fits", "avatar training", "int8 export"):
+        assert f"{stage}: skipped (already done" in out, stage
+    assert "[5/5] animation: done" in out
 
 
 def test_info_reports_excluded_frames(tmp_path, capsys):
