@@ -39,8 +39,8 @@ from studio.loader import ImageLoader  # noqa: E402
 from studio.pacing import IDLE_FPS, MAX_FPS, SNAPSHOT_FPS, FramePacer, Wakeup  # noqa: E402
 from studio.player import Player, open_player  # noqa: E402
 from studio.project_view import ProjectView  # noqa: E402
-from studio.stages import LIBRARY_STAGES, cpu_load_stage, find_library_stages  # noqa: E402
-from studio.state import PANELS, AppState  # noqa: E402
+from studio.stages import LIBRARY_STAGES, LoadedStages, cpu_load_stage, load_library_stages  # noqa: E402
+from studio.state import PANELS, AppState, LivePanelState  # noqa: E402
 from studio.textures import TextureCache  # noqa: E402
 from studio.worker import StageFn, Worker  # noqa: E402
 
@@ -49,7 +49,6 @@ FONT_SIZE = 15.0
 FIXED_DT = 1.0 / 60.0
 CLEAR_RGB = (0.06, 0.06, 0.07)
 LIVE_PANEL = PANELS.index("Live render")
-DEFAULT_MOTION_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "motion"
 
 
 class StudioApp:
@@ -59,10 +58,13 @@ class StudioApp:
         project: a project folder to open (a bad one shows its error on the start screen).
         size: window size in pixels.
         headless: GLFW null platform + EGL (no display needed); also fixes the frame time.
-        stages: stage name -> function for the worker; None: the library's stages.
+        stages: stage name -> function for the worker; None: the library's stages
+            (:data:`studio.stages.LIBRARY_STAGES`, with their presets; one that fails to load shows its error).
         unavailable: stage name -> why it is missing (with ``stages``).
         player_opener: avatar folder -> (player, note); None: :func:`studio.player.open_player`.
             It is called on the live render's own thread (see :mod:`studio.live_render`).
+        motion_dir: the folder the live render's motion picker lists first; None: the motions
+            shipped with the project (``morf.motion.library.BUILTIN_MOTIONS``).
         deterministic: a fixed 1/60 s frame time (screenshots, tests); None: when headless.
         max_fps, idle_fps: :meth:`run` draws at most ``max_fps`` frames a second (0: as fast as
             it can, every time round the loop) and at least ``idle_fps`` (see :mod:`studio.pacing`).
@@ -82,23 +84,27 @@ class StudioApp:
         self._wakeup = Wakeup(None if headless else glfw.post_empty_event)
         self._init_input_callbacks()
         self._init_imgui()
-        if stages is None:
-            stages, unavailable = find_library_stages()
+        self._stages = load_library_stages() if stages is None else LoadedStages(
+            functions=dict(stages), errors={}, presets={}, default_presets={})
+        unavailable = {**(unavailable or {}), **self._stages.errors}
         self._stage_labels = {s.name: s.label for s in LIBRARY_STAGES}
-        self._stage_presets = {n: tuple(getattr(fn, "presets", ())) for n, fn in stages.items()}
-        shown = [s.name for s in LIBRARY_STAGES] + [n for n in stages if n not in self._stage_labels]
-        self._stage_status = {n: None if n in stages else (unavailable or {}).get(n, "not part of this build")
+        shown = [s.name for s in LIBRARY_STAGES] + [n for n in self._stages.functions if n not in self._stage_labels]
+        self._stage_status = {n: None if n in self._stages.functions else unavailable.get(n, "not part of this build")
                               for n in shown}
-        stages = {**stages, "cpu-load": cpu_load_stage}  # benchmark only, not shown as a button
-        self.worker = Worker(stages, unavailable, stage_threads=max(1, (os.cpu_count() or 2) - 1),
+        runnable = {**self._stages.functions, "cpu-load": cpu_load_stage}  # cpu-load: benchmark only, no button
+        self.worker = Worker(runnable, unavailable, stage_threads=max(1, (os.cpu_count() or 2) - 1),
                              on_publish=lambda: self._wakeup.notify(1.0 / SNAPSHOT_FPS)).start()
-        self.state = AppState(motion_dir=str(motion_dir if motion_dir is not None else DEFAULT_MOTION_DIR))
+        if motion_dir is None:
+            from morf.motion.library import BUILTIN_MOTIONS  # imports torch: only when it is needed
+
+            motion_dir = BUILTIN_MOTIONS
+        self.state = AppState(motion_dir=str(motion_dir))
         self.view: ProjectView | None = None
         self.loader: ImageLoader | None = None
         self.textures = TextureCache(self.ctx, None)
         self.live: LiveRenderer | None = None  # the live render's thread, once an avatar is exported
         self._player_opener = player_opener or open_player
-        self.live_panel: dict = {}  # the live render panel's scratch (motion list, loaded clip)
+        self.live_panel = LivePanelState()  # the live render panel's motion list and loaded clip
         self._review_rev = 0
         self._was_busy = False
         self.frame_times: list[float] = []  # seconds per frame (UI work and its GL rasterization, no vsync wait)
@@ -216,7 +222,7 @@ class StudioApp:
         if self.live is not None and not self.live.close(timeout=10.0):
             print("morf-studio: the live render did not stop within 10 s; leaving it behind", file=sys.stderr)
         self.live, self._live_seq = None, 0
-        self.live_panel.clear()
+        self.live_panel = LivePanelState()
 
     # ---- the frame loop -----------------------------------------------------------------
     def send(self, command: Command) -> None:
@@ -285,7 +291,8 @@ class StudioApp:
             self.live_stats.append((frame.fps, frame.render_ms))
         return UiContext(view=self.view, textures=self.textures, snapshot=snap, send=self.send,
                          stages=self._stage_status, stage_labels=self._stage_labels, actions=self._actions,
-                         open_project=self.open_project, live_render=self.live, stage_presets=self._stage_presets,
+                         open_project=self.open_project, live_render=self.live, stage_presets=self._stages.presets,
+                         default_presets=self._stages.default_presets, stage_errors=self._stages.errors,
                          frame_ms=1000 * self.frame_times[-1] if self.frame_times else 0.0, live=self.live_panel,
                          redraw_within=self._wakeup.notify)
 
@@ -432,7 +439,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--screenshot", metavar="PNG", help="with --headless-frames: save the last frame")
     p.add_argument("--frame-times", action="store_true", help="print p50 / p95 UI frame times at exit")
     p.add_argument("--stage", metavar="NAME", help="start a stage at launch (fit, train, export; cpu-load for a UI load test)")
-    p.add_argument("--preset", metavar="NAME", help="with --stage: the stage's config preset (e.g. train: tiny, cpu, gpu)")
+    p.add_argument("--preset", metavar="NAME", help="with --stage: the stage's config preset (e.g. train: tiny, cpu, "
+                                                    "gpu; default: the one 'morf fit' / 'morf train' picks)")
     p.add_argument("--motion", metavar="FILE", help="a .bvh / .npz motion for the live render (5) to play")
     p.add_argument("--panel", type=int, choices=range(1, 6), metavar="1-5", help="panel to show first")
     p.add_argument("--frame", type=int, default=0, metavar="I", help="frame to show first")

@@ -139,7 +139,7 @@ def _prepare_project(tmp: Path, avatar: Path, training_project: str | None) -> P
 def _playing(app) -> bool:
     """The player opened, rendered a frame, and the motion loaded."""
     live = app.live
-    return live is not None and live.ready and live.latest() is not None and app.live_panel.get("clip") is not None
+    return live is not None and live.ready and live.latest() is not None and app.live_panel.clip is not None
 
 
 def _step(app) -> int | None:
@@ -180,8 +180,8 @@ def run_studio(args, avatar: Path, tmp: Path) -> tuple[Window, dict]:
         if live is None or not live.ready or live.latest() is None:
             why = live.note if live is not None else "no live render"
             raise RuntimeError(f"the live render did not start: {why}")
-        if app.live_panel.get("clip") is None:
-            raise RuntimeError(f"the motion did not load: {app.live_panel.get('clip_note')}")
+        if app.live_panel.clip is None:
+            raise RuntimeError(f"the motion did not load: {app.live_panel.clip_note}")
         ui_tid = threading.main_thread().native_id
         roles = {ui_tid: "UI thread", live.native_id: "live render thread", app.worker.native_id: "worker thread"}
         n0, s0, seq0, step0 = len(app.frame_times), len(app.live_stats), live.latest().seq, _step(app)

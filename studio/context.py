@@ -8,6 +8,7 @@ from typing import Any, Callable
 from studio.commands import Command
 from studio.project_view import ProjectView
 from studio.snapshot import Snapshot
+from studio.state import LivePanelState
 from studio.textures import TextureCache
 
 
@@ -26,6 +27,8 @@ class UiContext:
     live_render: Any = None  # studio.live_render.LiveRenderer, when an avatar was exported
     player_note: str | None = None  # why there is no player
     stage_presets: dict[str, tuple[str, ...]] = field(default_factory=dict)  # stage -> its config presets
+    default_presets: dict[str, str] = field(default_factory=dict)  # stage -> preset used when none is chosen
+    stage_errors: dict[str, str] = field(default_factory=dict)  # stage -> why its library code failed to load
     frame_ms: float = 0.0  # the UI's own recent frame time
-    live: dict = field(default_factory=dict)  # live-render panel's per-session scratch (fps, motion list)
+    live: LivePanelState = field(default_factory=LivePanelState)  # the live render panel's motion list and clip
     redraw_within: Callable[[float], None] = lambda seconds: None  # want a frame within this many seconds (any thread)

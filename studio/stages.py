@@ -1,21 +1,21 @@
-"""Which pipeline stages the studio can drive, found lazily in the library.
+"""The pipeline stages the studio runs: a plain table of the library's stage functions.
 
-The fitting, training and export stages live in ``morf.fitting``, ``morf.train`` and
-``morf.export``. They are imported only when the studio starts, and a stage whose module or
-function is missing is listed as unavailable with the reason (the UI shows it, greyed out).
+Each row of :data:`LIBRARY_STAGES` names a stage, its button and a function that imports the
+library's stage (``morf.fitting``, ``morf.train``, ``morf.export``) and returns it ready for the
+worker. The studio loads the table when it starts; a stage whose import fails for any reason
+cannot run, and the Training panel shows the error (the exception itself, in red).
 
-A library stage is a function ``f(project, config, control)`` (any of those parameter names may be
-positional or keyword). Its config, when it has one, is the module's config dataclass: the named
-preset the UI chose (``options["preset"]``, through the module's ``preset(name)``), or the
-dataclass's defaults, with the UI's other overrides applied with ``dataclasses.replace``.
+A stage as the worker runs it is ``(project, control, options) -> result`` (:data:`StageFn`).
+``options["preset"]`` names one of the stage's presets in :mod:`morf.presets` (without it the
+stage's default preset, the one the CLI picks); the other options replace config fields.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import importlib
-import inspect
+import sys
 import time
+import traceback
 from dataclasses import dataclass
 from typing import Callable
 
@@ -25,86 +25,102 @@ from morf.pipeline.control import Progress, StageControl
 from studio.worker import StageFn
 
 
-@dataclass(frozen=True)
-class StageSpec:
-    """Where to look for one stage in the library."""
+def stage_config(stage: str, options: dict, plain: type | None = None):
+    """The config a stage runs with: ``options["preset"]`` (default: the stage's default preset in
+    :mod:`morf.presets`) with the other options replacing fields, validated.
 
-    name: str  # the key the UI uses ("fit")
-    label: str  # button text ("Fit body")
-    modules: tuple[str, ...]  # where to look, in order ("morf.fitting", "morf.fitting.project_fit")
-    functions: tuple[str, ...]  # candidate function names, first found wins
-    configs: tuple[str, ...]  # candidate config dataclass names (looked up in the same modules)
-    presets: tuple[str, ...] = ()  # candidate preset tables name -> config (looked up in the same modules)
-
-
-LIBRARY_STAGES = (
-    StageSpec("fit", "Fit body", ("morf.fitting", "morf.fitting.project_fit", "morf.fitting.config"),
-              ("fit_project",), ("FitConfig",), ("PRESETS",)),
-    StageSpec("train", "Train avatar", ("morf.train", "morf.train.project_run", "morf.train.config"),
-              ("train_project",), ("TrainConfig",), ("PRESETS",)),
-    StageSpec("export", "Export", ("morf.export.project_export",),
-              ("export_project",), ("ProjectExportConfig",)),
-)
-
-
-def stage_config(config_cls: type, presets: dict | None, options: dict):
-    """The config a stage runs with: ``options["preset"]`` (or the defaults) + the other options."""
+    ``plain``: the config dataclass of a stage without presets; its defaults are the base then.
+    Unknown fields and a preset for a stage without presets are an :class:`InputError`.
+    """
     options = dict(options)
     name = options.pop("preset", None)
-    if name is not None:
-        if not presets or name not in presets:
-            raise InputError(f"unknown preset {name!r}; choose one of {', '.join(presets or ()) or '(none)'}")
-        base = presets[name]
+    if plain is None:
+        from morf.presets import default_preset, preset
+
+        base = preset(stage, name or default_preset(stage))
+    elif name is not None:
+        raise InputError(f"the {stage} stage has no presets (asked for {name!r})")
     else:
-        base = config_cls()
+        base = plain()
+    unknown = set(options) - {f.name for f in dataclasses.fields(base)}
+    if unknown:
+        raise InputError(f"unknown {stage} config fields: {', '.join(sorted(unknown))}")
     config = dataclasses.replace(base, **options)
-    validate = getattr(config, "validate", None)
-    if callable(validate):
-        validate()
+    config.validate()
     return config
 
 
-def _adapt(fn: Callable, config_cls: type | None, presets: dict | None = None) -> StageFn:
-    params = inspect.signature(fn).parameters
+def _fit_stage() -> StageFn:
+    from morf.fitting.project_fit import fit_project
 
-    def run(project: CaptureProject, control: StageControl, options: dict):
-        config = stage_config(config_cls, presets, options) if config_cls is not None else None
-        kwargs = {}
-        for name in params:
-            if name in ("project", "capture"):
-                kwargs[name] = project
-            elif name in ("config", "cfg") and config is not None:
-                kwargs[name] = config
-            elif name == "control":
-                kwargs[name] = control
-        return fn(**kwargs)
+    def fit(project: CaptureProject, control: StageControl, options: dict):
+        return fit_project(project, stage_config("fit", options), control=control)
 
-    run.presets = tuple(presets or ())  # names the UI offers
-    return run
+    return fit
 
 
-def find_library_stages() -> tuple[dict[str, StageFn], dict[str, str]]:
-    """(available name -> stage function, unavailable name -> reason in words)."""
-    found: dict[str, StageFn] = {}
-    missing: dict[str, str] = {}
-    for spec in LIBRARY_STAGES:
-        modules, errors = [], []
-        for name in spec.modules:
-            try:
-                modules.append(importlib.import_module(name))
-            except ImportError as e:
-                errors.append(str(e))
-        fn = next((getattr(m, n) for m in modules for n in spec.functions if callable(getattr(m, n, None))), None)
-        if fn is None:
-            why = f"no {' / '.join(spec.functions)} in {spec.modules[0]}"
-            missing[spec.name] = why + (f" ({errors[0]})" if errors and not modules else "")
+def _train_stage() -> StageFn:
+    from morf.train.project_run import train_project
+
+    def train(project: CaptureProject, control: StageControl, options: dict):
+        return train_project(project, stage_config("train", options), control=control)
+
+    return train
+
+
+def _export_stage() -> StageFn:
+    from morf.export.project_export import ProjectExportConfig, export_project
+
+    def export(project: CaptureProject, control: StageControl, options: dict):
+        return export_project(project, stage_config("export", options, ProjectExportConfig), control=control)
+
+    return export
+
+
+@dataclass(frozen=True)
+class LibraryStage:
+    """One stage the studio offers: its button and how to load it."""
+
+    name: str  # the key the UI and the worker use ("fit")
+    label: str  # button text ("Fit body")
+    load: Callable[[], StageFn]  # imports the library and returns the stage; raises when it cannot
+    presets: bool = False  # the stage has named presets in morf.presets, under ``name``
+
+
+LIBRARY_STAGES: tuple[LibraryStage, ...] = (
+    LibraryStage("fit", "Fit body", _fit_stage, presets=True),
+    LibraryStage("train", "Train avatar", _train_stage, presets=True),
+    LibraryStage("export", "Export", _export_stage),
+)
+
+
+@dataclass(frozen=True)
+class LoadedStages:
+    """What :func:`load_library_stages` found."""
+
+    functions: dict[str, StageFn]  # stage name -> the function the worker runs
+    errors: dict[str, str]  # stage name -> why it could not be loaded ("ModuleNotFoundError: ...")
+    presets: dict[str, tuple[str, ...]]  # stage name -> its preset names, as the UI offers them
+    default_presets: dict[str, str]  # stage name -> the preset it runs with when none is chosen
+
+
+def load_library_stages(table: tuple[LibraryStage, ...] = LIBRARY_STAGES) -> LoadedStages:
+    """Load every stage of ``table``; one that fails is reported in ``errors``, the others still load."""
+    functions, errors, presets, defaults = {}, {}, {}, {}
+    for stage in table:
+        try:
+            fn = stage.load()
+            if stage.presets:
+                from morf.presets import default_preset, presets_of
+
+                presets[stage.name] = tuple(presets_of(stage.name))
+                defaults[stage.name] = default_preset(stage.name)
+        except Exception as e:  # whatever breaks an import (a missing package, a bad install) is shown, not raised
+            traceback.print_exc(file=sys.stderr)
+            errors[stage.name] = f"{type(e).__name__}: {e}"
             continue
-        config_cls = next((getattr(m, n) for m in modules for n in spec.configs
-                           if dataclasses.is_dataclass(getattr(m, n, None))), None)
-        presets = next((getattr(m, n) for m in modules for n in spec.presets
-                        if isinstance(getattr(m, n, None), dict)), None)
-        found[spec.name] = _adapt(fn, config_cls, presets)
-    return found, missing
+        functions[stage.name] = fn
+    return LoadedStages(functions, errors, presets, defaults)
 
 
 def cpu_load_stage(project: CaptureProject, control: StageControl, options: dict) -> None:

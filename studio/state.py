@@ -1,10 +1,19 @@
-"""UI state of the studio: what the user is looking at. No models, no GL objects, no threads."""
+"""UI state of the studio: what the user is looking at (:class:`AppState`) and what the live render
+panel has loaded for it (:class:`LivePanelState`). No models, no GL objects, no threads."""
 
 from __future__ import annotations
 
+from concurrent.futures import Future
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from studio.orbit import OrbitCamera
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from studio.player import MotionFrames
 
 PANELS = ("Frames", "Filtered frames", "Warp field", "Training", "Live render")
 
@@ -37,3 +46,19 @@ class AppState:
 
     def select_panel(self, index: int) -> None:
         self.panel_request = index % len(PANELS)
+
+
+@dataclass
+class LivePanelState:
+    """The live render panel's scratch for the open avatar: the motion list and the loaded clip.
+
+    The app owns one and starts a fresh one when the avatar closes; only the panel changes it.
+    """
+
+    motion_dir: str | None = None  # the folder ``motions`` lists (None: not listed yet)
+    motions: list[Path] = field(default_factory=list)  # .bvh / .npz files under it
+    clip_path: str | None = None  # the motion file ``clip`` is (being) loaded from
+    clip: MotionFrames | None = None  # the loaded motion, None while loading or when it failed
+    clip_note: str | None = None  # why the motion could not be loaded
+    clip_loading: Future | None = None  # the background load, until the panel picks its result up
+    clip_centre: np.ndarray | None = None  # (3,) mean root position of the clip: the orbit's centre

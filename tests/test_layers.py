@@ -28,6 +28,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("fitting", ("morf.fitting",)),  # body fits (fits/fits.npz)
     ("avatar", ("morf.avatar",)),  # neural texture, warp field, renderer, losses
     ("train", ("morf.train",)),  # training runs (runs/<name>/), the trained avatar file
+    ("presets", ("morf.presets",)),  # the registry of every stage's named presets (synth, fit, train)
     ("sizing", ("morf.sizing",)),  # --preset auto: the automatic size choice
     ("motion", ("morf.motion",)),  # motion files (a capture's fits among them), retargeting
     ("export", ("morf.export",)),  # the avatar folder, int8 ONNX, glTF (animations from motion)

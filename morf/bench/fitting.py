@@ -130,11 +130,8 @@ def run(args) -> int:
     unknown = [k for k in keys if k not in ABLATION]
     if unknown:
         raise InputError(f"unknown fitting configs: {', '.join(unknown)}; choose from {', '.join(ABLATION)}")
-    try:
-        base = preset(args.fit_preset)
-    except KeyError as e:
-        raise InputError(str(e.args[0])) from None
-    base = base.replace(shared_shape=False, frame_filter=False, temporal=False, silhouette=False, overlays=False)
+    base = preset(args.fit_preset).replace(shared_shape=False, frame_filter=False, temporal=False, silhouette=False,
+                                           overlays=False)
     model = load_body_model("anny")
     project = _capture(args, model)
     gt = load_npz(project.ground_truth_dir / "gt.npz")

@@ -6,9 +6,11 @@ import signal
 
 
 def add_parser(sub):
+    from morf.presets import PRESETS, default_preset
+
     p = sub.add_parser("fit", help="fit the body model to every frame (keypoints, silhouettes, temporal smoothing)")
     p.add_argument("project", help="capture project folder")
-    p.add_argument("--preset", default="default", help="fit preset: default | fast | baseline")
+    p.add_argument("--preset", default=default_preset("fit"), help=f"fit preset: {' | '.join(PRESETS['fit'])}")
     p.add_argument("--focal", type=float, default=None, help="focal length in pixels (overrides the project's camera)")
     p.add_argument("--restart", action="store_true", help="start over instead of resuming from the last completed stage")
     p.add_argument("--device", default=None, help="torch device (default: cuda when available, else cpu)")
@@ -25,15 +27,12 @@ def run(args) -> int:
 
     from morf.capture.project import CaptureProject
     from morf.errors import InputError
-    from morf.fitting.config import preset
     from morf.fitting.project_fit import fit_project
     from morf.pipeline.control import StageControl, StopRequested
+    from morf.presets import preset
 
     project = CaptureProject.open(args.project)
-    try:
-        cfg = preset(args.preset)
-    except KeyError as e:
-        raise InputError(str(e.args[0])) from None
+    cfg = preset("fit", args.preset)
     changes = {k: getattr(args, k) for k in ("shared_shape", "silhouette", "temporal", "frame_filter", "overlays")
                if getattr(args, k) is not None}
     cfg = cfg.replace(**changes)

@@ -14,13 +14,15 @@ def _shape(text: str) -> tuple[float, ...]:
 
 
 def add_parser(sub):
-    from morf.synth.config import CLOTHING, DETECTORS, PRESETS
+    from morf.presets import PRESETS, default_preset
+    from morf.synth.config import CLOTHING, DETECTORS
 
     p = sub.add_parser("synth", help="render a synthetic capture project with ground truth",
                        description="Render a person turning in place (Anny body, procedural clothes) into a "
                                    "capture project, plus ground_truth/ with poses, camera and a hold-out set.")
     p.add_argument("project", help="folder to create (must be new or empty)")
-    p.add_argument("--preset", choices=sorted(PRESETS), default="default", help="size preset (default: default)")
+    p.add_argument("--preset", choices=sorted(PRESETS["synth"]), default=default_preset("synth"),
+                   help="size preset (default: %(default)s)")
     p.add_argument("--seed", type=int, help="random seed (clothes, shape, motion, nuisances)")
     p.add_argument("--frames", type=int, help="number of capture frames")
     p.add_argument("--holdout-frames", type=int, help="number of novel-pose hold-out frames")

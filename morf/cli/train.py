@@ -10,6 +10,7 @@ from __future__ import annotations
 import signal
 import sys
 
+from morf.presets import PRESETS
 from morf.train.config import METHODS
 
 
@@ -19,7 +20,7 @@ def add_parser(sub):
     p.add_argument("--method", choices=METHODS, default="morf",
                    help="morf: texture warping (default); stylepeople: no warping; anr: split optimisation; "
                         "rgb: the no-learning floor (the frames projected into a colour texture, seconds)")
-    p.add_argument("--preset", choices=("tiny", "cpu", "gpu", "auto"), default=None,
+    p.add_argument("--preset", choices=(*PRESETS["train"], "auto"), default=None,
                    help="model and schedule sizes (default: gpu when CUDA is present, else cpu); auto: the "
                         "smallest texture and renderer the capture needs, chosen from the capture itself")
     p.add_argument("--name", default=None, help="run name under PROJECT/runs (default: METHOD-PRESET)")
@@ -62,11 +63,9 @@ def resolve_config(args, project=None):
 
 
 def _base_config(args, project=None):
-    import torch
+    from morf.presets import default_preset, preset
 
-    from morf.train.config import preset
-
-    base = "gpu" if torch.cuda.is_available() else "cpu"
+    base = default_preset("train")
     overrides = {k: v for k, v in (("steps", args.steps), ("resolution", args.resolution), ("crop", args.crop),
                                    ("batch_size", args.batch_size),
                                    ("lr_decay_start", getattr(args, "lr_decay_start", None)),
@@ -96,7 +95,7 @@ def _base_config(args, project=None):
 
         if args.preset == "auto":
             raise InputError("--renderer and --preset auto both choose the renderer; give one of them")
-        cfg = preset(args.preset or base, args.method, device=args.device, **overrides)
+        cfg = preset("train", args.preset or base).replace(method=args.method, device=args.device, **overrides)
         rcfg = dataclasses.replace(cfg.renderer, in_channels=cfg.texture_channels, **renderer_fields(args.renderer))
         return cfg.replace(renderer=rcfg), []
     if args.preset == "auto":
@@ -105,7 +104,7 @@ def _base_config(args, project=None):
 
         return choose_train_config(project, base_preset=base, method=args.method, model=load_body_model("anny"),
                                    device=args.device, **overrides)
-    return preset(args.preset or base, args.method, device=args.device, **overrides), []
+    return preset("train", args.preset or base).replace(method=args.method, device=args.device, **overrides), []
 
 
 def run(args) -> int:

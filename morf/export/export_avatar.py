@@ -20,7 +20,8 @@ from morf.export.avatar_folder import RENDERERS, replace_folder, write_arrays, w
 from morf.export.onnx_renderer import OPSET, export_fp32, export_int8
 from morf.export.skeleton import Skeleton, skeleton_from_body_model
 from morf.pipeline.control import Progress, StageControl
-from morf.raster.neural_raster import NUM_CHANNELS, NeuralRasterizer, SkinnedMesh, create_headless_context, to_layout
+from morf.raster.gl_context import create_headless_context
+from morf.raster.neural_raster import NUM_CHANNELS, NeuralRasterizer, SkinnedMesh, to_layout
 from morf.raster.texture_quant import QuantizedTexture, quantize_texture
 
 

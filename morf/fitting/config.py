@@ -9,6 +9,8 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
+from morf.errors import InputError
+
 
 @dataclass(frozen=True)
 class StageConfig:
@@ -21,6 +23,14 @@ class StageConfig:
     shape: bool  # optimise the shape
     silhouette: bool  # add the silhouette loss (when FitConfig.silhouette is on)
     offsets: bool = False  # optimise the clothing offsets (when FitConfig.offsets and the silhouette are on)
+
+    def validate(self) -> None:
+        if not self.name:
+            raise InputError("every fit stage needs a name")
+        if self.iterations < 0:
+            raise InputError(f"fit stage {self.name!r}: iterations must be >= 0, got {self.iterations}")
+        if not self.lr > 0:
+            raise InputError(f"fit stage {self.name!r}: the learning rate must be positive, got {self.lr}")
 
 
 def default_stages() -> tuple[StageConfig, ...]:
@@ -42,6 +52,18 @@ class FilterConfig:
     jump_min_deg: float = 12.0  # ... and above this many degrees (mean of the 3 bones that moved most)
     min_keypoints: int = 6  # fewer confident keypoints than this counts as a detection failure
     min_confidence: float = 0.3  # a keypoint counts as confident above this
+
+    def validate(self) -> None:
+        checks = [
+            (self.residual_factor > 0, f"filter.residual_factor must be positive, got {self.residual_factor}"),
+            (self.residual_min_px >= 0, f"filter.residual_min_px must be >= 0, got {self.residual_min_px}"),
+            (self.iou_drop >= 0, f"filter.iou_drop must be >= 0, got {self.iou_drop}"),
+            (self.jump_factor > 0, f"filter.jump_factor must be positive, got {self.jump_factor}"),
+            (self.jump_min_deg >= 0, f"filter.jump_min_deg must be >= 0 degrees, got {self.jump_min_deg}"),
+            (self.min_keypoints >= 0, f"filter.min_keypoints must be >= 0, got {self.min_keypoints}"),
+            (0 <= self.min_confidence <= 1, f"filter.min_confidence must lie in [0, 1], got {self.min_confidence}"),
+        ]
+        _raise_first(checks)
 
 
 @dataclass(frozen=True)
@@ -96,18 +118,65 @@ class FitConfig:
     filter: FilterConfig = field(default_factory=FilterConfig)
 
     def replace(self, **changes) -> "FitConfig":
-        return dataclasses.replace(self, **changes)
+        cfg = dataclasses.replace(self, **changes)
+        cfg.validate()
+        return cfg
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
     @staticmethod
     def from_dict(d: dict) -> "FitConfig":
+        """The config of ``to_dict`` (e.g. PROJECT/fits/fit_config.json); unknown keys are an InputError."""
         d = dict(d)
-        stages = tuple(StageConfig(**s) for s in d.pop("stages", [])) or default_stages()
-        filt = FilterConfig(**d.pop("filter", {}))
-        known = {f.name for f in dataclasses.fields(FitConfig)}
-        return FitConfig(stages=stages, filter=filt, **{k: v for k, v in d.items() if k in known})
+        _check_keys(FitConfig, d, "fit config")
+        stages = tuple(StageConfig(**_check_keys(StageConfig, s, "fit stage")) for s in d.pop("stages", []))
+        filt = FilterConfig(**_check_keys(FilterConfig, d.pop("filter", {}), "frame filter config"))
+        cfg = FitConfig(stages=stages or default_stages(), filter=filt, **d)
+        cfg.validate()
+        return cfg
+
+    def validate(self) -> None:
+        """Raise :class:`InputError` naming the first setting that makes no sense."""
+        if not self.stages:
+            raise InputError("a fit needs at least one stage")
+        for stage in self.stages:
+            stage.validate()
+        weights = ("keypoint_weight", "pose_prior_weight", "pose_l2_weight", "shape_weight", "temporal_weight",
+                   "temporal_transl_weight", "silhouette_weight", "offset_smooth_weight", "offset_l2_weight",
+                   "yaw_switch_weight")
+        checks = [(getattr(self, w) >= 0, f"{w} must be >= 0, got {getattr(self, w)}") for w in weights]
+        checks += [
+            (self.keypoint_robust_sigma > 0, f"keypoint_robust_sigma must be positive, got {self.keypoint_robust_sigma}"),
+            (self.silhouette_resolution >= 1, f"silhouette_resolution must be >= 1 pixel, got {self.silhouette_resolution}"),
+            (self.iou_resolution >= 1, f"iou_resolution must be >= 1 pixel, got {self.iou_resolution}"),
+            (self.silhouette_sigma > 0, f"silhouette_sigma must be positive, got {self.silhouette_sigma}"),
+            (0 < self.silhouette_frame_fraction <= 1,
+             f"silhouette_frame_fraction must lie in (0, 1], got {self.silhouette_frame_fraction}"),
+            (self.offset_min <= 0 <= self.offset_max,
+             f"offsets start at 0: need offset_min <= 0 <= offset_max, got [{self.offset_min}, {self.offset_max}]"),
+            (self.offset_lr > 0, f"offset_lr must be positive, got {self.offset_lr}"),
+            (self.proxy_cell > 0, f"proxy_cell must be positive metres, got {self.proxy_cell}"),
+            (self.yaw_hypotheses >= 1, f"yaw_hypotheses must be >= 1, got {self.yaw_hypotheses}"),
+            (self.chunk_frames >= 1, f"chunk_frames must be >= 1, got {self.chunk_frames}"),
+            (self.cpu_threads >= 0, f"cpu_threads must be >= 0 (0: keep torch's setting), got {self.cpu_threads}"),
+        ]
+        _raise_first(checks)
+        self.filter.validate()
+
+
+def _raise_first(checks: list[tuple[bool, str]]) -> None:
+    for ok, message in checks:
+        if not ok:
+            raise InputError(message)
+
+
+def _check_keys(cls: type, d: dict, what: str) -> dict:
+    """``d`` when all its keys are fields of dataclass ``cls``; else an InputError naming the others."""
+    unknown = set(d) - {f.name for f in dataclasses.fields(cls)}
+    if unknown:
+        raise InputError(f"unknown {what} keys: {sorted(unknown)}")
+    return d
 
 
 def _scaled(stages: tuple[StageConfig, ...], *factors: float) -> tuple[StageConfig, ...]:
@@ -116,17 +185,25 @@ def _scaled(stages: tuple[StageConfig, ...], *factors: float) -> tuple[StageConf
     return tuple(dataclasses.replace(s, iterations=max(5, int(round(s.iterations * k)))) for s, k in zip(stages, f))
 
 
-# Named presets: "default" for real use; "fast" for previews and tests; "baseline" is SMPLify-style
-# fitting without any of the paper's refinements.
+def _with_iterations(stages: tuple[StageConfig, ...], *iterations: int) -> tuple[StageConfig, ...]:
+    """Stages with these step counts, one per stage."""
+    return tuple(dataclasses.replace(s, iterations=n) for s, n in zip(stages, iterations, strict=True))
+
+
+# Named presets: "default" for real use; "fast" for previews; "tiny" for tests (a few seconds on a
+# dozen small frames, far from converged); "baseline" is SMPLify-style fitting without any of the
+# paper's refinements.
 PRESETS: dict[str, FitConfig] = {
     "default": FitConfig(),
     # the last stage keeps 32 of its 60 steps: 24 left the shape and offsets visibly unconverged
     "fast": FitConfig(stages=_scaled(default_stages(), 0.4, 0.4, 0.53), overlays=False),
+    "tiny": FitConfig(stages=_with_iterations(default_stages(), 10, 20, 6)),
     "baseline": FitConfig(shared_shape=False, silhouette=False, temporal=False, frame_filter=False),
 }
 
 
 def preset(name: str) -> FitConfig:
+    """The named fit preset; an unknown name is an InputError listing the known ones."""
     if name not in PRESETS:
-        raise KeyError(f"unknown fit preset {name!r}; available: {', '.join(PRESETS)}")
+        raise InputError(f"unknown fit preset {name!r}; choose one of {', '.join(PRESETS)}")
     return PRESETS[name]

@@ -19,7 +19,8 @@ import numpy as np
 from morf.errors import InputError
 from morf.export.avatar_folder import ExportedAvatar, load_exported_avatar
 from morf.playback.onnx_renderer import OnnxRenderer, background_planes
-from morf.raster.neural_raster import NUM_CHANNELS, NeuralRasterizer, create_headless_context, to_layout
+from morf.raster.gl_context import create_headless_context
+from morf.raster.neural_raster import NUM_CHANNELS, NeuralRasterizer, to_layout
 
 
 class Player:

@@ -13,7 +13,8 @@ import importlib
 
 _WHERE = {
     "bake_vertex_attributes": "gl_atlas", "dilate_charts": "gl_atlas",
-    "GLUnavailable": "gl_context", "adopt_gl_context": "gl_context", "gl_context": "gl_context",
+    "GLUnavailable": "gl_context", "adopt_gl_context": "gl_context", "create_headless_context": "gl_context",
+    "gl_context": "gl_context",
     "gl_state": "gl_context", "release_gl_context": "gl_context",
     "Rasterization": "gl_mesh", "rasterize_uv": "gl_mesh", "rasterize_uv_batch": "gl_mesh",
     "GLTexture": "gl_textured", "render_mesh_normals": "gl_textured", "render_textured": "gl_textured",

@@ -1,4 +1,4 @@
-"""The headless OpenGL context (moderngl on EGL): one per thread, created on first use.
+"""The headless OpenGL contexts (moderngl on EGL): one per thread, created on first use.
 
 An OpenGL context is current on one thread only, and moderngl objects (buffers, programs,
 textures) belong to the context that made them. So every thread that rasterizes gets its own
@@ -9,6 +9,9 @@ Every public rasterizer runs inside :func:`current`: our context is made current
 and whatever context was current before (an app window, another library's) is current again
 afterwards. On a thread that owns a window, :func:`adopt_gl_context` shares the window's
 context instead of creating a second one.
+
+Every standalone context of the library comes from :func:`create_headless_context`, under one
+lock: the per-thread ones here, and those the player and the export own themselves.
 """
 
 from __future__ import annotations
@@ -72,6 +75,22 @@ def _release(obj) -> None:
         rel()
 
 
+def create_headless_context():
+    """A new standalone moderngl context on EGL (Mesa llvmpipe without a GPU); the caller owns it.
+
+    It becomes current on the calling thread. Raises :class:`GLUnavailable` with a one-line hint
+    when EGL cannot give a context.
+    """
+    import moderngl
+
+    with _CREATE_LOCK:
+        try:
+            return moderngl.create_standalone_context(backend="egl")
+        except Exception as e:  # moderngl raises plain Exception for EGL failures
+            raise GLUnavailable(f"cannot create a headless OpenGL context through EGL ({e}); "
+                                "install the system packages libegl1 and libgl1") from None
+
+
 def gl_state() -> GLState:
     """The calling thread's :class:`GLState` (context made on first call).
 
@@ -79,16 +98,7 @@ def gl_state() -> GLState:
     """
     state = getattr(_LOCAL, "state", None)
     if state is None:
-        import moderngl
-
-        with _CREATE_LOCK:
-            try:
-                ctx = moderngl.create_standalone_context(backend="egl")
-            except Exception as e:  # moderngl raises plain Exception for EGL failures
-                raise GLUnavailable(
-                    f"cannot create a headless OpenGL context through EGL ({e}); "
-                    "install the system packages libegl1 and libgl1") from None
-        state = GLState(ctx)
+        state = GLState(create_headless_context())
         _LOCAL.state = state
     return state
 

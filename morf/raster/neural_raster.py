@@ -60,19 +60,6 @@ def load_shader(name: str) -> str:
     return (SHADER_DIR / name).read_text()
 
 
-def create_headless_context():
-    """A standalone moderngl context on EGL (Mesa llvmpipe without a GPU)."""
-    import moderngl
-
-    from morf.errors import MorfError
-
-    try:
-        return moderngl.create_standalone_context(backend="egl")
-    except Exception as e:  # moderngl raises plain Exception for EGL failures
-        raise MorfError(f"cannot create a headless OpenGL context through EGL ({e}); "
-                        "install the system packages libegl1 and libgl1") from None
-
-
 class NeuralRasterizer:
     """Renders the 16-channel neural rasterization of a posed mesh into one RGBA32UI attachment.
 

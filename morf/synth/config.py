@@ -58,6 +58,11 @@ class SynthConfig:
             (0 < self.turn_fraction <= 1, f"turn fraction must be in (0, 1], got {self.turn_fraction}"),
             (0 <= self.turn_degrees <= 720, f"--turn-degrees must be in [0, 720], got {self.turn_degrees}"),
             (self.clothing in CLOTHING, f"--clothing must be one of {', '.join(CLOTHING)}, got {self.clothing!r}"),
+            (self.sway >= 0, f"sway must be >= 0, got {self.sway}"),
+            (0 <= self.shading <= 1, f"shading must be in [0, 1], got {self.shading}"),
+            (self.msaa >= 0, f"msaa must be >= 0 samples, got {self.msaa}"),
+            (len(self.background) == 3 and all(0 <= c <= 255 for c in self.background),
+             f"background must be 3 values in 0..255, got {self.background}"),
         ]
         if self.shape is not None:
             checks.append((len(self.shape) == 6 and all(0 <= s <= 1 for s in self.shape),
@@ -69,6 +74,17 @@ class SynthConfig:
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
+
+    @staticmethod
+    def from_dict(d: dict) -> "SynthConfig":
+        """The config of ``to_dict`` (e.g. ground_truth/synth_config.json), validated; unknown keys
+        are an InputError."""
+        d = dict(d)
+        _check_keys(d, "synth config keys")
+        for key in ("shape", "background"):  # JSON gives lists
+            if d.get(key) is not None:
+                d[key] = tuple(d[key])
+        return SynthConfig(**d).validate()
 
 
 PRESETS: dict[str, SynthConfig] = {
@@ -85,9 +101,14 @@ def synth_config(preset: str = "default", **overrides) -> SynthConfig:
     if preset not in PRESETS:
         raise InputError(f"unknown synth preset {preset!r}; choose one of {', '.join(PRESETS)}")
     fields = {k: v for k, v in overrides.items() if v is not None}
-    unknown = set(fields) - {f.name for f in dataclasses.fields(SynthConfig)}
-    if unknown:
-        raise InputError(f"unknown synth settings: {', '.join(sorted(unknown))}")
+    _check_keys(fields, "synth settings")
     if "shape" in fields:
         fields["shape"] = tuple(float(s) for s in fields["shape"])
     return dataclasses.replace(PRESETS[preset], **fields).validate()
+
+
+def _check_keys(d: dict, what: str) -> None:
+    """An InputError naming the keys of ``d`` that are no SynthConfig field."""
+    unknown = set(d) - {f.name for f in dataclasses.fields(SynthConfig)}
+    if unknown:
+        raise InputError(f"unknown {what}: {', '.join(sorted(unknown))}")

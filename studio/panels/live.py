@@ -50,26 +50,26 @@ def draw(state: AppState, ui: UiContext) -> None:
 def _sync_motion(state: AppState, ui: UiContext) -> None:
     """Load the chosen motion in the background (retargeting a BVH takes seconds) and pick it up."""
     live = ui.live
-    if live.get("clip_path") != state.motion_file:
-        live["clip_path"] = state.motion_file
+    if live.clip_path != state.motion_file:
+        live.clip_path = state.motion_file
         state.motion_time = 0.0
-        live["clip"], live["clip_note"], live["clip_loading"] = None, None, None
+        live.clip, live.clip_note, live.clip_loading = None, None, None
         if state.motion_file is not None:
             bones = (ui.live_render.num_bones if ui.live_render is not None else 0) or ANNY_BONES
-            live["clip_loading"] = load_motion_async(Path(state.motion_file), bones)
-            live["clip_loading"].add_done_callback(lambda _: ui.redraw_within(0.0))  # show it as soon as it loads
-    loading = live.get("clip_loading")
+            live.clip_loading = load_motion_async(Path(state.motion_file), bones)
+            live.clip_loading.add_done_callback(lambda _: ui.redraw_within(0.0))  # show it as soon as it loads
+    loading = live.clip_loading
     if loading is not None and loading.done():
-        live["clip"], live["clip_note"] = loading.result()
-        if live["clip"] is not None and len(live["clip"]):
-            live["clip_centre"] = live["clip"].transl.mean(axis=0)
-        live["clip_loading"] = None
+        live.clip, live.clip_note = loading.result()
+        if live.clip is not None and len(live.clip):
+            live.clip_centre = live.clip.transl.mean(axis=0)
+        live.clip_loading = None
 
 
 def _request(state: AppState, ui: UiContext, side: int) -> int | None:
     """Post this frame's pose and camera to the render thread; returns the motion frame shown."""
     live, io = ui.live, imgui.get_io()
-    clip = live.get("clip")
+    clip = live.clip
     pose, index = None, None
     if clip is not None and len(clip):
         if state.playing:
@@ -78,7 +78,7 @@ def _request(state: AppState, ui: UiContext, side: int) -> int | None:
         pose = clip[index]
     o = state.orbit
     if clip is not None and len(clip):  # orbit around where the motion happens, not the origin
-        o = dataclasses.replace(o, target=tuple(float(a + b) for a, b in zip(o.target, live["clip_centre"])))
+        o = dataclasses.replace(o, target=tuple(float(a + b) for a, b in zip(o.target, live.clip_centre)))
     camera = o.camera(side, side)
     key = (state.motion_file if pose is not None else None, index, o.yaw_deg, o.pitch_deg, o.distance_m,
            tuple(o.target), o.fov_y_deg, side)
@@ -135,10 +135,10 @@ def _draw_sidebar(state: AppState, ui: UiContext) -> None:
     imgui.text("Motion")
     imgui.set_next_item_width(-1)
     changed, state.motion_dir = imgui.input_text("##motion_dir", state.motion_dir)
-    if changed or live.get("motion_dir") != state.motion_dir:
-        live["motion_dir"] = state.motion_dir
-        live["motions"] = list_motions(state.motion_dir) if state.motion_dir else []
-    motions: list[Path] = live.get("motions", [])
+    if changed or live.motion_dir != state.motion_dir:
+        live.motion_dir = state.motion_dir
+        live.motions = list_motions(state.motion_dir) if state.motion_dir else []
+    motions = live.motions
     if not motions:
         imgui.text_colored(GREY, "no .bvh or .npz files in this folder")
     else:
@@ -150,9 +150,9 @@ def _draw_sidebar(state: AppState, ui: UiContext) -> None:
                     state.motion_file = str(p)
                 remember_item(state.item_rects, f"motion:{name}")
             imgui.end_list_box()
-    if live.get("clip_loading") is not None:
+    if live.clip_loading is not None:
         imgui.text_colored(GREY, f"loading {Path(state.motion_file).name} ...")
-    elif live.get("clip_note"):
-        imgui.text_colored(GREY, live["clip_note"])
-    elif live.get("clip") is not None:
-        imgui.text(f"{Path(state.motion_file).name}: {len(live['clip'])} frames at {live['clip'].fps:g} fps")
+    elif live.clip_note:
+        imgui.text_colored(GREY, live.clip_note)
+    elif live.clip is not None:
+        imgui.text(f"{Path(state.motion_file).name}: {len(live.clip)} frames at {live.clip.fps:g} fps")

@@ -12,7 +12,6 @@ from studio.widgets import GREY, RED, fit_size, hms, remember_item, tex_ref
 
 PREVIEW_H = 150
 PRESET_W = 80  # width of a stage's preset picker
-DEFAULT_PRESETS = {"fit": "default", "train": "cpu"}  # the presets 'morf fit' / 'morf train' use on a CPU
 
 
 def draw(state: AppState, ui: UiContext) -> None:
@@ -58,11 +57,12 @@ def draw(state: AppState, ui: UiContext) -> None:
 
 
 def chosen_preset(state: AppState, ui: UiContext, stage: str) -> str | None:
-    """The preset the stage runs with: the user's choice, else the usual default, else the first."""
+    """The preset the stage runs with: the user's choice, else the stage's default (the one the CLI
+    picks, ``morf.presets.default_preset``), else the first."""
     presets = ui.stage_presets.get(stage, ())
     if not presets:
         return None
-    choice = state.stage_presets.get(stage) or DEFAULT_PRESETS.get(stage)
+    choice = state.stage_presets.get(stage) or ui.default_presets.get(stage)
     return choice if choice in presets else presets[0]
 
 
@@ -107,9 +107,13 @@ def _stage_buttons(state: AppState, ui: UiContext) -> None:
         ui.send(Stop())
     remember_item(state.item_rects, "stop")
     imgui.end_disabled()
-    missing = [f"{ui.stage_labels.get(n, n)}: not available ({why})" for n, why in ui.stages.items() if why]
-    for line in missing:
-        imgui.text_colored(GREY, line)
+    for name, why in ui.stages.items():
+        label = ui.stage_labels.get(name, name)
+        if name in ui.stage_errors:
+            imgui.text_colored(RED, f"{label} cannot be loaded: {ui.stage_errors[name]}")
+            remember_item(state.item_rects, f"stage-error:{name}")
+        elif why:
+            imgui.text_colored(GREY, f"{label}: not available ({why})")
 
 
 def _loss_plot(snap, height: float) -> None:

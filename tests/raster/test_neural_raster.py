@@ -11,7 +11,8 @@ from morf.export.export_avatar import skinned_mesh_from_body_model
 from morf.export.skeleton import skeleton_from_body_model
 from morf.raster import rasterize_uv
 from morf.raster.camera_paths import front_camera
-from morf.raster.neural_raster import NeuralRasterizer, create_headless_context
+from morf.raster.gl_context import create_headless_context
+from morf.raster.neural_raster import NeuralRasterizer
 from morf.raster.texture_quant import quantize_texture, spectral_texture
 
 pytestmark = pytest.mark.gl

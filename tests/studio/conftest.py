@@ -1,4 +1,5 @@
-"""Fixtures for the studio tests: a tiny capture project written from scratch, no other stage needed."""
+"""Fixtures for the studio tests: a tiny capture project written from scratch (no other stage
+needed), a tiny exported avatar, and the headless studio itself."""
 
 from __future__ import annotations
 
@@ -10,8 +11,12 @@ import pytest
 from morf.capture.project import CaptureProject, Keypoints2D
 from morf.capture.keypoint_layout import NUM_KEYPOINTS
 from morf.io import save_npz, write_image
+from screenshots import WINDOW
 
 FRAMES, WIDTH, HEIGHT = 6, 96, 128
+# what the studio shows for the library's stages when a test gives it none
+NOT_IN_THIS_BUILD = {"fit": "morf.fitting is not part of this build", "train": "morf.train is not part of this build",
+                     "export": "morf.export is not part of this build"}
 
 
 def _stick_figure(i: int) -> np.ndarray:
@@ -84,3 +89,34 @@ def tiny_avatar_dir(tmp_path_factory, body_model):
                            renderer_cfg=SimpleNamespace(in_channels=16), image_size=64,
                            calibration_views=4, heldout_views=1, seed=3)
     return out
+
+
+@pytest.fixture
+def make_app(tmp_path, monkeypatch):
+    """``make_app(project=None, **kw)``: a headless studio, closed at the end of the test.
+
+    The working folder is tmp_path (relative paths keep screenshots free of temporary folder
+    names); ``tiny_project`` is "capture" there. ``kw`` goes to StudioApp, by default: the window
+    size of the goldens, no stages (``stages=None``: the library's) listed as not part of this
+    build, and the empty motion folder "motions". Skips where there is no headless OpenGL.
+    """
+    pytest.importorskip("imgui_bundle")
+    from morf.errors import MorfError
+    from studio.app import StudioApp
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "motions").mkdir()
+    apps = []
+
+    def make(project=None, **kw):
+        kw = {"size": WINDOW, "stages": {}, "unavailable": NOT_IN_THIS_BUILD, "motion_dir": "motions", **kw}
+        try:
+            app = StudioApp(project, headless=True, **kw)
+        except MorfError as e:
+            pytest.skip(f"no headless OpenGL here: {e}")
+        apps.append(app)
+        return app
+
+    yield make
+    for app in apps:
+        app.close()

@@ -16,6 +16,7 @@ from morf.io import read_image, write_image
 TESTS = Path(__file__).resolve().parents[1]
 GOLDEN = TESTS / "golden"
 FAILURES = TESTS / "_failures"
+WINDOW = (1280, 800)  # the studio's window size in every screenshot test (width, height)
 UI_TOLERANCE = 0.006  # RMSE / 255; identical renders give 0, another Mesa build a little more
 DIFF_GAIN = 8.0  # magnification of the difference image
 

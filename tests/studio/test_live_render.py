@@ -83,30 +83,20 @@ def test_a_player_that_cannot_open_or_fails_is_reported_not_raised():
 
 
 @pytest.mark.gl
-def test_live_panel_golden_with_a_tiny_exported_avatar(tiny_project, tiny_avatar_dir, tmp_path, monkeypatch):
+def test_live_panel_golden_with_a_tiny_exported_avatar(make_app, tiny_project, tiny_avatar_dir):
     import shutil
 
     imgui = pytest.importorskip("imgui_bundle").imgui
-    from morf.errors import MorfError
-    from studio.app import StudioApp
 
     shutil.copytree(tiny_avatar_dir, tiny_project.avatar_dir)
-    monkeypatch.chdir(tmp_path)
-    (tmp_path / "motions").mkdir()
-    try:
-        app = StudioApp("capture", size=(1280, 800), headless=True, stages={}, unavailable={}, motion_dir="motions")
-    except MorfError as e:
-        pytest.skip(f"no headless OpenGL here: {e}")
-    try:
-        assert app.live is not None and app.live.wait_open(30) and app.live.ready, app.live.note
-        app.settle()
-        app.press(imgui.Key._5)
-        app.settle()  # waits until the render thread delivered this pose and camera
-        frame = app.live.latest()
-        assert frame is not None and frame.image.shape == (640, 640, 3)
-        img = app.frame(capture=True)
-        # the fps overlay and the timing line vary from run to run: blank them
-        check_golden("studio_live_avatar", img, ignore=((0, 60, 960, 90), (0, 710, 960, 732)))
-        assert frame.image.std() > 5.0  # the avatar is on screen, not a flat image
-    finally:
-        app.close()
+    app = make_app("capture", unavailable={})
+    assert app.live is not None and app.live.wait_open(30) and app.live.ready, app.live.note
+    app.settle()
+    app.press(imgui.Key._5)
+    app.settle()  # waits until the render thread delivered this pose and camera
+    frame = app.live.latest()
+    assert frame is not None and frame.image.shape == (640, 640, 3)
+    img = app.frame(capture=True)
+    # the fps overlay and the timing line vary from run to run: blank them
+    check_golden("studio_live_avatar", img, ignore=((0, 60, 960, 90), (0, 710, 960, 732)))
+    assert frame.image.std() > 5.0  # the avatar is on screen, not a flat image

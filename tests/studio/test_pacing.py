@@ -94,38 +94,21 @@ class PacedPlayer:
         return np.full((camera.height, camera.width, 3), 40 * (self.renders % 5), np.uint8)
 
 
-@pytest.fixture
-def headless_app(tiny_project, tmp_path, monkeypatch):
-    pytest.importorskip("imgui_bundle")
-    from morf.errors import MorfError
-    from studio.app import StudioApp
-
-    monkeypatch.chdir(tmp_path)
-    apps = []
-
-    def make(**kw):
-        try:
-            app = StudioApp("capture", size=(1280, 800), headless=True, deterministic=False, stages={},
-                            unavailable={}, motion_dir=str(tmp_path), **kw)
-        except MorfError as e:
-            pytest.skip(f"no headless OpenGL here: {e}")
-        apps.append(app)
-        return app
-
-    yield make
-    for app in apps:
-        app.close()
+def headless_app(make_app, tmp_path, **kw):
+    """The tiny project in a studio that measures real frame times (no fixed frame time)."""
+    return make_app("capture", deterministic=False, unavailable={}, motion_dir=str(tmp_path), **kw)
 
 
 @pytest.mark.gl
-def test_the_idle_studio_redraws_a_few_times_a_second_and_continuous_mode_as_fast_as_it_can(headless_app):
-    app = headless_app(idle_fps=5.0)
+def test_the_idle_studio_redraws_a_few_times_a_second_and_continuous_mode_as_fast_as_it_can(make_app, tiny_project,
+                                                                                             tmp_path):
+    app = headless_app(make_app, tmp_path, idle_fps=5.0)
     app.settle()
     n = len(app.frame_times)
     app.run(seconds=1.0)
     assert 2 <= len(app.frame_times) - n <= 9  # about 5: the idle rate (a first frame, timing slack)
     app.close()  # one studio at a time: imgui's backends are process-wide
-    fast = headless_app(max_fps=0)
+    fast = headless_app(make_app, tmp_path, max_fps=0)
     fast.settle()
     n = len(fast.frame_times)
     fast.run(seconds=1.0)
@@ -133,21 +116,21 @@ def test_the_idle_studio_redraws_a_few_times_a_second_and_continuous_mode_as_fas
 
 
 @pytest.mark.gl
-def test_a_playing_motion_redraws_when_a_live_frame_arrives_and_shows_each_one(headless_app):
+def test_a_playing_motion_redraws_when_a_live_frame_arrives_and_shows_each_one(make_app, tiny_project, tmp_path):
     from pathlib import Path
 
     repo = Path(__file__).resolve().parents[2]
     player = PacedPlayer(delay=0.08)
-    app = headless_app(idle_fps=2.0)
+    app = headless_app(make_app, tmp_path, idle_fps=2.0)
     app.show_player(player)
     app.state.select_panel(4)
     app.state.motion_file = str(repo / MOTION)
     app.state.playing = True
     for _ in range(60):  # the motion loads, the first frames arrive
         app.run(seconds=0.5)
-        if app.live_panel.get("clip") is not None and app.live.latest() is not None:
+        if app.live_panel.clip is not None and app.live.latest() is not None:
             break
-    assert app.live.latest() is not None and app.live_panel.get("clip") is not None
+    assert app.live.latest() is not None and app.live_panel.clip is not None
     n, seq0, shown0 = len(app.frame_times), app.live.latest().seq, len(app.live_stats)
     app.run(seconds=2.0)
     rendered, shown, drawn = app.live.latest().seq - seq0, len(app.live_stats) - shown0, len(app.frame_times) - n

@@ -16,10 +16,8 @@ import pytest
 pytestmark = [pytest.mark.gl, pytest.mark.slow]
 
 imgui = pytest.importorskip("imgui_bundle").imgui
-from morf.errors import MorfError  # noqa: E402
 from studio.app import StudioApp  # noqa: E402
 
-SIZE = (1280, 800)
 K = imgui.Key
 TRAIN_OPTIONS = {"steps": 20, "inpaint_steps": 2}  # on top of the tiny preset chosen in the UI
 RESUME_STEPS = 40  # the interrupted run's length: closed after ~10 steps, resumed to the end
@@ -40,31 +38,6 @@ def project_copy(synthetic_capture, tmp_path):
     dst = tmp_path / "capture"
     shutil.copytree(synthetic_capture, dst)
     return dst
-
-
-@pytest.fixture
-def make_app(tmp_path):
-    apps = []
-
-    def make(project, **kw):
-        try:
-            app = StudioApp(project, size=SIZE, headless=True, **kw)
-        except MorfError as e:
-            pytest.skip(f"no headless OpenGL here: {e}")
-        apps.append(app)
-        return app
-
-    yield make
-    for app in apps:
-        app.close()
-
-
-def fit_stages():
-    """A short fit (even the "fast" preset takes ~35 s on 2 cores for 12 frames): fewer Adam steps."""
-    from morf.fitting.config import default_stages
-
-    iterations = {"global": 10, "body": 20, "all": 6}
-    return tuple(s.__class__(**{**s.__dict__, "iterations": iterations[s.name]}) for s in default_stages())
 
 
 def run_until(app: StudioApp, done, timeout: float, on_frame=None) -> None:
@@ -130,8 +103,8 @@ def test_fit_train_export_and_live_render_from_the_ui(make_app, project_copy, tm
 
     project = CaptureProject.open(project_copy)
     motion = motion_file(shared_motion_dir, tmp_path)
-    app = make_app(project_copy, motion_dir=str(motion.parent))
-    app.state.stage_options["fit"] = {"stages": fit_stages()}
+    app = make_app(project_copy, stages=None, unavailable=None, motion_dir=str(motion.parent))  # the library's stages
+    app.state.stage_presets["fit"] = "tiny"  # even the "fast" preset takes ~35 s on 2 cores for 12 frames
     app.state.stage_options["train"] = TRAIN_OPTIONS
     app.settle()
     app.press(K._4)
@@ -169,8 +142,8 @@ def test_fit_train_export_and_live_render_from_the_ui(make_app, project_copy, tm
     app.press(K._5)
     app.frame()
     app.click_item(f"motion:{motion.name}")
-    run_until(app, lambda: app.live_panel.get("clip") is not None or app.live_panel.get("clip_note"), 60)
-    assert app.live_panel.get("clip") is not None, app.live_panel.get("clip_note")
+    run_until(app, lambda: app.live_panel.clip is not None or app.live_panel.clip_note, 60)
+    assert app.live_panel.clip is not None, app.live_panel.clip_note
     app.press(K.space)
     assert app.state.playing
     keys = set()
@@ -189,7 +162,7 @@ def test_closing_while_training_keeps_a_checkpoint_that_morf_train_resumes(make_
 
     from morf.cli.main import main
 
-    app = make_app(project_copy)
+    app = make_app(project_copy, stages=None, unavailable=None)
     app.state.stage_presets["train"] = "tiny"
     app.state.stage_options["train"] = {"steps": RESUME_STEPS}
     app.settle()

@@ -7,7 +7,7 @@ import time
 import numpy as np
 import pytest
 
-from screenshots import check_golden
+from screenshots import WINDOW, check_golden
 from morf.errors import MorfError
 from morf.pipeline.control import Progress
 
@@ -18,39 +18,13 @@ from studio.app import StudioApp  # noqa: E402  (after the skip)
 from studio.commands import StartStage  # noqa: E402
 from studio.snapshot import LossCurve, Snapshot  # noqa: E402
 
-SIZE = (1280, 800)
 K = imgui.Key
-UNAVAILABLE = {"fit": "morf.fitting is not part of this build", "train": "morf.train is not part of this build",
-               "export": "morf.export is not part of this build"}
-
-
-@pytest.fixture
-def make_app(tmp_path, monkeypatch):
-    """Build apps in tmp_path (relative paths keep screenshots free of temporary folder names)."""
-    monkeypatch.chdir(tmp_path)
-    (tmp_path / "motions").mkdir()
-    apps = []
-
-    def make(project=None, **kw):
-        kw.setdefault("stages", {})
-        kw.setdefault("unavailable", UNAVAILABLE)
-        kw.setdefault("motion_dir", "motions")
-        try:
-            app = StudioApp(project, size=SIZE, headless=True, **kw)
-        except MorfError as e:
-            pytest.skip(f"no headless OpenGL here: {e}")
-        apps.append(app)
-        return app
-
-    yield make
-    for app in apps:
-        app.close()
 
 
 def shot(app: StudioApp) -> np.ndarray:
     app.settle()
     img = app.frame(capture=True)
-    assert img.shape == (SIZE[1], SIZE[0], 3)
+    assert img.shape == (WINDOW[1], WINDOW[0], 3)
     return img
 
 

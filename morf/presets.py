@@ -1,0 +1,49 @@
+"""The named presets of every stage in one registry: ``PRESETS[stage][name]`` is that stage's config.
+
+Each stage defines its presets beside its config dataclass (``morf/synth/config.py``,
+``morf/fitting/config.py``, ``morf/train/config.py``); this module puts those tables side by side,
+so that the CLI and the studio look a preset up the same way and pick the same one when none is
+named. The tables are the stages' own dicts, not copies.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+from morf.errors import InputError
+from morf.fitting.config import PRESETS as FIT_PRESETS
+from morf.synth.config import PRESETS as SYNTH_PRESETS
+from morf.train.config import PRESETS as TRAIN_PRESETS
+
+# stage -> {preset name -> config}: SynthConfig, FitConfig, TrainConfig
+PRESETS: Mapping[str, Mapping[str, Any]] = {
+    "synth": SYNTH_PRESETS,  # morf synth
+    "fit": FIT_PRESETS,  # morf fit
+    "train": TRAIN_PRESETS,  # morf train (besides "auto", which is chosen from the capture: morf.sizing)
+}
+
+
+def presets_of(stage: str) -> Mapping[str, Any]:
+    """The preset table of ``stage``; an unknown stage is an InputError listing the known ones."""
+    if stage not in PRESETS:
+        raise InputError(f"no presets for stage {stage!r}; stages with presets: {', '.join(PRESETS)}")
+    return PRESETS[stage]
+
+
+def preset(stage: str, name: str) -> Any:
+    """The config of preset ``name`` of ``stage``; an unknown name is an InputError listing the known ones."""
+    table = presets_of(stage)
+    if name not in table:
+        raise InputError(f"unknown {stage} preset {name!r}; choose one of {', '.join(table)}")
+    return table[name]
+
+
+def default_preset(stage: str) -> str:
+    """The preset ``stage`` runs with when none is named: "gpu" for training when CUDA is present,
+    "cpu" for training without it, "default" for the other stages."""
+    presets_of(stage)
+    if stage == "train":
+        import torch
+
+        return "gpu" if torch.cuda.is_available() else "cpu"
+    return "default"
