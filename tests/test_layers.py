@@ -18,7 +18,7 @@ MORF = Path(__file__).resolve().parents[1] / "morf"
 # Lowest first. A layer may import itself and any layer before it. Within "foundation" the small
 # shared modules may import each other.
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("foundation", ("morf", "morf.errors", "morf.io", "morf.camera", "morf.progress", "morf.cpu_features",
+    ("foundation", ("morf", "morf.errors", "morf.config_checks", "morf.io", "morf.camera", "morf.progress", "morf.cpu_features",
                     "morf.pipeline")),
     ("capture", ("morf.capture",)),  # the project folder, video, keypoints, masks
     ("datasets", ("morf.datasets",)),  # standard datasets imported as capture projects

@@ -27,8 +27,8 @@ class AvatarOutput:
         mask_logit: (B, 1, H, W) person mask logits.
         features: (B, C, H, W) the neural rasterization fed to the renderer.
         offsets: (B, 2, Ht, Wt) texture offsets, or None without warping.
-        residual: (B, 3, H, W) the part of ``rgb`` the renderer adds over the texture's colour
-            channels (``RendererConfig.rgb_skip``), or None without them.
+        residual: (B, 3, H, W) the RGB the renderer adds over the texture's colour channels
+            (``RendererConfig.rgb_skip``), before the mask multiplies it; None without them.
     """
 
     rgb: torch.Tensor
@@ -88,7 +88,6 @@ class AvatarModel(nn.Module):
         with torch.autocast(feats.device.type, dtype=torch.bfloat16, enabled=bf16):
             out, residual = self.renderer.forward_parts(x)
         out = out.float().contiguous()
-        residual = None if residual is None else residual.float()
         return AvatarOutput(out[:, :3], out[:, 3:], feats, offsets, residual)
 
     @torch.no_grad()

@@ -176,18 +176,17 @@ class UNetRenderer(nn.Module):
         return self.forward_parts(x)[0]
 
     def forward_parts(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
-        """``(output, residual)``: the output of :meth:`forward` and, with ``rgb_skip``, the part
-        of its RGB the network adds over the texture's colour (premultiplied like the output;
-        None without ``rgb_skip``). Training penalises the residual (``TrainConfig.w_residual``)."""
+        """``(output, residual)``: the output of :meth:`forward` and, with ``rgb_skip``, the RGB the
+        network adds over the texture's colour, before the mask multiplies it (None without
+        ``rgb_skip``). Training penalises it (``TrainConfig.w_residual``)."""
         out = self.last(self.features(x))
-        residual = out[:, :3] if self.cfg.rgb_skip else None
+        residual = None
         if self.cfg.rgb_skip:
-            out = torch.cat([out[:, :3] + self.colour(x).to(out.dtype), out[:, 3:]], dim=1)
+            residual = out[:, :3]
+            out = torch.cat([residual + self.colour(x).to(out.dtype), out[:, 3:]], dim=1)
         if self.cfg.premultiply:
             logit = out[:, 3:]
-            prob = torch.sigmoid(logit)
-            out = torch.cat([out[:, :3] * prob, logit], dim=1)
-            residual = None if residual is None else residual * prob
+            out = torch.cat([out[:, :3] * torch.sigmoid(logit), logit], dim=1)
         return out, residual
 
 

@@ -22,7 +22,7 @@ from typing import Iterator
 import cv2
 import numpy as np
 
-from morf.capture.video_pyav import quarter_turns
+from morf.capture.video_pyav import display_rotation
 from morf.errors import InputError
 from morf.io import read_image
 
@@ -227,7 +227,7 @@ def _open_opencv(path: Path) -> FrameSource:
     h, w = bgr.shape[:2]
     return FrameSource("video", path, w, h, float(fps) if fps and 0 < fps < 1000 else None,
                        count if count > 0 else None, decoder="opencv",
-                       rotation=(0, 90, 180, -90)[quarter_turns(turned)])
+                       rotation=display_rotation(turned))
 
 
 def open_images(path: str | os.PathLike, resize: int | None = None) -> FrameSource:

@@ -68,6 +68,11 @@ def quarter_turns(degrees: float) -> int:
     return int(round(float(degrees) / 90.0)) % 4
 
 
+def display_rotation(degrees: float) -> int:
+    """A display rotation in degrees -> the nearest of 0, 90, 180 and -90 (counter-clockwise)."""
+    return (0, 90, 180, -90)[quarter_turns(degrees)]
+
+
 def upright(rgb: np.ndarray, rotation: float) -> np.ndarray:
     """Turn a stored (H, W, C) frame as its display matrix says (``rotation``: counter-clockwise
     degrees, as PyAV's ``VideoFrame.rotation`` and FFmpeg's ``av_display_rotation_get`` give it;
@@ -104,7 +109,8 @@ def probe(path: Path) -> VideoProbe:
                 count = int(round(float(stream.duration * stream.time_base) * fps))
             elif container.duration:
                 count = int(round(container.duration / av.time_base * fps))
-        return VideoProbe(w, h, fps, count if count > 0 else None, (0, 90, 180, -90)[k], stream.codec_context.name)
+        return VideoProbe(w, h, fps, count if count > 0 else None, display_rotation(rotation),
+                          stream.codec_context.name)
 
 
 def decode(path: Path, keep: Callable[[int], bool]) -> Iterator[DecodedFrame]:

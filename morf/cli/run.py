@@ -11,8 +11,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from morf.presets import PRESETS
+
 STAGES = ("ingest", "fit", "train", "export")
-TRAIN_PRESETS = ("tiny", "cpu", "gpu", "auto")
 RUN_FILE = "run.json"  # PROJECT/run.json: the training size and hold-out 'morf run' chose, for the next 'morf run'
 
 
@@ -27,7 +28,7 @@ def add_parser(sub):
     p.add_argument("--video", type=Path, metavar="FILE",
                    help="the video to ingest (needed only while the project does not exist yet)")
     p.add_argument("--until", choices=STAGES, default="export", help="stop after this stage (default export)")
-    p.add_argument("--preset", choices=TRAIN_PRESETS, default=None,
+    p.add_argument("--preset", choices=(*PRESETS["train"], "auto"), default=None,
                    help="training size (as 'morf train --preset'; tiny also fits with the tiny fit preset); "
                         "default: the last 'morf run' on the project's, else its latest training run's, else "
                         "gpu with CUDA and cpu without")
@@ -140,7 +141,7 @@ def _recall(root: Path) -> dict:
         return {}
     if not isinstance(d, dict):
         return {}
-    preset = d.get("preset") if d.get("preset") in TRAIN_PRESETS else None
+    preset = d.get("preset") if d.get("preset") in (*PRESETS["train"], "auto") else None
     holdout = d.get("holdout") if isinstance(d.get("holdout"), int) and d.get("holdout") >= 2 else None
     return {"preset": preset, "holdout": holdout}
 

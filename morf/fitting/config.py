@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
+from morf.config_checks import check_keys, raise_first
 from morf.errors import InputError
 
 
@@ -63,7 +64,7 @@ class FilterConfig:
             (self.min_keypoints >= 0, f"filter.min_keypoints must be >= 0, got {self.min_keypoints}"),
             (0 <= self.min_confidence <= 1, f"filter.min_confidence must lie in [0, 1], got {self.min_confidence}"),
         ]
-        _raise_first(checks)
+        raise_first(checks)
 
 
 @dataclass(frozen=True)
@@ -129,9 +130,9 @@ class FitConfig:
     def from_dict(d: dict) -> "FitConfig":
         """The config of ``to_dict`` (e.g. PROJECT/fits/fit_config.json); unknown keys are an InputError."""
         d = dict(d)
-        _check_keys(FitConfig, d, "fit config")
-        stages = tuple(StageConfig(**_check_keys(StageConfig, s, "fit stage")) for s in d.pop("stages", []))
-        filt = FilterConfig(**_check_keys(FilterConfig, d.pop("filter", {}), "frame filter config"))
+        check_keys(FitConfig, d, "fit config")
+        stages = tuple(StageConfig(**check_keys(StageConfig, s, "fit stage")) for s in d.pop("stages", []))
+        filt = FilterConfig(**check_keys(FilterConfig, d.pop("filter", {}), "frame filter config"))
         cfg = FitConfig(stages=stages or default_stages(), filter=filt, **d)
         cfg.validate()
         return cfg
@@ -161,22 +162,8 @@ class FitConfig:
             (self.chunk_frames >= 1, f"chunk_frames must be >= 1, got {self.chunk_frames}"),
             (self.cpu_threads >= 0, f"cpu_threads must be >= 0 (0: keep torch's setting), got {self.cpu_threads}"),
         ]
-        _raise_first(checks)
+        raise_first(checks)
         self.filter.validate()
-
-
-def _raise_first(checks: list[tuple[bool, str]]) -> None:
-    for ok, message in checks:
-        if not ok:
-            raise InputError(message)
-
-
-def _check_keys(cls: type, d: dict, what: str) -> dict:
-    """``d`` when all its keys are fields of dataclass ``cls``; else an InputError naming the others."""
-    unknown = set(d) - {f.name for f in dataclasses.fields(cls)}
-    if unknown:
-        raise InputError(f"unknown {what} keys: {sorted(unknown)}")
-    return d
 
 
 def _scaled(stages: tuple[StageConfig, ...], *factors: float) -> tuple[StageConfig, ...]:

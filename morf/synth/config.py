@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+from morf.config_checks import raise_first
 from morf.errors import InputError
 
 DETECTORS = ("auto", "mediapipe", "none")
@@ -67,9 +68,7 @@ class SynthConfig:
         if self.shape is not None:
             checks.append((len(self.shape) == 6 and all(0 <= s <= 1 for s in self.shape),
                            f"shape must be 6 values in [0, 1], got {self.shape}"))
-        for ok, message in checks:
-            if not ok:
-                raise InputError(message)
+        raise_first(checks)
         return self
 
     def to_dict(self) -> dict:

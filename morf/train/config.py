@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 from morf.avatar.renderer import RendererConfig
 from morf.avatar.warp import WarpConfig
+from morf.config_checks import check_keys
 from morf.errors import InputError
 
 METHODS = ("morf", "stylepeople", "anr", "rgb")
@@ -96,11 +97,7 @@ class TrainConfig:
 
     @staticmethod
     def from_dict(d: dict) -> "TrainConfig":
-        d = dict(d)
-        known = {f.name for f in dataclasses.fields(TrainConfig)}
-        unknown = set(d) - known
-        if unknown:
-            raise InputError(f"unknown training config keys: {sorted(unknown)}")
+        d = check_keys(TrainConfig, dict(d), "training config")
         if isinstance(d.get("renderer"), dict):
             d["renderer"] = RendererConfig(**d["renderer"])
         if isinstance(d.get("warp"), dict):

@@ -43,7 +43,7 @@ def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=Non
         near = F.max_pool2d(batch.mask, 11, 1, 5)
         L["ssim"] = ssim_loss(out.rgb, target, near)
     if cfg.w_residual > 0 and out.residual is not None:
-        L["residual"] = out.residual.abs().mean()
+        L["residual"] = (out.residual.float() * out.mask).abs().mean()  # as far as it shows in the image
     if perceptual is not None:
         L["perceptual"] = perceptual(out.rgb, target)
     if out.offsets is not None:

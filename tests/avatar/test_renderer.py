@@ -126,7 +126,7 @@ def test_rgb_skip_starts_at_the_texture_colour():
 
 
 def test_forward_parts_residual_is_what_the_network_adds_over_the_colour():
-    """output RGB = (texture colour + residual) x mask, and the residual is returned premultiplied."""
+    """output RGB = (texture colour + residual) x mask."""
     torch.manual_seed(0)
     r = UNetRenderer(RendererConfig(in_channels=8, width=8, depth=2, stem=2, skip_hidden=8, rgb_skip=True))
     with torch.no_grad():
@@ -134,7 +134,7 @@ def test_forward_parts_residual_is_what_the_network_adds_over_the_colour():
     x = torch.rand(2, 8, 32, 32) * 0.8 + 0.1
     out, residual = r.forward_parts(x)
     prob = torch.sigmoid(out[:, 3:])
-    torch.testing.assert_close(out[:, :3], r.colour(x) * prob + residual)
+    torch.testing.assert_close(out[:, :3], (r.colour(x) + residual) * prob)
     assert residual.abs().mean() > 1e-3
     torch.testing.assert_close(r(x), out)
     plain = UNetRenderer(RendererConfig(in_channels=8, width=8, depth=2, stem=2, skip_hidden=8))
