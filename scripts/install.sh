@@ -18,8 +18,8 @@ if [ ! -x .venv/bin/python ]; then
 fi
 . .venv/bin/activate
 python -m pip install -q --disable-pip-version-check --upgrade pip wheel setuptools
-echo "[install] Python packages (torch==2.13.0 CPU, anny, onnxruntime, moderngl, imgui-bundle, PyAV, ...)"
-python -m pip install -q --disable-pip-version-check -e ".[test,video]"
+echo "[install] Python packages (torch==2.13.0 CPU, anny, onnxruntime, moderngl, imgui-bundle, PyAV, Ray, ...)"
+python -m pip install -q --disable-pip-version-check -e ".[test,video,ray]"
 # MediaPipe declares jax and the non-headless OpenCV; its pose solution needs neither.
 if ! python -c "import mediapipe" 2>/dev/null; then
   python -m pip install -q --disable-pip-version-check --no-deps "mediapipe==0.10.14"

@@ -13,6 +13,7 @@ import numpy as np
 from morf.capture.project import CaptureProject, FrameDecision, Keypoints2D
 from morf.errors import ProjectError
 from morf.io import load_npz
+from studio.run_list import RunSummary, read_runs
 
 
 class ProjectView:
@@ -24,6 +25,8 @@ class ProjectView:
         decisions: per frame :class:`FrameDecision` (user choices override the automatic filter).
         residuals: frame -> mean keypoint residual of the body fit in pixels (empty before fitting).
     """
+
+    runs: list[RunSummary]  # the training runs on disk, newest first
 
     def __init__(self, project: CaptureProject):
         self.project = project
@@ -38,6 +41,7 @@ class ProjectView:
         self._fit_overlays = (self.project.fits_dir / "overlays").is_dir()
         d = self.project.avatar_dir
         self._avatar_ready = d.is_dir() and any(d.iterdir())
+        self.runs: list[RunSummary] = read_runs(self.project.root)
 
     @classmethod
     def open(cls, root: str | Path) -> "ProjectView":

@@ -71,3 +71,16 @@ def lpips_weights(tmp_path_factory):
     torch.save(vgg, root / "vgg16.pth")
     torch.save(lin, root / "lpips-vgg.pth")
     return root / "lpips-vgg.pth", root / "vgg16.pth"
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    """A local Ray of two CPUs (two workers at once), no dashboard, a small object store."""
+    from morf.scale.ray_runtime import RayOptions, connect
+
+    ray = pytest.importorskip("ray")
+    if ray.is_initialized():
+        ray.shutdown()
+    connect(RayOptions(num_cpus=2, object_store_memory=80 * 1024**2))
+    yield ray
+    ray.shutdown()

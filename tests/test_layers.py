@@ -20,6 +20,7 @@ MORF = Path(__file__).resolve().parents[1] / "morf"
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("foundation", ("morf", "morf.errors", "morf.config_checks", "morf.io", "morf.camera", "morf.progress", "morf.cpu_features",
                     "morf.pipeline")),
+    ("scale", ("morf.scale",)),  # Ray: where tasks run, what they hold, a list of calls run as tasks
     ("capture", ("morf.capture",)),  # the project folder, video, keypoints, masks
     ("datasets", ("morf.datasets",)),  # standard datasets imported as capture projects
     ("body", ("morf.body",)),  # body model, render mesh, skinning

@@ -65,7 +65,7 @@ class AvatarModel(nn.Module):
         return warp_texture(self.texture.texture, offsets), offsets
 
     def forward(self, uv: torch.Tensor, uv_mask: torch.Tensor, pose: torch.Tensor | None = None,
-                frame_index: torch.Tensor | None = None, bf16: bool = False) -> AvatarOutput:
+                frame_index: torch.Tensor | None = None, bf16: bool = False, warp_scale: float = 1.0) -> AvatarOutput:
         """Render training frames.
 
         The warp is applied at the pixels' UVs (``sample_texture(..., offsets=)``) rather than by
@@ -76,11 +76,14 @@ class AvatarModel(nn.Module):
             uv: (B, H, W, 2) rasterized UVs; uv_mask: (B, H, W) mesh coverage;
             pose: (B, pose_dim) pose features (see :func:`morf.avatar.warp.pose_features`);
             frame_index: (B,) long indices into the warp's latent table;
-            bf16: run the renderer under bfloat16 autocast (outputs are returned as float32).
+            bf16: run the renderer under bfloat16 autocast (outputs are returned as float32);
+            warp_scale: factor on the offsets (the warp fade of training; 1: as the warp made them).
         """
         offsets = None
         if self.warp is not None and pose is not None:
             offsets = self.warp(pose, frame_index, self.texture_size)
+            if warp_scale != 1.0:
+                offsets = offsets * warp_scale
         feats = sample_texture(self.texture.texture, uv, uv_mask, offsets)
         x = feats
         if self.renderer.stem[0].weight.is_contiguous(memory_format=torch.channels_last):

@@ -17,13 +17,22 @@ point's result is saved in ``DIR/points/<name>.json`` as it finishes and reused 
 training run also resumes); ``--points`` names what to measure, and points measured earlier in
 ``DIR`` on the same capture stay in the results. ``--auto-check`` runs the automatic size choice on three scenes
 instead (see :mod:`morf.bench.auto_check`).
+
+The trainings run as Ray tasks (:mod:`morf.scale`), each distinct training once (int8 and fp32 of
+one model share it): on a local Ray by default, on a cluster with ``--address``. Each holds
+``--cpus-per-task`` cores, by default all of this machine's, so on one machine the points train one
+after another on every core as the training-minutes axis has always meant; fewer cores per task
+train several at once. Playback speed is then measured here, one point after another, with no
+training running beside it.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -54,6 +63,10 @@ def add_arguments(p) -> None:
     p.add_argument("--seeds", type=int, default=1,
                    help="train every point with this many seeds (base seed, +1, ...) and chart the means; "
                         "with --auto-check judge on the means (default 1)")
+    from morf.scale.ray_runtime import add_arguments as ray_arguments
+
+    ray_arguments(p, "cores each training holds (default: all of this machine's, one training at a time, as the "
+                     "training-minutes axis assumes; fewer train several at once)", default_cpus=None)
 
 
 def make_capture(out: Path, sweep, scene: str, model, project_path: str | None = None):
@@ -86,53 +99,119 @@ def _summary(cfg) -> dict:
             "method": cfg.method}
 
 
-def run_point(project, sweep, point, model, out: Path, cfg=None) -> tuple[dict, bool]:
-    """Train, evaluate and time one point; (result, reused) where reused means loaded from
-    ``OUT/points/<name>.json`` (same config, same fps size) without any work."""
-    from morf.bench.train_eval import speed_of_run, train_and_evaluate
+@dataclass(frozen=True)
+class Training:
+    """One training a benchmark needs, as a Ray task gets it (paths and a config, nothing loaded).
+
+    Fields:
+        root: the capture project's folder; cfg: the TrainConfig; run: run name (``ROOT/runs/<run>``);
+        fits_source: ground-truth | fits; eval_resolution: hold-out scoring size in px (None: the
+            training resolution).
+    """
+
+    root: str
+    cfg: object
+    run: str
+    fits_source: str = "ground-truth"
+    eval_resolution: int | None = None
+
+
+def train_point_task(root: str, cfg, run: str, fits_source: str, eval_resolution: int | None) -> dict:
+    """On a Ray worker: train (or resume, or reuse) ``ROOT/runs/<run>`` and score it on the hold-out
+    (:func:`morf.bench.train_eval.train_and_evaluate`); the body model is loaded once per worker."""
+    from morf.bench.train_eval import train_and_evaluate
+    from morf.body import load_body_model
+    from morf.capture.project import CaptureProject
+    from morf.scale.tasks import worker_cached
+
+    model = worker_cached("body-model:anny", lambda: load_body_model("anny"))
+    return train_and_evaluate(CaptureProject.open(root), cfg, run, model, fits_source, eval_resolution)
+
+
+def train_all(trainings, ray=None, workers: int | None = None, cpus_per_task: int | None = None) -> dict:
+    """Every distinct training of ``trainings`` (one per project and run name) as a Ray task
+    (:func:`train_point_task`), ``cpus_per_task`` cores each (None: all of this machine's);
+    {(root, run): Outcome}. A training that raised is an outcome with an error; the others go on."""
+    from morf.scale.ray_runtime import resources_for
+    from morf.scale.tasks import Task, run_tasks
+
+    unique: dict[tuple[str, str], Training] = {}
+    for t in trainings:
+        unique.setdefault((t.root, t.run), t)
+    cpus = cpus_per_task or os.cpu_count() or 1
+    short = [f"{Path(root).name}/{run}" for root, run in unique]  # a task's name: capture folder / run
+    names = [n if short.count(n) == 1 else f"{root}/{run}" for n, (root, run) in zip(short, unique)]
+    tasks = [Task(name, train_point_task, (t.root, t.cfg, t.run, t.fits_source, t.eval_resolution),
+                  resources_for(t.cfg.preset, cpus)) for name, t in zip(names, unique.values())]
+    done = []
+
+    def report(o):
+        done.append(o)
+        state = f"in {o.seconds:.0f} s" if o.ok else f"failed: {o.error}"
+        print(f"  trained {len(done)}/{len(tasks)}: {o.name} {state}")
+
+    if tasks:
+        plural = lambda n, word: f"{n} {word}{'s' if n > 1 else ''}"  # noqa: E731
+        print(f"training {plural(len(tasks), 'run')} on Ray, {plural(cpus, 'core')} each")
+    return dict(zip(unique, run_tasks(tasks, ray, workers, report)))
+
+
+def seed_repeats(pairs, seeds: int) -> dict[str, list]:
+    """{name: [(SweepPoint, TrainConfig), ...]}: each point trained again with ``seeds - 1``
+    further seeds (base seed + 1, ...), named ``<name>-seed<seed>`` (saved as
+    ``OUT/points/<name>-seed<seed>.json``); the seed axis's points are not repeated."""
+    from morf.sizing.sweep import NOISE_AXES, SweepPoint
+
+    out = {}
+    for point, cfg in pairs:
+        if point.axis in NOISE_AXES:
+            continue
+        out[point.name] = [(SweepPoint(f"{point.name}-seed{cfg.seed + k}", point.axis,
+                                       {**point.change, "seed": cfg.seed + k}, point.method, point.precision),
+                            cfg.replace(seed=cfg.seed + k)) for k in range(1, seeds)]
+    return out
+
+
+def measure_points(project, sweep, pairs, model, out: Path, ray=None, workers: int | None = None,
+                   cpus_per_task: int | None = None) -> dict[str, tuple[dict, bool]]:
+    """Train, evaluate and time the (SweepPoint, TrainConfig) ``pairs``; {name: (result, reused)}
+    where reused means loaded from ``OUT/points/<name>.json`` (same config, same fps size) without
+    any work. The trainings run on Ray (:func:`train_all`); then each point's playback speed is
+    measured here and its result saved as it is complete."""
+    from morf.bench.train_eval import speed_of_run
     from morf.io import atomic_write_json
-    from morf.sizing.sweep import resolve, train_key
+    from morf.scale.tasks import Outcome, TasksFailed
+    from morf.sizing.sweep import train_key
 
-    cfg = cfg or resolve(sweep, point)
-    old = saved_point(out, sweep, point, project, cfg)
-    if old is not None:
-        return old, True
-    key, eval_res = _identity(sweep, point, cfg)
-    path = out / "points" / f"{point.name}.json"
-    t0 = time.time()
-    row = {"name": point.name, "axis": point.axis, "method": cfg.method, "precision": point.precision, "key": key,
-           "config": _summary(cfg)}
-    row.update(train_and_evaluate(project, cfg, f"pareto-{train_key(cfg)}", model, eval_resolution=eval_res))
-    row.update(fps=None, frame_ms=None, renderer_ms=None, int8_psnr_vs_fp32_db=None)
-    if not row["diverged"]:
-        row.update(speed_of_run(row["run"], out / "work", sweep.fps_size, sweep.fps_frames, point.precision, model))
-    row["seconds"] = time.time() - t0
-    atomic_write_json(path, row)
-    return row, False
-
-
-def repeat_points(out: Path, sweep, project, model, rows: list[dict], seeds: int,
-                  outside: dict | None = None) -> dict[str, list[dict]]:
-    """Train each row's point again with ``seeds - 1`` further seeds (saved as
-    ``OUT/points/<name>-seed<k>.json``); {name: [row, ...]} over all seeds, the given row first.
-    ``outside``: {name: (SweepPoint, TrainConfig)} of points that are not in the sweep (the
-    automatic choice)."""
-    from morf.sizing.sweep import SweepPoint, resolve
-
-    known = {p.name: (p, None) for p in sweep.points}
-    known.update(outside or {})
-    runs = {}
-    for row in rows:
-        point, cfg0 = known[row["name"]]
-        cfg0 = cfg0 or resolve(sweep, point)
-        runs[row["name"]] = [row]
-        for k in range(1, seeds):
-            seed = cfg0.seed + k
-            again = SweepPoint(f"{point.name}-seed{seed}", point.axis, {**point.change, "seed": seed},
-                               point.method, point.precision)
-            print(f"  {again.name}")
-            runs[row["name"]].append(run_point(project, sweep, again, model, out, cfg0.replace(seed=seed))[0])
-    return runs
+    results: dict[str, tuple[dict, bool]] = {}
+    need = []
+    for point, cfg in pairs:
+        old = saved_point(out, sweep, point, project, cfg)
+        if old is not None:
+            results[point.name] = (old, True)
+        else:
+            root = str(Path(project.root).resolve())
+            need.append((point, cfg, Training(root, cfg, f"pareto-{train_key(cfg)}",
+                                              eval_resolution=_identity(sweep, point, cfg)[1])))
+    trained = train_all([t for _, _, t in need], ray, workers, cpus_per_task)
+    failed = []
+    for point, cfg, t in need:
+        o = trained[(t.root, t.run)]
+        if not o.ok:
+            failed.append(Outcome(point.name, error=o.error))
+            continue
+        t0 = time.time()
+        row = {"name": point.name, "axis": point.axis, "method": cfg.method, "precision": point.precision,
+               "key": _identity(sweep, point, cfg)[0], "config": _summary(cfg), **o.value}
+        row.update(fps=None, frame_ms=None, renderer_ms=None, int8_psnr_vs_fp32_db=None)
+        if not row["diverged"]:
+            row.update(speed_of_run(row["run"], out / "work", sweep.fps_size, sweep.fps_frames, point.precision, model))
+        row["seconds"] = o.seconds + time.time() - t0
+        atomic_write_json(out / "points" / f"{point.name}.json", row)
+        results[point.name] = (row, False)
+    if failed:
+        raise TasksFailed("sweep points", failed)
+    return results
 
 
 def mean_of_runs(runs: list[dict], key: str) -> float | None:
@@ -233,7 +312,8 @@ def saved_point(out: Path, sweep, point, project, cfg=None) -> dict | None:
 
 def run_sweep(out, preset: str = "default", scene: str = "print", project_path: str | None = None,
               axes: list[str] | None = None, model=None, extra: list | None = None,
-              points: list[str] | None = None, project=None, seeds: int = 1) -> dict:
+              points: list[str] | None = None, project=None, seeds: int = 1, ray=None,
+              workers: int | None = None, cpus_per_task: int | None = None) -> dict:
     """Run (or resume) one sweep and write its JSON, Markdown and charts; returns the result.
 
     ``points`` names the points to measure (all of ``axes`` when None); the other points of
@@ -241,13 +321,15 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
     grows point by point. ``extra``: (SweepPoint, TrainConfig) pairs measured beside the sweep's
     own points (the automatic choice in ``--auto-check``). ``project``: the opened capture, when
     the caller has it (else made or opened from ``project_path``). ``seeds`` > 1: every point
-    (seed-axis points aside) is trained that many times (:func:`repeat_points`); each row then
+    (seed-axis points aside) is trained that many times (:func:`seed_repeats`); each row then
     carries ``seed_runs`` and ``seed_means`` of :data:`SEED_KEYS`, and fronts, charts and table
-    use the means.
+    use the means. ``ray`` (RayOptions), ``workers``, ``cpus_per_task``: where and how the
+    trainings run (:func:`train_all`).
     """
     from morf.bench.common import machine_info, markdown_table, write_results
     from morf.errors import InputError
-    from morf.sizing.sweep import NOISE_AXES, PRESETS, select
+    from morf.scale.ray_runtime import RayOptions
+    from morf.sizing.sweep import NOISE_AXES, PRESETS, resolve, select
 
     if seeds < 1:
         raise InputError(f"seeds must be at least 1, got {seeds}")
@@ -262,23 +344,21 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
         project = make_capture(out, sweep, scene, model, project_path)
     named = select(sweep, axes, points)
     todo = [(p, None) for p in select(sweep, axes) if p in named or saved_point(out, sweep, p, project)]
-    todo += list(extra or [])
-    rows, reused = [], []
-    for i, (point, cfg) in enumerate(todo):
-        print(f"[{i + 1}/{len(todo)}] {point.name}")
-        row, was = run_point(project, sweep, point, model, out, cfg)
-        rows.append(row)
-        if was:
-            reused.append(point.name)
-        print(f"  {QUALITY} {row.get(QUALITY)}, fps {row.get('fps')}, train {row.get('train_minutes')} min"
-              + (" (saved result)" if was else ""))
+    todo = [(p, cfg or resolve(sweep, p)) for p, cfg in todo + list(extra or [])]
+    repeats = seed_repeats(todo, seeds) if seeds > 1 else {}
+    measured = measure_points(project, sweep, todo + [pc for pcs in repeats.values() for pc in pcs], model, out,
+                              ray, workers, cpus_per_task)
+    rows = [measured[p.name][0] for p, _ in todo]
+    reused = [p.name for p, _ in todo if measured[p.name][1]]
+    for i, row in enumerate(rows):
+        print(f"[{i + 1}/{len(rows)}] {row['name']}: {QUALITY} {row.get(QUALITY)}, fps {row.get('fps')}, "
+              f"train {row.get('train_minutes')} min" + (" (saved result)" if row["name"] in reused else ""))
     shutil.rmtree(out / "work", ignore_errors=True)  # exports made only to time playback
     sized = [r for r in rows if r["axis"] not in NOISE_AXES]  # the seed points re-measure the base
-    if seeds > 1:
-        runs = repeat_points(out, sweep, project, model, sized, seeds, {p.name: (p, c) for p, c in extra or []})
-        for r in sized:
-            r["seed_runs"] = {k: [x.get(k) for x in runs[r["name"]]] for k in SEED_KEYS}
-            r["seed_means"] = {k: mean_of_runs(runs[r["name"]], k) for k in SEED_KEYS}
+    for r in sized if seeds > 1 else ():
+        runs = [r] + [measured[again.name][0] for again, _ in repeats[r["name"]]]
+        r["seed_runs"] = {k: [x.get(k) for x in runs] for k in SEED_KEYS}
+        r["seed_means"] = {k: mean_of_runs(runs, k) for k in SEED_KEYS}
     view = [{**r, **r["seed_means"]} if "seed_means" in r else r for r in sized]
     front = fronts(view)
     for r in rows:
@@ -292,7 +372,8 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
               "quality_metric": QUALITY, "fps_size": sweep.fps_size, "fps_precision_default": "int8",
               "points": rows, "front_fps": [r["name"] for r in rows if r["on_front_fps"]],
               "front_train": [r["name"] for r in rows if r["on_front_train"]], "seed_spread": noise, "reused": reused,
-              "seeds": seeds, "floor": floor,
+              "seeds": seeds, "floor": floor, "ray": {"address": (ray or RayOptions()).cluster_address or "local",
+                                                         "cpus_per_task": cpus_per_task or os.cpu_count()},
               "paper_reference": {"fps": 30, "size": 640, "device": "Snapdragon 888", "params_m": 14.4, "ssim": 0.899,
                                   "lpips": 0.0623, "tlpips": 0.00466, "comparable": ["fps"], "note": PAPER_NOTE},
               "machine": machine_info()}
@@ -327,14 +408,23 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
 
 
 def run(args) -> int:
+    from morf.errors import InputError
+    from morf.scale.ray_runtime import connect, options_from_args
+
     split = lambda s: [a.strip() for a in s.split(",") if a.strip()] if s else None  # noqa: E731
     points = split(args.points)
+    ray = options_from_args(args)
     if args.auto_check:
         from morf.bench.auto_check import auto_check
 
+        if args.workers is not None or args.cpus_per_task is not None:
+            raise InputError("--workers and --cpus-per-task do not apply to --auto-check (its sweeps train with "
+                             "the defaults); --address does")
+        connect(ray)  # the scenes' sweeps use this connection
         auto_check(Path(args.out), args.preset, scenes=split(args.scenes), project_path=args.project, points=points,
                    seeds=args.seeds)
         return 0
     axes = split(args.axes)
-    run_sweep(Path(args.out), args.preset, args.scene, args.project, axes, points=points, seeds=args.seeds)
+    run_sweep(Path(args.out), args.preset, args.scene, args.project, axes, points=points, seeds=args.seeds, ray=ray,
+              workers=args.workers, cpus_per_task=args.cpus_per_task)
     return 0

@@ -24,6 +24,12 @@ repeats) when that is larger than ``BREAKDOWN_DB``. Writes ``DIR/stability.json`
 ``DIR/stability_psnr.png`` and ``DIR/stability_temporal.png``; every (series, level, method)
 result is kept in ``DIR/points/`` (``<series>-<level index>-<method>[-seed<r>].json``) and reused
 on a re-run.
+
+The trainings run as Ray tasks (:mod:`morf.scale`; a local Ray by default, a cluster with
+``--address``), ``--cpus-per-task`` cores each (default 1). Levels that train on their own capture
+all run at once; the levels that train on the shared clean capture with its frames dropped
+(coverage) or noisy fits written into it (misalignment) run in waves, one setting of the clean
+capture at a time (:func:`plan_waves`).
 """
 
 from __future__ import annotations
@@ -76,6 +82,9 @@ def add_arguments(p) -> None:
     p.add_argument("--methods", default=",".join(METHODS), help="comma-separated subset of: " + ", ".join(METHODS))
     p.add_argument("--repeats", type=int, default=1,
                    help="trainings per point with seeds 0..N-1 (means, spread, and a noise-aware breakdown)")
+    from morf.scale.ray_runtime import add_arguments as ray_arguments
+
+    ray_arguments(p, "cores each training holds (default 1: as many trainings at once as there are cores)")
 
 
 # ---- captures and training inputs per (series, level) ---------------------------------------
@@ -128,26 +137,81 @@ def _fit(project, sp: StabilityPreset, model) -> None:
     fit_project(project, cfg.replace(stages=stages), model=model)
 
 
-def prepare(series: str, i: int, level, out: Path, sp: StabilityPreset, model):
-    """(project, fits source, run name stem) for one level; level 0 of the synthetic-nuisance
-    series is the shared clean capture trained on its true poses."""
+@dataclass(frozen=True)
+class Setting:
+    """What one (series, level) trains on.
+
+    Fields:
+        project: the capture's folder; fits_source: ground-truth | fits; stem: the run names' stem.
+        hidden_deg: degrees of the turn dropped from the shared clean capture (its review.json)
+            while this trains; None for a capture of its own, which nothing else changes.
+        noise: (degrees, seed) of the noisy fits written into the clean capture for this training.
+    """
+
+    project: str
+    fits_source: str
+    stem: str
+    hidden_deg: float | None = None
+    noise: tuple[float, int] | None = None
+
+
+def prepare(series: str, i: int, level, out: Path, sp: StabilityPreset, model) -> Setting:
+    """The setting of one level, its capture made (and fitted) if missing; level 0 of the
+    synthetic-nuisance series is the shared clean capture trained on its true poses. The clean
+    capture itself is changed only by :func:`apply_setting`, just before its trainings run."""
     base = _capture(out, "clean", sp, model)
+    clean = lambda fits, stem, hidden=0, noise=None: Setting(str(base.root), fits, stem, hidden, noise)  # noqa: E731
     if series == "keypoints":
         p = _capture(out, f"keypoints-{i}", sp, model, kp_noise=level * sp_size(sp) / 512, corrupt=level / 100)
         _fit(p, sp, model)
-        return p, "fits", f"stab-keypoints-{i}"
-    _set_hidden_turn(base.root, level if series == "coverage" else 0)
+        return Setting(str(p.root), "fits", f"stab-keypoints-{i}")
     if i == 0:  # every series but "keypoints" starts from the clean capture and its true poses
-        return base, "ground-truth", "stab-clean"
+        return clean("ground-truth", "stab-clean")
     if series == "misalignment":
-        _write_noisy_fits(base, level, seed=i)
-        return base, "fits", f"stab-misalignment-{i}"
+        return clean("fits", f"stab-misalignment-{i}", noise=(float(level), i))
     if series == "coverage":
-        return base, "ground-truth", f"stab-coverage-{i}"
+        return clean("ground-truth", f"stab-coverage-{i}", hidden=level)
     if series == "fast":
         frames = max(4, int(round(sp_frames(sp) / level)))
-        return _capture(out, f"fast-{i}", sp, model, frames=frames), "ground-truth", f"stab-fast-{i}"
-    return _capture(out, f"{series}-{i}", sp, model, **{series: level}), "ground-truth", f"stab-{series}-{i}"
+        fast = _capture(out, f"fast-{i}", sp, model, frames=frames)
+        return Setting(str(fast.root), "ground-truth", f"stab-fast-{i}")
+    return Setting(str(_capture(out, f"{series}-{i}", sp, model, **{series: level}).root), "ground-truth",
+                   f"stab-{series}-{i}")
+
+
+def apply_setting(hidden_deg: float, noise: tuple[float, int] | None, clean_root: str) -> None:
+    """Set the shared clean capture up for a wave: the hidden turn in review.json, and the noisy
+    fits when the wave trains on them."""
+    from morf.capture.project import CaptureProject
+
+    _set_hidden_turn(Path(clean_root), hidden_deg)
+    if noise is not None:
+        _write_noisy_fits(CaptureProject.open(clean_root), noise[0], seed=noise[1])
+
+
+def plan_waves(settings: list[Setting]) -> list[tuple[float | None, tuple | None, list[int]]]:
+    """Group trainings into waves that can run at once: [(hidden_deg, noise, indices)], in the
+    order the settings first appear. Trainings on captures of their own join the first wave; those
+    on the clean capture share a wave when they hide the same turn and need the same noisy fits
+    (a training on the true poses reads no fits, so it joins any wave with its hidden turn)."""
+    waves: list[list] = []
+    for k, st in enumerate(settings):
+        if st.hidden_deg is None:
+            if not waves:
+                waves.append([None, None, []])
+            waves[0][2].append(k)
+            continue
+        noise = st.noise if st.fits_source == "fits" else None
+        for w in waves:
+            if w[0] is None:  # the first wave held only captures of their own: it takes this setting
+                w[0] = st.hidden_deg
+            if w[0] == st.hidden_deg and (noise is None or w[1] is None or w[1] == noise):
+                w[1] = noise or w[1]
+                w[2].append(k)
+                break
+        else:
+            waves.append([st.hidden_deg, noise, [k]])
+    return [(h, n, idx) for h, n, idx in waves]
 
 
 def sp_size(sp: StabilityPreset) -> int:
@@ -200,15 +264,66 @@ def breaks_down_at(levels: list, rows: list[dict], threshold: float = BREAKDOWN_
     return None
 
 
+def _point_path(out: Path, series: str, i: int, method: str, r: int) -> Path:
+    return out / "points" / f"{series}-{i}-{method}{f'-seed{r}' if r else ''}.json"
+
+
+def _train_missing(out: Path, sp: StabilityPreset, series, methods, repeats: int, model, ray, workers,
+                   cpus_per_task) -> None:
+    """Train and score every (series, level, method, seed) without a saved result, in the waves
+    of :func:`plan_waves`, saving each result as its wave ends; raises TasksFailed at the end when
+    some trainings failed (the others' results are saved)."""
+    from morf.bench.pareto import Training, train_all
+    from morf.io import atomic_write_json
+    from morf.scale.tasks import Outcome, TasksFailed
+    from morf.train.config import preset as train_preset
+
+    jobs = []  # (result path, result header, Training, Setting)
+    for s in series:
+        for i, level in enumerate(sp.levels[s]):
+            for m in methods:
+                for r in range(repeats):
+                    path = _point_path(out, s, i, m, r)
+                    if path.is_file():
+                        continue
+                    st = prepare(s, i, level, out, sp, model)
+                    cfg = train_preset(sp.train[0], m, **sp.train[1]).replace(seed=r)
+                    tag = f"-seed{r}" if r else ""
+                    jobs.append((path, {"series": s, "level": level, "method": m, "seed": r},
+                                 Training(str(Path(st.project).resolve()), cfg, f"{st.stem}-{m}{tag}",
+                                          st.fits_source), st))
+    failed = []
+    clean = str(out / "captures" / "clean")
+    for hidden, noise, idx in plan_waves([j[3] for j in jobs]):
+        if hidden is not None:
+            apply_setting(hidden, noise, clean)
+        setup = "" if hidden is None else (f" (clean capture: {hidden:g} degrees hidden"
+                                           f"{', noisy fits' if noise else ''})")
+        print(f"wave: {len(idx)} training{'s' if len(idx) > 1 else ''}{setup}")
+        trained = train_all([jobs[k][2] for k in idx], ray, workers, cpus_per_task or 1)
+        for k in idx:
+            path, head, t, _ = jobs[k]
+            o = trained[(t.root, t.run)]
+            if o.ok:
+                atomic_write_json(path, {**head, **o.value})
+            else:
+                failed.append(Outcome(path.stem, error=o.error))
+    if (Path(clean) / "review.json").is_file():
+        _set_hidden_turn(Path(clean), 0)  # leave the clean capture with every frame used
+    if failed:
+        raise TasksFailed("trainings", failed)
+
+
 def run_stability(out, preset: str = "default", series: list[str] | None = None, methods: list[str] | None = None,
-                  model=None, repeats: int = 1) -> dict:
-    """Run (or resume) the stress series; writes JSON, Markdown and charts; returns the result."""
+                  model=None, repeats: int = 1, ray=None, workers: int | None = None,
+                  cpus_per_task: int | None = None) -> dict:
+    """Run (or resume) the stress series; writes JSON, Markdown and charts; returns the result.
+    ``ray`` (RayOptions), ``workers``, ``cpus_per_task`` (default 1): where and how the trainings
+    run (:func:`morf.bench.pareto.train_all`)."""
     from morf.bench.charts import series_chart
     from morf.bench.common import machine_info, markdown_table, write_results
-    from morf.bench.train_eval import train_and_evaluate
     from morf.errors import InputError
-    from morf.io import atomic_write_json
-    from morf.train.config import preset as train_preset
+    from morf.scale.ray_runtime import RayOptions
 
     out = Path(out)
     sp = PRESETS[preset]
@@ -223,26 +338,14 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
         from morf.body import load_body_model
 
         model = load_body_model("anny")
+    _train_missing(out, sp, series, methods, repeats, model, ray, workers, cpus_per_task)
     result_series, md_rows = {}, []
     for s in series:
         levels = sp.levels[s]
         per_method = {m: [] for m in methods}
         for i, level in enumerate(levels):
             for m in methods:
-                runs = []
-                for r in range(repeats):
-                    tag = f"-seed{r}" if r else ""
-                    path = out / "points" / f"{s}-{i}-{m}{tag}.json"
-                    if path.is_file():
-                        row = json.loads(path.read_text())
-                    else:
-                        project, fits_source, stem = prepare(s, i, level, out, sp, model)
-                        cfg = train_preset(sp.train[0], m, **sp.train[1]).replace(seed=r)
-                        print(f"{s} level {level} ({i + 1}/{len(levels)}): {m}" + (f", seed {r}" if repeats > 1 else ""))
-                        row = {"series": s, "level": level, "method": m, "seed": r,
-                               **train_and_evaluate(project, cfg, f"{stem}-{m}{tag}", model, fits_source)}
-                        atomic_write_json(path, row)
-                    runs.append(row)
+                runs = [json.loads(_point_path(out, s, i, m, r).read_text()) for r in range(repeats)]
                 row = combine_repeats(runs) if repeats > 1 else runs[0]
                 per_method[m].append(row)
                 md_rows.append({"series": s, "level": level, "method": m, **row})
@@ -250,8 +353,6 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
         result_series[s] = {"label": LABELS[s], "levels": levels, "methods": per_method, "threshold_db": thresholds,
                             "breaks_down_at": {m: breaks_down_at(levels, per_method[m], thresholds[m])
                                                for m in methods}}
-    if (out / "captures" / "clean" / "review.json").is_file():
-        _set_hidden_turn(out / "captures" / "clean", 0)  # leave the clean capture with every frame used
     rule = (f"person-PSNR more than {BREAKDOWN_DB} dB below the method's level-0 value, "
             "or training diverged (TrainingDiverged / NaN)")
     if repeats > 1:
@@ -259,7 +360,8 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
                 "run-to-run standard deviation) below the method's level-0 mean, or a training diverged")
     result = {"benchmark": "stability", "preset": preset, "methods": methods, "repeats": repeats,
               "series": result_series, "breakdown_rule": rule,
-              "train": {"preset": sp.train[0], **sp.train[1]}, "machine": machine_info()}
+              "train": {"preset": sp.train[0], **sp.train[1]}, "machine": machine_info(),
+              "ray": {"address": (ray or RayOptions()).cluster_address or "local", "cpus_per_task": cpus_per_task or 1}}
     result["charts"] = [
         str(series_chart(result_series, "psnr_person", out / "stability_psnr.png",
                          title=f"Hold-out PSNR on the person as nuisances grow ({preset})", ylabel="PSNR person (dB)")),
@@ -281,6 +383,9 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
 
 
 def run(args) -> int:
+    from morf.scale.ray_runtime import options_from_args
+
     split = lambda s: [x.strip() for x in s.split(",") if x.strip()]  # noqa: E731
-    run_stability(Path(args.out), args.preset, split(args.series), split(args.methods), repeats=args.repeats)
+    run_stability(Path(args.out), args.preset, split(args.series), split(args.methods), repeats=args.repeats,
+                  ray=options_from_args(args), workers=args.workers, cpus_per_task=args.cpus_per_task)
     return 0

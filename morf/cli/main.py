@@ -16,7 +16,8 @@ from morf import __version__
 from morf.errors import MorfError
 
 # Order here is the order in --help: the pipeline, then tools.
-COMMANDS = ("run", "synth", "ingest", "dataset", "fit", "train", "eval", "export", "animate", "play", "motion", "bench", "info", "demo")
+COMMANDS = ("run", "batch", "synth", "ingest", "dataset", "fit", "train", "eval", "export", "animate", "play", "motion",
+            "bench", "info", "demo")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -30,10 +30,10 @@ def add_parser(sub):
     p.add_argument("--batch-size", type=int, default=None, help="override the batch size")
     p.add_argument("--lr-decay-start", type=float, default=None, metavar="FRAC",
                    help="from this fraction of the steps on, the learning rates follow a cosine down to a tenth "
-                        "(default 1: constant rates; docs/benchmarks.md has what it changed)")
+                        "(default: the preset's; cpu 0.5, gpu 1 = constant rates; docs/benchmarks.md has what it changed)")
     p.add_argument("--ema", type=float, default=None, metavar="DECAY",
                    help="make the avatar from a moving average of the weights with this decay per step, e.g. 0.998 "
-                        "(default 0: the last step's weights)")
+                        "(default: the preset's; cpu 0.998, gpu 0 = the last step's weights)")
     p.add_argument("--holdout", type=int, default=None, metavar="K",
                    help="keep every K-th usable frame out of training (K >= 2) for 'morf eval' (default 0: none)")
     p.add_argument("--fits", choices=("auto", "fits", "ground-truth"), default="auto",

@@ -83,8 +83,11 @@ def _axis_points(renderers, tex_sizes, channels, resolutions, steps, seeds=(1, 2
     pts += [SweepPoint(f"channels-{c}", "texture_channels", {"texture_channels": c}) for c in channels]
     pts += [SweepPoint(f"resolution-{r}", "resolution", {"resolution": r}) for r in resolutions]
     pts += [SweepPoint(f"steps-{s}", "steps", {"steps": s}) for s in steps]
-    pts += [SweepPoint("lr-decay-half", "schedule", {"lr_decay_start": 0.5}),  # cosine decay over the second half
+    # Both sides of each schedule choice: a point equal to the base config trains once (same run).
+    pts += [SweepPoint("lr-constant", "schedule", {"lr_decay_start": 1.0}),  # constant learning rates
+            SweepPoint("lr-decay-half", "schedule", {"lr_decay_start": 0.5}),  # cosine decay over the second half
             SweepPoint("lr-cosine-all", "schedule", {"lr_decay_start": 0.0}),  # ... over the whole run
+            SweepPoint("no-ema", "schedule", {"ema_decay": 0.0}),  # the avatar from the last step's weights
             SweepPoint("ema", "schedule", {"ema_decay": 0.998})]  # the avatar from averaged weights
     pts += [SweepPoint("stylepeople", "method", method="stylepeople"),
             SweepPoint("fp32", "precision", precision="fp32")]
@@ -148,13 +151,17 @@ def resolve(sweep: SweepPreset, point: SweepPoint, **extra) -> TrainConfig:
 def train_key(cfg: TrainConfig) -> str:
     """A short stable name for a training config (the run folder is ``pareto-<key>``).
 
-    The decay fields and the weight average are left out while off (they change nothing then), so
+    The decay fields, the weight average, the residual penalty and the warp fade are left out while off (they change nothing then), so
     runs made before they existed keep their names."""
     d = cfg.to_dict()
     if d["lr_decay_start"] >= 1.0:
         del d["lr_decay_start"], d["lr_decay_floor"]
     if d["ema_decay"] == 0.0:
         del d["ema_decay"]
+    if d["w_residual"] == 0.0:
+        del d["w_residual"]
+    if d["warp_fade_start"] >= 1.0 and d["warp_fade_end"] >= 1.0:
+        del d["warp_fade_start"], d["warp_fade_end"]
     return hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:10]
 
 

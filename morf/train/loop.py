@@ -220,7 +220,11 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
 
     if trainer.use_averaged_weights():
         run.log(f"avatar made from the moving average of the weights (decay {cfg.ema_decay})")
-    texture = trainer.model.bake()
+    if cfg.warp_faded:  # the last steps trained the unwarped lookups the player makes: nothing to bake
+        run.log(f"warp faded out from {cfg.warp_fade_start:g} to {cfg.warp_fade_end:g} of the steps: texture not baked")
+        texture = trainer.model.texture.texture.detach().clone()
+    else:
+        texture = trainer.model.bake()
     if cfg.colour_frozen:  # the projected colours as they were trained: unwarped (the bake's resampling blurred them)
         texture[:3] = trainer.model.texture.texture.detach()[:3]
     renderer = trainer.model.renderer

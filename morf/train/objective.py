@@ -14,9 +14,10 @@ from morf.train.config import TrainConfig
 from morf.train.frames import Batch
 
 
-def render_batch(model: AvatarModel, batch: Batch, bf16: bool = False) -> AvatarOutput:
-    pose = pose_features(batch.rotvecs) if model.warp is not None else None
-    return model(batch.uv, batch.uv_mask, pose, batch.index, bf16=bf16)
+def render_batch(model: AvatarModel, batch: Batch, bf16: bool = False, warp_scale: float = 1.0) -> AvatarOutput:
+    """Render a training batch; ``warp_scale`` multiplies the warp's offsets (0: no warp at all)."""
+    pose = pose_features(batch.rotvecs) if model.warp is not None and warp_scale > 0 else None
+    return model(batch.uv, batch.uv_mask, pose, batch.index, bf16=bf16, warp_scale=warp_scale)
 
 
 def run_discriminator(disc, x: torch.Tensor, bf16: bool = False) -> list[list[torch.Tensor]]:

@@ -167,7 +167,7 @@ class Trainer:
         self._apply_schedule()
         gan_on = self.disc is not None and self.step >= cfg.gan_start and not self.hold_adversarial
         self.model.train()
-        out = render_batch(self.model, batch, self.bf16)
+        out = render_batch(self.model, batch, self.bf16, cfg.warp_scale(self.step))
         losses = generator_losses(cfg, out, batch, self.disc, self.perceptual, gan_on, self.bf16)
         total = weighted_total(cfg, losses)
         if not torch.isfinite(total):

@@ -19,7 +19,7 @@ def draw(state: AppState, ui: UiContext) -> None:
     _stage_buttons(state, ui)
     imgui.separator()
     if snap.stage is None:
-        imgui.text_colored(GREY, "Nothing has run in this session. Fit the body first, then train the avatar.")
+        _on_disk(state, ui)
         return
     imgui.text(f"{snap.stage}: {STATE_WORDS.get(snap.state, snap.state)}")
     p = snap.progress
@@ -54,6 +54,35 @@ def draw(state: AppState, ui: UiContext) -> None:
             imgui.image(tex_ref(tex), ImVec2(w, h))
             imgui.text_colored(GREY, name)
             imgui.end_group()
+
+
+def _on_disk(state: AppState, ui: UiContext) -> None:
+    """Before anything ran in this session: what the project already holds (fits, runs)."""
+    view = ui.view
+    if view is None or not view.residuals:
+        imgui.text_colored(GREY, "Nothing has run in this session. Fit the body first, then train the avatar.")
+        return
+    imgui.text_colored(GREY, f"Nothing has run in this session. Body fits: {len(view.residuals)} of "
+                             f"{view.num_frames} frames.")
+    if not view.runs:
+        imgui.text_colored(GREY, "No training runs yet: train the avatar.")
+        return
+    imgui.text(f"Training runs in {view.name}/runs ({len(view.runs)}, newest first)")
+    flags = imgui.TableFlags_.row_bg | imgui.TableFlags_.borders_inner_h | imgui.TableFlags_.sizing_fixed_fit
+    if imgui.begin_table("runs", 5, flags):
+        for head in ("run", "method", "preset", "status", "held-out person PSNR"):
+            imgui.table_setup_column(head)
+        imgui.table_headers_row()
+        for run in view.runs:
+            imgui.table_next_row()
+            cells = (run.name, run.method, run.preset, run.status,
+                     "--" if run.holdout_psnr is None else f"{run.holdout_psnr:.2f} dB")
+            for k, text in enumerate(cells):
+                imgui.table_set_column_index(k)
+                imgui.text(text)
+        imgui.end_table()
+    remember_item(state.item_rects, "runs-table")
+    imgui.text_colored(GREY, "Scores come from PROJECT/eval/eval.json ('morf eval PROJECT').")
 
 
 def chosen_preset(state: AppState, ui: UiContext, stage: str) -> str | None:

@@ -115,18 +115,22 @@ def test_schedule_points_and_run_names_of_constant_rate_configs():
     sweep = PRESETS["default"]
     base = resolve(sweep, SweepPoint("base", "base"))
     points = {p.name: p for p in sweep.points}
+    const = resolve(sweep, points["lr-constant"])
     half = resolve(sweep, points["lr-decay-half"])
-    assert base.lr_decay_start == 1.0 and half.lr_decay_start == 0.5
+    assert const.lr_decay_start == 1.0 and half.lr_decay_start == 0.5
     assert resolve(sweep, points["lr-cosine-all"]).lr_decay_start == 0.0
-    assert len({train_key(base), train_key(half)}) == 2
+    assert len({train_key(const), train_key(half)}) == 2
+    # the cpu preset decays over the second half: that point is the base, trained once
+    assert base.lr_decay_start == 0.5 and train_key(half) == train_key(base)
     # while the decay is off its fields leave the run name alone (runs made before it keep theirs),
     # so the floor, which changes nothing then, does not rename the run either
-    assert train_key(base) == train_key(base.replace(lr_decay_floor=0.5))
-    before = {k: v for k, v in base.to_dict().items() if not k.startswith("lr_decay") and k != "ema_decay"}
-    assert train_key(base) == hashlib.sha1(json.dumps(before, sort_keys=True).encode()).hexdigest()[:10]
+    plain = const.replace(ema_decay=0.0)
+    assert train_key(plain) == train_key(plain.replace(lr_decay_floor=0.5))
+    before = {k: v for k, v in plain.to_dict().items() if not k.startswith("lr_decay") and k != "ema_decay"}
+    assert train_key(plain) == hashlib.sha1(json.dumps(before, sort_keys=True).encode()).hexdigest()[:10]
     assert train_key(half) != train_key(half.replace(lr_decay_floor=0.5))
-    ema = resolve(sweep, points["ema"])
-    assert ema.ema_decay == 0.998 and base.ema_decay == 0.0 and train_key(ema) != train_key(base)
+    ema, no_ema = resolve(sweep, points["ema"]), resolve(sweep, points["no-ema"])
+    assert ema.ema_decay == 0.998 and no_ema.ema_decay == 0.0 and train_key(ema) != train_key(no_ema)
 
 
 @pytest.mark.gl

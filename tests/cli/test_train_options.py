@@ -35,14 +35,16 @@ def test_bad_renderer_choices_are_user_errors():
 def test_lr_decay_option_sets_the_schedule():
     cfg, _ = resolve_config(_args(lr_decay_start=0.5))
     assert cfg.lr_decay_start == 0.5 and cfg.lr_factor(cfg.steps) == pytest.approx(cfg.lr_decay_floor)
-    assert resolve_config(_args())[0].lr_decay_start == 1.0
+    assert resolve_config(_args(lr_decay_start=1.0))[0].lr_factor(100) == 1.0
+    assert resolve_config(_args(preset="gpu"))[0].lr_decay_start == 1.0
     with pytest.raises(InputError, match="lr_decay_start"):
         resolve_config(_args(lr_decay_start=1.5))[0].validate()
 
 
 def test_ema_option_sets_the_weight_average():
     assert resolve_config(_args(ema=0.998))[0].ema_decay == 0.998
-    assert resolve_config(_args())[0].ema_decay == 0.0
+    assert resolve_config(_args(ema=0.0))[0].ema_decay == 0.0
+    assert resolve_config(_args(preset="gpu"))[0].ema_decay == 0.0
 
 
 def test_holdout_and_the_rgb_floor_are_train_options():
@@ -84,3 +86,17 @@ def test_a_run_can_start_from_its_config_file(tmp_path):
     args = build_parser().parse_args(["train", "p", "--config", str(path), "--preset", "cpu"])
     with pytest.raises(InputError, match="--set"):
         resolve_config(args)
+
+
+def test_a_config_file_with_an_unknown_nested_key_is_a_user_error(tmp_path):
+    from morf.cli.main import build_parser
+
+    cfg, _ = resolve_config(_args())
+    for section in ("renderer", "warp"):
+        d = cfg.to_dict()
+        d[section]["nope"] = 1
+        path = tmp_path / f"{section}.json"
+        path.write_text(__import__("json").dumps(d))
+        args = build_parser().parse_args(["train", "p", "--config", str(path), "--device", "cpu"])
+        with pytest.raises(InputError, match=f"unknown {section} config keys: \\['nope'\\]"):
+            resolve_config(args)

@@ -32,30 +32,6 @@ TRUNCATION_MAX_M = 0.025
 TRUNCATION_MEAN_M = 5e-4
 
 
-@pytest.fixture(scope="module")
-def exported(tmp_path_factory, body_model, gl, one_torch_thread):
-    """A tiny synthetic capture, the tiny preset's 30 steps (its renderer's mask then covers the body),
-    exported with a 5-frame motion clip."""
-    from morf.export.gltf_project import export_gltf
-    from morf.export.project_export import ProjectExportConfig
-    from morf.synth import make_synthetic_capture, synth_config
-    from morf.train.config import preset
-    from morf.train.project_run import train_project
-
-    root = tmp_path_factory.mktemp("gltf")
-    project = make_synthetic_capture(root / "tiny", synth_config("tiny"), model=body_model)
-    train_project(project, preset("tiny", inpaint_steps=0), model=body_model)
-    J = len(body_model.bone_names)
-    rng = np.random.default_rng(1)
-    clip = {"rotvecs": rng.normal(0, 0.2, (5, J, 3)).astype(np.float32),
-            "transl": rng.normal(0, 0.1, (5, 3)).astype(np.float32), "fps": np.float32(10)}
-    np.savez(root / "clip.npz", **clip)
-    glb = root / "out" / "avatar.glb"
-    result = export_gltf(project, glb, ProjectExportConfig(calibration_views=4), motion=str(root / "clip.npz"),
-                         body_model=body_model)
-    return result, pygltflib.GLTF2().load(str(glb)), project, clip
-
-
 def read(gltf, index: int) -> np.ndarray:
     """An accessor as a numpy array (tightly packed, as our writer and most others lay them out)."""
     acc = gltf.accessors[index]

@@ -319,3 +319,27 @@ def test_cpu_flags_read_from_cpuinfo(monkeypatch, tmp_path):
         assert cpu_features.native_bf16()
     finally:
         cpu_features.cpu_flags.cache_clear()
+
+
+def test_warp_fade_scales_the_offsets_to_zero_and_skips_the_bake(frames_factory, tmp_path):
+    from morf.train.objective import render_batch
+
+    cfg = tiny("morf", steps=10, w_gan=0.0, warp_fade_start=0.2, warp_fade_end=0.6)
+    assert [round(cfg.warp_scale(s), 2) for s in (0, 1, 2, 3, 4, 5, 6, 9)] == [1, 1, 1, 0.75, 0.5, 0.25, 0, 0]
+    assert tiny("morf").warp_scale(39) == 1.0 and not tiny("morf").warp_faded and cfg.warp_faded
+    with pytest.raises(InputError, match="warp_fade"):
+        tiny("morf", warp_fade_start=0.8, warp_fade_end=0.5).validate()
+    frames = frames_factory()
+    tr = Trainer(cfg, frames, texture_init(cfg))
+    for _ in range(3):
+        tr.train_step()
+    batch = tr.next_batch()
+    full, half = (render_batch(tr.model, batch, False, s) for s in (1.0, 0.5))
+    assert full.offsets.abs().max() > 0 and torch.allclose(half.offsets, 0.5 * full.offsets)
+    tr.step = 7
+    losses, out, _ = tr.train_step()
+    assert out.offsets is None and "warp_l2" not in losses  # faded out: no warp, no warp terms
+    res = train_avatar(frames, tmp_path / "run", cfg, texture_init(cfg))
+    assert "texture not baked" in (tmp_path / "run" / "train.log").read_text()
+    trained = torch.load(tmp_path / "run" / "checkpoint.pt", weights_only=True)["model"]["texture.texture"]
+    assert torch.equal(load_trained_avatar(res.run_dir).texture, trained)  # no inpainting in tiny() here
