@@ -18,7 +18,7 @@ import torch
 
 from morf.errors import InputError, MorfError
 from morf.motion.anny_rest import target_rest
-from morf.motion.clip import MotionClip, resample
+from morf.motion.clip import MotionClip, at_uniform_times, resample
 from morf.motion.convert import RetargetConfig
 from morf.motion.ground import place_on_ground
 from morf.motion.retarget import heading_turn
@@ -27,18 +27,20 @@ from morf.motion.so3 import matrix_to_rotvec, rotvec_to_matrix, swing
 FITS_DEFAULT_FPS = 30.0  # fits outside a capture project with a known frame rate
 
 
-def project_fps(path: Path) -> float | None:
-    """The frame rate of the capture project holding ``path`` (``PROJECT/fits/fits.npz``), if any."""
+def project_timing(path: Path) -> tuple[float | None, np.ndarray | None]:
+    """(frame rate, per-frame times in seconds) of the capture project holding ``path``
+    (``PROJECT/fits/fits.npz``); (None, None) outside a project, times None when it knows none."""
     from morf.capture.project import MANIFEST, CaptureProject
 
     root = path.resolve().parent.parent
     if not (root / MANIFEST).is_file():
-        return None
+        return None, None
     try:
-        fps = CaptureProject.open(root).fps
+        project = CaptureProject.open(root)
+        fps, times = project.fps, project.frame_times()
     except MorfError:
-        return None
-    return float(fps) if fps and fps > 0 else None
+        return None, None
+    return (float(fps) if fps and fps > 0 else None), times
 
 
 def project_shape(project) -> torch.Tensor | None:
@@ -91,8 +93,13 @@ def clip_from_fits(path: str | Path, model, shape: torch.Tensor | None = None, f
     J = len(model.bone_names)
     if fits.rotvecs.shape[1:] != (J, 3) or fits.num_frames == 0:
         raise InputError(f"{path}: fits have rotvecs {fits.rotvecs.shape}; expected (N, {J}, 3)")
-    rate = project_fps(path) or fps or FITS_DEFAULT_FPS
+    project_rate, times = project_timing(path)
+    rate = project_rate or fps or FITS_DEFAULT_FPS
     rotvecs, transl = upright(fits.rotvecs, fits.transl, config.face_forward, config.center_start)
+    if times is not None and len(times) == len(rotvecs) > 1 and (np.diff(times) > 0).all():
+        uniform = times[0] + np.arange(len(times)) / rate
+        if np.abs(times - uniform).max() > 0.25 / rate:  # a variable frame rate clip: play it at its real pace
+            rotvecs, transl = at_uniform_times(rotvecs, transl, times, rate)
     source_shape = torch.as_tensor(np.asarray(fits.shape_of(0), np.float32))
     if source_shape.shape[1] != model.default_shape().shape[1]:
         raise InputError(f"{path}: fits shape has {source_shape.shape[1]} values; the body model takes "

@@ -91,6 +91,26 @@ def resample(clip: MotionClip, fps: float) -> MotionClip:
     return replace(clip, rotvecs=rot.astype(np.float32), transl=tr.astype(np.float32), fps=float(fps))
 
 
+def at_uniform_times(rotvecs: np.ndarray, transl: np.ndarray, times: np.ndarray,
+                     fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Poses recorded at ``times`` (seconds, increasing: a variable-frame-rate clip) sampled at
+    ``times[0] + k / fps`` over the same span: slerp for rotations, linear for translation.
+
+    Args: rotvecs (T, J, 3), transl (T, 3), times (T,). Returns (rotvecs, transl) at the new times.
+    """
+    t = np.asarray(times, np.float64)
+    if t.shape != (len(rotvecs),) or not (np.diff(t) > 0).all():
+        raise ValueError("times must be one increasing time per frame")
+    n = int(np.floor((t[-1] - t[0]) * fps + 1e-6)) + 1
+    new = t[0] + np.arange(n) / fps
+    i1 = np.clip(np.searchsorted(t, new, side="right"), 1, len(t) - 1)
+    i0 = i1 - 1
+    w = np.clip((new - t[i0]) / (t[i1] - t[i0]), 0.0, 1.0)
+    rot = slerp_rotvecs(np.asarray(rotvecs)[i0], np.asarray(rotvecs)[i1], w)
+    tr = np.asarray(transl)[i0] * (1 - w)[:, None] + np.asarray(transl)[i1] * w[:, None]
+    return rot, tr
+
+
 def save_clip(clip: MotionClip, path: str | os.PathLike) -> None:
     """Write a clip as .npz (atomic, no pickle)."""
     save_npz(path, morf_motion_version=np.int32(CLIP_FORMAT_VERSION), rotvecs=clip.rotvecs.astype(np.float32),

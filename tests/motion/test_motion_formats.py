@@ -105,6 +105,31 @@ def test_capture_fits_from_the_camera_world(tmp_path, body_model):
     assert float(feet[..., 2].min(dim=1).values.abs().max()) < 0.01
 
 
+def test_capture_fits_of_a_variable_frame_rate_clip_play_at_their_real_pace(tmp_path, body_model):
+    from morf.motion import motion_library
+    from morf.motion.clip import at_uniform_times
+
+    # the sampler: frames at 0, 0.1, 0.3, 0.4 s sampled at 10 fps; 0.2 s lies halfway between 0.1 and 0.3
+    rot = np.zeros((4, 2, 3))
+    rot[:, 1, 2] = [0.0, 0.1, 0.3, 0.4]
+    r, t = at_uniform_times(rot, rot[:, 1], np.array([0.0, 0.1, 0.3, 0.4]), 10.0)
+    np.testing.assert_allclose(r[:, 1, 2], [0.0, 0.1, 0.2, 0.3, 0.4], atol=1e-6)
+    np.testing.assert_allclose(t[:, 2], [0.0, 0.1, 0.2, 0.3, 0.4], atol=1e-9)
+    # a capture whose manifest holds frame times (a phone clip with a slow stretch in the middle)
+    walk = load_motion(dict(motion_library())["walk_forward"])
+    cap = write_capture_fits(tmp_path / "vfr", walk.rotvecs[:20], walk.transl[:20], fps=25.0)
+    times = np.arange(20) / 25.0
+    times[10:] += 0.4  # ten frames missing after frame 9: 0.4 s without frames
+    cap.manifest["frame_times"] = times.tolist()
+    cap.save_manifest()
+    clip = load_motion(cap.fits_dir / "fits.npz", body_model, config=RAW)
+    assert clip.fps == 25.0 and clip.num_frames == 30  # 1.16 s at 25 fps
+    even = load_motion(write_capture_fits(tmp_path / "cfr", walk.rotvecs[:20], walk.transl[:20], fps=25.0).fits_dir
+                       / "fits.npz", body_model, config=RAW)
+    assert even.num_frames == 20
+    np.testing.assert_allclose(clip.rotvecs[20:], even.rotvecs[10:], atol=1e-5)  # the frames after the gap
+
+
 def test_clip_and_player_npz_load_as_they_are(tmp_path):
     from morf.motion import MotionClip
 
