@@ -192,6 +192,14 @@ def kernel_summary(profile: dict, top: int = 4) -> str:
     return "\n".join(lines)
 
 
+def limit_line(lim: dict, key: str) -> str:
+    """One line on the renderer against the CPU's int8 GEMM rate (:mod:`morf.bench.compute_limit`)."""
+    return (f"Compute limit ({key}): {lim['renderer_gmacs_per_frame']:.2f} GMAC a frame; int8 GEMM "
+            f"{lim['best_gemm_gmacs']:.0f} GMAC/s at best (onnxruntime {lim['onnxruntime_square_gmacs']:.0f} square / "
+            f"{lim['onnxruntime_conv-shaped_gmacs']:.0f} conv-shaped) = {lim['fps_at_limit']:.0f} fps for the renderer "
+            f"alone; it runs at {lim['renderer_gmacs_achieved']:.0f} GMAC/s, {100 * lim['fraction_of_limit']:.0f} % of that")
+
+
 def _peak_rss_mb() -> float:
     """This process's peak resident memory. /proc's VmHWM restarts at exec; getrusage's ru_maxrss
     would report the (larger, torch-holding) parent's peak inherited across fork + exec."""
@@ -288,6 +296,11 @@ def run(args) -> int:
                   int8_psnr_vs_fp32=main["int8_psnr_vs_fp32_db"], int8_ssim_vs_fp32=main["int8_ssim_vs_fp32"],
                   int8_psnr_vs_fp32_image=main["int8_psnr_vs_fp32_image_db"], kernels=main["kernels"], avatars=per,
                   seconds=round(time.time() - t0, 1))
+    if main.get("renderer_config"):
+        from morf.bench.compute_limit import compute_limit
+
+        print("timing int8 matrix multiplies (the CPU's limit)", file=sys.stderr)
+        result["compute_limit"] = compute_limit(main["renderer_config"], args.size, main["renderer_only_ms"], THREADS)
     cpu_line = cpu_report(result["machine"]["cpu"], result["machine"]["cores"], result["cpu_features"])
     kernels = kernel_summary(main["kernels"])
     md = [f"# Playback speed at {args.size}x{args.size} (int8, onnxruntime {THREADS} threads)\n",
@@ -297,9 +310,14 @@ def run(args) -> int:
           markdown_table([main["breakdown_ms"]], list(main["breakdown_ms"])),
           f"\nWhat onnxruntime ran for the renderer graph ({main_key}; share of its kernel time):\n",
           "```\n" + kernels + "\n```\n"]
+    lim = result.get("compute_limit")
+    if lim:
+        md.append(limit_line(lim, main_key) + "\n")
     path = write_results(args.out, "render", result, "\n".join(md))
     print(f"CPU: {cpu_line}")
     print(f"renderer graph kernels ({main_key}; share of its kernel time, op types with node count and ms a run):")
     print(kernels)
+    if lim:
+        print(limit_line(lim, main_key))
     print(f"{main_key}: {result['fps']:.1f} fps end to end, {result['fps_pipelined']:.1f} fps pipelined; wrote {path}")
     return 0
