@@ -81,13 +81,7 @@ def resample(clip: MotionClip, fps: float) -> MotionClip:
         raise ValueError(f"fps must be positive, got {fps}")
     if clip.num_frames == 1 or abs(fps - clip.fps) < 1e-9:
         return replace(clip, fps=float(fps))
-    n = int(np.floor(clip.duration * fps + 1e-6)) + 1
-    src = np.arange(n) / fps * clip.fps  # fractional source frame of each new frame
-    i0 = np.clip(np.floor(src).astype(int), 0, clip.num_frames - 1)
-    i1 = np.minimum(i0 + 1, clip.num_frames - 1)
-    w = src - i0
-    rot = slerp_rotvecs(clip.rotvecs[i0], clip.rotvecs[i1], w)
-    tr = clip.transl[i0] * (1 - w)[:, None] + clip.transl[i1] * w[:, None]
+    rot, tr = at_uniform_times(clip.rotvecs, clip.transl, np.arange(clip.num_frames) / clip.fps, fps)
     return replace(clip, rotvecs=rot.astype(np.float32), transl=tr.astype(np.float32), fps=float(fps))
 
 
