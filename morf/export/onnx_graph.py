@@ -215,3 +215,108 @@ def append_composite(model: onnx.ModelProto, rgba: str = "rgba", background: str
     g.input.append(helper.make_tensor_value_info(background, TensorProto.FLOAT, [1, 3, "bg_height", "bg_width"]))
     g.output.append(helper.make_tensor_value_info(image, TensorProto.UINT8, [1, "height", "width", 3]))
     return model
+
+
+def _producer(model: onnx.ModelProto, name: str) -> onnx.NodeProto | None:
+    return next((n for n in model.graph.node if name in n.output), None)
+
+
+def _attr(node: onnx.NodeProto, name: str):
+    return next((helper.get_attribute_value(a) for a in node.attribute if a.name == name), None)
+
+
+def _remove_if_unused(model: onnx.ModelProto, node: onnx.NodeProto | None) -> None:
+    outputs = {o.name for o in model.graph.output}
+    if node is not None and not any(_consumers(model, o) or o in outputs for o in node.output):
+        model.graph.node.remove(node)
+
+
+# Where the 16 channels lie in each uint8 layout (morf.raster.neural_raster.LAYOUTS): the axes a
+# pixel's bytes run along, and the axes to unsqueeze the reduced (1, H, W) / (H, W) plane by to
+# get (1, 1, H, W). The reductions drop their axes: onnxruntime's elementwise ops on a tensor
+# whose last axis is 1 broadcast one element at a time (8 ms for a Sub at 640x640).
+_CHANNEL_AXES = {"nchw": ([1], [1]), "nhwc": ([3], [1]), "planes": ([0, 3], [0, 1])}
+
+
+def uint8_colour_head(model: onnx.ModelProto, layout: str, raster: str = "raster") -> list[str]:
+    """Feed the texture-colour head (``TextureColour`` of an ``rgb_skip`` renderer) from the uint8
+    bytes, in place, after :func:`uint8_input`. Returns what was rewritten ([] when the graph has
+    no colour head).
+
+    * Coverage: the torch graph computes ``sum(|x|, channels) > 0`` on the dequantised float
+      input, 16 float planes at full resolution (10 ms of a 76 ms frame at 640x640 on 2 cores).
+      Off the body every byte is the zero point, so the same mask is ``max(bytes) != zp or
+      min(bytes) != zp`` over the channel axis of the bytes as they arrive (for "nhwc" 16
+      contiguous bytes a pixel): exact, and no float copy of the input.
+    * Colour: ``x[:, :3]`` sliced after dequantising all 16 channels becomes the 3 channels
+      sliced from the bytes, then dequantised.
+    """
+    g = model.graph
+    nchw = raster if layout == "nchw" else f"{raster}_nchw"
+    done = []
+    for greater in [n for n in g.node if n.op_type == "Greater"]:
+        red = _producer(model, greater.input[0])
+        ab = _producer(model, red.input[0]) if red is not None and red.op_type == "ReduceSum" else None
+        dq = _producer(model, ab.input[0]) if ab is not None and ab.op_type == "Abs" else None
+        passed = []  # a no-op float Cast (torch's ``x.float()``) between the input and the Abs
+        while dq is not None and (dq.op_type == "Identity" or (dq.op_type == "Cast" and _attr(dq, "to") == TensorProto.FLOAT)):
+            passed.append(dq)
+            dq = _producer(model, dq.input[0])
+        zero = _const_value(model, greater.input[1])
+        if dq is None or dq.op_type != "DequantizeLinear" or dq.input[0] != nchw or zero is None or float(zero) != 0.0:
+            continue
+        zp = _const_value(model, dq.input[2])
+        if zp is None or zp.dtype != np.uint8 or int(zp) != ZERO_POINT:
+            continue
+        axes, unsqueeze = _CHANNEL_AXES[layout]
+        p = f"{greater.name}_uint8"
+        g.initializer.extend([numpy_helper.from_array(np.array(ZERO_POINT, np.float32), f"{p}_zp"),
+                              numpy_helper.from_array(np.array(0.0, np.float32), f"{p}_zero"),
+                              numpy_helper.from_array(np.array(unsqueeze, np.int64), f"{p}_axes")])
+        # covered = (max - min) + |max - zp| > 0, on one float plane (onnxruntime's uint8
+        # comparisons with a broadcast scalar took 5 ms each at 640x640; these take tenths)
+        nodes = [helper.make_node("ReduceMax", [raster], [f"{p}_max8"], axes=axes, keepdims=0, name=f"{p}_max8"),
+                 helper.make_node("ReduceMin", [raster], [f"{p}_min8"], axes=axes, keepdims=0, name=f"{p}_min8"),
+                 helper.make_node("Cast", [f"{p}_max8"], [f"{p}_max"], to=TensorProto.FLOAT, name=f"{p}_max"),
+                 helper.make_node("Cast", [f"{p}_min8"], [f"{p}_min"], to=TensorProto.FLOAT, name=f"{p}_min"),
+                 helper.make_node("Sub", [f"{p}_max", f"{p}_min"], [f"{p}_spread"], name=f"{p}_spread"),
+                 helper.make_node("Sub", [f"{p}_max", f"{p}_zp"], [f"{p}_off"], name=f"{p}_off"),
+                 helper.make_node("Abs", [f"{p}_off"], [f"{p}_offabs"], name=f"{p}_offabs"),
+                 helper.make_node("Add", [f"{p}_spread", f"{p}_offabs"], [f"{p}_any"], name=f"{p}_any"),
+                 helper.make_node("Greater", [f"{p}_any", f"{p}_zero"], [f"{p}_covered"], name=f"{p}_covered"),
+                 helper.make_node("Unsqueeze", [f"{p}_covered", f"{p}_axes"], [greater.output[0]], name=f"{p}_nchw")]
+        at = list(g.node).index(greater)
+        g.node.remove(greater)
+        for i, n in enumerate(nodes):
+            g.node.insert(at + i, n)
+        for node in [red, ab]:
+            _remove_if_unused(model, node)
+        done.append(f"coverage {greater.name}")
+        readers = [n for t in [dq] + passed for n in _consumers(model, t.output[0])]
+        for sl in [n for n in readers if n.op_type == "Slice"]:
+            starts, ends = _const_value(model, sl.input[1]), _const_value(model, sl.input[2])
+            ax = _const_value(model, sl.input[3]) if len(sl.input) > 3 and sl.input[3] else np.array([0])
+            steps = _const_value(model, sl.input[4]) if len(sl.input) > 4 and sl.input[4] else np.array([1])
+            if any(v is None for v in (starts, ends, ax, steps)) or list(ax.reshape(-1)) != [1] \
+                    or int(starts.reshape(-1)[0]) != 0 or int(steps.reshape(-1)[0]) != 1:
+                continue
+            # from the channel-planar bytes (for "nhwc" a uint8 transpose of 0.5 ms at 640x640):
+            # slicing 3 of a pixel's 16 interleaved bytes took 1.8 ms, three contiguous planes 0.7
+            q = f"{sl.name}_uint8"
+            nodes = [helper.make_node("Slice", [nchw] + list(sl.input[1:]), [f"{q}_bytes"], name=q),
+                     helper.make_node("DequantizeLinear", [f"{q}_bytes", dq.input[1], dq.input[2]], [sl.output[0]],
+                                      name=f"{q}_dq")]
+            at = list(g.node).index(sl)
+            g.node.remove(sl)
+            for i, n in enumerate(nodes):
+                g.node.insert(at + i, n)
+            done.append(f"colour {sl.name}")
+        for node in reversed(passed):
+            _remove_if_unused(model, node)
+        _remove_if_unused(model, dq)
+    used = {i for n in g.node for i in n.input}  # the replaced nodes' constants (onnxruntime warns about unused ones)
+    for n in [n for n in g.node if n.op_type == "Constant" and n.output[0] not in used]:
+        g.node.remove(n)
+    for t in [t for t in g.initializer if t.name not in used]:
+        g.initializer.remove(t)
+    return done

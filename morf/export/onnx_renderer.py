@@ -28,7 +28,7 @@ from typing import Iterable
 import numpy as np
 import onnx
 
-from morf.export.onnx_graph import append_composite, downstream_nodes, fold_input_scale, uint8_input
+from morf.export.onnx_graph import append_composite, downstream_nodes, fold_input_scale, uint8_colour_head, uint8_input
 from morf.raster.texture_quant import ZERO_POINT
 
 FLOAT_INPUT = "x"
@@ -155,6 +155,7 @@ def export_fp32(renderer, scales: np.ndarray, path: str | os.PathLike, layout: s
                 sample_hw: tuple[int, int] = (128, 128)) -> None:
     """Write the fp32 renderer with a uint8 input (see module docstring)."""
     model = uint8_input(_export_float_graph(widen_input(renderer, len(scales)), scales, sample_hw)[0], FLOAT_INPUT, layout)
+    uint8_colour_head(model, layout)
     append_composite(model)
     onnx.checker.check_model(model)
     _save(model, path)
@@ -216,6 +217,7 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
                             extra_options={"CalibPercentile": 99.99, "TensorQuantOverrides": overrides})
         q = onnx.load(q8)
     q = uint8_input(q, FLOAT_INPUT, layout, quantized=True)
+    uint8_colour_head(q, layout)
     append_composite(q)
     onnx.checker.check_model(q)
     _save(q, path)
@@ -226,7 +228,7 @@ def float_nodes(model: onnx.ModelProto, last_out: str | None) -> list[str]:
     head, the mask's sigmoid) and the texture-colour fill of an ``rgb_skip`` renderer (pooling
     and division of colours that are themselves the output: 8 bits there would band the image)."""
     after = downstream_nodes(model, last_out) if last_out else []
-    fill = [n.name for n in model.graph.node if n.name.startswith("/renderer/colour/")]
+    fill = [n.name for n in model.graph.node if n.name.startswith(("/colour/", "/renderer/colour/"))]
     return after + [n for n in fill if n not in after]
 
 
