@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import copy
 import time
-from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -24,6 +23,7 @@ from morf.pipeline.control import Progress, StageControl
 from morf.train.config import TrainConfig
 from morf.train.frames import FrameSet
 from morf.train.health import CollapseMonitor
+from morf.train.recovery import RecoveryPolicy
 from morf.train.run_dir import RunDir
 from morf.train.trained_avatar import save_trained_avatar
 from morf.train.trainer import Trainer
@@ -96,8 +96,9 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
     Raises:
         TrainingDiverged: NaN/inf or a collapsed mask (``health.py``) that rolling back with halved
             learning rates (``cfg.max_recoveries`` times; to the last snapshot or checkpoint, or to
-            the initial state before the first snapshot) did not cure, or a mask that did not form
-            even after a restart with the adversarial terms held; the last good checkpoint is kept.
+            the initial state before the first snapshot: ``recovery.py``) did not cure, or a mask that
+            did not form even after a restart with the adversarial terms held; the last good
+            checkpoint is kept.
         StopRequested: the user stopped; a checkpoint of the current step was written first.
     """
     control = control or StageControl()
@@ -145,16 +146,11 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
     last_ckpt = time.monotonic()
     losses: dict[str, float] = {}
     monitor = CollapseMonitor()
-    recoveries = 0
-    # Rollback targets: (state, recoveries when taken). Checkpoints are minutes apart (and short
-    # runs never write one before the end), so healthy states are also kept in memory; a rollback
-    # takes the older of the two latest snapshots, so a collapse that began before the monitor
-    # saw it is not restored.
-    snapshots: deque = deque(maxlen=2)
-    ckpt = (trainer.step if run.has_checkpoint else None, 0)  # (step, recoveries) of the disk checkpoint
-    # A mask that never formed has no earlier state worth returning to: such a run restarts once
-    # from its initial state with the adversarial terms held until the mask forms (health.py).
+    # A run that starts at step 0 keeps its initial state: a mask that never formed restarts from it
+    # (no earlier state has a mask), and so does a collapse before the first snapshot or checkpoint.
     initial = copy.deepcopy(trainer.state_dict()) if trainer.step == 0 and not trainer.hold_adversarial else None
+    policy = RecoveryPolicy(cfg.max_recoveries, SNAPSHOT_EVERY, trainer.step if run.has_checkpoint else None,
+                            run.checkpoint_path, initial)
 
     def restore(state: dict, t_session: float) -> float:
         """Load an earlier state, keeping the wall time spent (the lost steps took time too);
@@ -162,13 +158,12 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         spent = trainer.elapsed_s + time.monotonic() - t_session
         trainer.load_state_dict(state)
         trainer.elapsed_s = spent
-        snapshots.clear()
         return time.monotonic()
 
     while trainer.step < cfg.steps:
         if control.stop_requested:
             t_session = save()
-            ckpt = (trainer.step, recoveries)
+            policy.checkpoint_saved(trainer.step)
             run.log(f"stopped at step {trainer.step}")
         control.check()
         try:
@@ -177,28 +172,20 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
             if collapse:
                 raise TrainingDiverged(f"training diverged at step {trainer.step}: {collapse}")
         except TrainingDiverged as e:
-            kept = f"; the last good checkpoint ({run.checkpoint_path}) is kept" if run.has_checkpoint else ""
             run.log(f"diverged: {e}")
-            if monitor.kind == "never_formed" and initial is not None:
-                t_session = restore(initial, t_session)
-                trainer.hold_adversarial, initial, monitor = True, None, CollapseMonitor()
-                t_session = save()  # the step-0 restart replaces any checkpoint of the failed attempt
-                ckpt = (trainer.step, recoveries)
-                run.log("restarted from step 0 with the adversarial terms off until the mask forms")
-                continue
-            snap = snapshots[0] if snapshots else None
-            if snap is None and not run.has_checkpoint and initial is not None:
-                snap = (initial, 0)  # collapsed before the first snapshot: start again from step 0
-            use_snap = snap is not None and (ckpt[0] is None or snap[0]["step"] >= ckpt[0])
-            if recoveries >= cfg.max_recoveries or not (use_snap or run.has_checkpoint):
-                raise TrainingDiverged(f"{e}{kept}") from None
-            recoveries += 1
-            state, taken = snap if use_snap else (run.load_checkpoint(map_location=trainer.device), ckpt[1])
+            recovery = policy.decide(str(e), monitor.kind)
+            if recovery.action == "give_up":
+                raise TrainingDiverged(recovery.note) from None
+            state = recovery.state if recovery.state is not None else run.load_checkpoint(map_location=trainer.device)
             t_session = restore(state, t_session)
-            trainer.scale_learning_rates(0.5 ** (recoveries - taken))  # halved once per recovery
-            monitor.reset()
-            run.log(f"rolled back to the {'in-memory state' if use_snap else 'checkpoint'} of step {trainer.step} "
-                    f"with the learning rates halved (recovery {recoveries} of {cfg.max_recoveries})")
+            if recovery.action == "restart":
+                trainer.hold_adversarial, monitor = True, CollapseMonitor()
+                t_session = save()  # the step-0 restart replaces any checkpoint of the failed attempt
+                policy.checkpoint_saved(trainer.step)
+            else:
+                trainer.scale_learning_rates(recovery.lr_factor)
+                monitor.reset()
+            run.log(recovery.note)
             continue
         s = trainer.step
         if trainer.hold_adversarial and monitor.formed:
@@ -209,12 +196,12 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         if s % cfg.report_every == 0 or s == cfg.steps:
             control.report(Progress("train", s, cfg.steps, f"training {cfg.method}", losses,
                                     _preview(out, batch, trainer.model.texture.texture)))
-        if s % SNAPSHOT_EVERY == 0 and monitor.healthy:
-            snapshots.append((copy.deepcopy(trainer.state_dict()), recoveries))
+        if policy.wants_snapshot(s, monitor.healthy):
+            policy.keep_snapshot(s, copy.deepcopy(trainer.state_dict()))
         if time.monotonic() - last_ckpt > cfg.checkpoint_minutes * 60 and monitor.healthy:
             t_session = save()
             last_ckpt = t_session
-            ckpt = (trainer.step, recoveries)
+            policy.checkpoint_saved(trainer.step)
     t_session = save()
     run.log(f"main stage done at step {trainer.step}: " + ", ".join(f"{k} {v:.4f}" for k, v in losses.items()))
 

@@ -1,0 +1,42 @@
+"""The presets of whole commands (``morf demo``, ``morf bench stability``, ``morf bench pareto``)
+are made of the stages' registered presets (``morf.presets``) plus overrides: every name they use
+must be in the registry and every override must make a valid config, so renaming or reshaping a
+stage preset fails here instead of in a user's run."""
+
+from __future__ import annotations
+
+import pytest
+
+from morf import presets
+from morf.synth.config import synth_config
+from morf.train.config import preset as train_preset
+
+
+def _demo_rows():
+    from morf.cli.demo import PRESETS
+
+    return [(f"demo {name}", p.synth, {}, p.fit, p.train, {"steps": p.train_steps} if p.train_steps else {})
+            for name, p in PRESETS.items()]
+
+
+def _stability_rows():
+    from morf.bench.stability import PRESETS
+
+    return [(f"stability {name}", p.synth[0], p.synth[1], "fast", p.train[0], p.train[1]) for name, p in PRESETS.items()]
+
+
+def _sweep_rows():
+    from morf.sizing.sweep import PRESETS
+
+    return [(f"sweep {name}", p.synth[0], p.synth[1], None, p.train[0], p.train[1]) for name, p in PRESETS.items()]
+
+
+@pytest.mark.parametrize("rows", [_demo_rows, _stability_rows, _sweep_rows], ids=["demo", "stability", "sweep"])
+def test_command_presets_use_registered_stage_presets(rows):
+    for label, synth, synth_over, fit, train, train_over in rows():
+        assert synth in presets.presets_of("synth"), label
+        synth_config(synth, **synth_over).validate()
+        if fit is not None:
+            assert fit in presets.presets_of("fit"), label
+        assert train in presets.presets_of("train"), label
+        train_preset(train, **train_over).validate()
