@@ -37,7 +37,7 @@ from studio.layout import draw_ui  # noqa: E402
 from studio.live_render import LiveRenderer  # noqa: E402
 from studio.loader import ImageLoader  # noqa: E402
 from studio.pacing import IDLE_FPS, MAX_FPS, SNAPSHOT_FPS, FramePacer, Wakeup  # noqa: E402
-from studio.player import Player, open_player  # noqa: E402
+from studio.player import PoseRenderer, open_player  # noqa: E402
 from studio.project_view import ProjectView  # noqa: E402
 from studio.stages import LIBRARY_STAGES, LoadedStages, cpu_load_stage, load_library_stages  # noqa: E402
 from studio.state import PANELS, AppState, LivePanelState  # noqa: E402
@@ -95,7 +95,7 @@ class StudioApp:
         self.worker = Worker(runnable, unavailable, stage_threads=max(1, (os.cpu_count() or 2) - 1),
                              on_publish=lambda: self._wakeup.notify(1.0 / SNAPSHOT_FPS)).start()
         if motion_dir is None:
-            from morf.motion.library import BUILTIN_MOTIONS  # imports torch: only when it is needed
+            from morf.motion.library import BUILTIN_MOTIONS
 
             motion_dir = BUILTIN_MOTIONS
         self.state = AppState(motion_dir=str(motion_dir))
@@ -208,7 +208,7 @@ class StudioApp:
         opener = self._player_opener
         self.show_player(lambda: opener(avatar_dir))
 
-    def show_player(self, player: Player | Callable[[], tuple[Player | None, str | None]]) -> None:
+    def show_player(self, player: PoseRenderer | Callable[[], tuple[PoseRenderer | None, str | None]]) -> None:
         """Play ``player`` in the live render panel, on the live render's own thread.
 
         ``player``: a player object, or a function () -> (player, note) that opens one; it is

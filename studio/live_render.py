@@ -22,12 +22,12 @@ from typing import Any, Callable, Hashable
 import numpy as np
 
 from morf.camera import PinholeCamera
-from studio.player import Player, as_rgb
+from studio.player import PoseRenderer, as_rgb
 
 FPS_WINDOW_S = 1.0  # the render fps counts frames finished in this trailing window
 RENDER_NICENESS = 10  # the render thread's nice value: the UI thread wins when the CPU is short
 
-PlayerOpener = Callable[[], tuple[Player | None, str | None]]
+PlayerOpener = Callable[[], tuple[PoseRenderer | None, str | None]]
 
 
 @dataclass(frozen=True)

@@ -10,18 +10,24 @@ when it is missing or the avatar cannot be opened the panel says why.
 from __future__ import annotations
 
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
 from morf.camera import PinholeCamera
 from morf.errors import MorfError
 
+if TYPE_CHECKING:
+    from morf.motion.clip import MotionClip
+
 MOTION_SUFFIXES = (".bvh", ".npz")
 
 
-class Player(Protocol):
+class PoseRenderer(Protocol):
+    """What the live-render panel draws with: renders one pose seen from one camera."""
+
     def render(self, pose: Any, camera: PinholeCamera) -> Any:
         """One frame: (H, W, 3) uint8 RGB of camera.width x camera.height, on the live-render thread."""
 
@@ -35,7 +41,7 @@ LIVE_RENDER_SIZE = 640
 
 
 class PlaybackPlayer:
-    """Adapts ``morf.playback``'s player (``render(rotvecs, transl, camera)``) to :class:`Player`.
+    """Adapts ``morf.playback``'s player (``render(rotvecs, transl, camera)``) to :class:`PoseRenderer`.
 
     ``pose`` is None (the rest pose: Anny's A-pose) or (rotvecs (J, 3), transl (3,)). It renders
     square (size, size, 3) uint8 images in the GL context of the thread that opened it (made
@@ -72,7 +78,7 @@ class PlaybackPlayer:
 
 
 def open_player(avatar_dir: Path, size: int = LIVE_RENDER_SIZE,
-                threads: int = LIVE_RENDER_THREADS) -> tuple[Player | None, str | None]:
+                threads: int = LIVE_RENDER_THREADS) -> tuple[PoseRenderer | None, str | None]:
     """(player, None) for an exported avatar, or (None, why not in words).
 
     Call it on the thread that will render: the player draws in that thread's own headless GL
@@ -94,17 +100,31 @@ def open_player(avatar_dir: Path, size: int = LIVE_RENDER_SIZE,
         return None, f"{type(e).__name__}: {e}"
 
 
+@dataclass(frozen=True)
 class MotionFrames:
-    """A motion clip as a sequence of poses for :meth:`PlaybackPlayer.render`."""
+    """A motion clip seen as a sequence of poses for :meth:`PlaybackPlayer.render`: frame ``t`` is
+    (rotvecs (J, 3), transl (3,)).
 
-    def __init__(self, rotvecs: np.ndarray, transl: np.ndarray, fps: float):
-        self.rotvecs, self.transl, self.fps = rotvecs, transl, fps
+    Fields:
+        clip: the :class:`~morf.motion.clip.MotionClip` it shows.
+    """
+
+    clip: MotionClip
+
+    @property
+    def fps(self) -> float:
+        return self.clip.fps
+
+    @property
+    def transl(self) -> np.ndarray:
+        """(T, 3) root translation of every frame."""
+        return self.clip.transl
 
     def __len__(self) -> int:
-        return int(self.rotvecs.shape[0])
+        return self.clip.num_frames
 
     def __getitem__(self, t: int) -> tuple[np.ndarray, np.ndarray]:
-        return self.rotvecs[t], self.transl[t]
+        return self.clip.rotvecs[t], self.clip.transl[t]
 
 
 def load_motion(path: Path, num_bones: int) -> tuple[MotionFrames | None, str | None]:
@@ -114,8 +134,7 @@ def load_motion(path: Path, num_bones: int) -> tuple[MotionFrames | None, str | 
     except ImportError as e:
         return None, f"motions need the avatar player (morf.playback): {e}"
     try:
-        m = load_playback_motion(path, num_bones)
-        return MotionFrames(m.rotvecs, m.transl, m.fps), None
+        return MotionFrames(load_playback_motion(path, num_bones)), None
     except MorfError as e:
         return None, str(e)
     except Exception as e:

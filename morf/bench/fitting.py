@@ -51,16 +51,17 @@ def add_arguments(p) -> None:
 def _capture(args, model):
     from morf.capture.project import CaptureProject
     from morf.errors import InputError
+    from morf.synth.ground_truth import has_ground_truth
 
     if args.project:
         project = CaptureProject.open(args.project)
-        if not (project.ground_truth_dir / "gt.npz").is_file():
+        if not has_ground_truth(project):
             raise InputError(f"{project.root} has no ground truth; 'morf bench fitting' needs a synthetic capture")
         return project
     from morf.synth import make_synthetic_capture, synth_config
 
     root = Path(args.out) / "capture"
-    if CaptureProject.is_project(root) and (root / "ground_truth" / "gt.npz").is_file():
+    if CaptureProject.is_project(root) and has_ground_truth(root):
         return CaptureProject.open(root)
     cfg = synth_config(args.preset, frames=args.frames)
     print(f"making a synthetic capture ({cfg.frames} frames, {cfg.size}x{cfg.size}) in {root}")
@@ -87,18 +88,19 @@ def jitter_mm(vertices: np.ndarray) -> float:
     return float(np.linalg.norm(acc, axis=-1).mean() * 1000)
 
 
-def evaluate_config(model, fits, rejected: dict[int, str], gt: dict, gt_verts, gt_roots) -> dict:
-    """Metrics of one fit against the ground truth."""
+def evaluate_config(model, fits, rejected: dict[int, str], gt, gt_verts, gt_roots) -> dict:
+    """Metrics of one fit against the ground truth (a :class:`morf.synth.ground_truth.GroundTruth`
+    with keypoints_true and corrupted)."""
     verts, roots = _vertices(model, fits.rotvecs, fits.transl, fits.shape)
     N = len(verts)
     used = np.ones(N, bool)
     used[list(rejected)] = False
     err = np.linalg.norm((verts - roots[:, None]) - (gt_verts - gt_roots[:, None]), axis=-1).mean(1) * 1000
-    true_kp = gt["keypoints_true"]
+    true_kp = gt.keypoints_true
     ok = true_kp[..., 2] > 0
     kp_err = np.linalg.norm(fits.projected_keypoints - true_kp[..., :2], axis=-1)
     kp_err = np.where(ok, kp_err, np.nan)
-    corrupted = gt["corrupted"].astype(bool)
+    corrupted = gt.corrupted.astype(bool)
     flagged = ~used
     precision = recall = None
     if fits.config.get("frame_filter"):
@@ -124,7 +126,7 @@ def run(args) -> int:
     from morf.body import load_body_model
     from morf.errors import InputError
     from morf.fitting import finalize, fit_sequence, load_fit_inputs, preset
-    from morf.io import load_npz
+    from morf.synth.ground_truth import load_ground_truth
 
     keys = [k.strip() for k in args.configs.split(",") if k.strip()]
     unknown = [k for k in keys if k not in ABLATION]
@@ -134,8 +136,8 @@ def run(args) -> int:
                                            overlays=False)
     model = load_body_model("anny")
     project = _capture(args, model)
-    gt = load_npz(project.ground_truth_dir / "gt.npz")
-    gt_verts, gt_roots = _vertices(model, gt["rotvecs"], gt["transl"], gt["shape"])
+    gt = load_ground_truth(project, require=("keypoints_true", "corrupted"))
+    gt_verts, gt_roots = _vertices(model, gt.rotvecs, gt.transl, gt.shape)
     camera = project.camera()
     inputs = load_fit_inputs(project, camera, base.silhouette_resolution, base.iou_resolution)
     results: dict[str, dict] = {}
@@ -156,7 +158,7 @@ def run(args) -> int:
         row["jitter_reduction"] = None if not base_jitter else 1.0 - row["jitter"] / base_jitter
     summary = {
         "capture": {"project": str(project.root), "frames": project.num_frames, "size": list(project.image_size),
-                    "corrupted_frames": int(gt["corrupted"].sum()), "true_jitter": jitter_mm(gt_verts),
+                    "corrupted_frames": int(gt.corrupted.sum()), "true_jitter": jitter_mm(gt_verts),
                     "keypoints": project.manifest.get("source", {}).get("keypoints")},
         "fit_preset": args.fit_preset,
         "machine": machine_info(),

@@ -74,14 +74,15 @@ def make_capture(out: Path, sweep, scene: str, model, project_path: str | None =
     from morf.capture.project import CaptureProject
     from morf.errors import InputError
     from morf.sizing.sweep import SCENES
+    from morf.synth.ground_truth import has_holdout
 
     if project_path:
         project = CaptureProject.open(project_path)
-        if not (project.ground_truth_dir / "holdout.npz").is_file():
+        if not has_holdout(project):
             raise InputError(f"{project.root} has no hold-out sequence (a synthetic capture is needed)")
         return project
     root = out / f"capture-{scene}"
-    if CaptureProject.is_project(root) and (root / "ground_truth" / "holdout.npz").is_file():
+    if CaptureProject.is_project(root) and has_holdout(root):
         return CaptureProject.open(root)
     from morf.synth import make_synthetic_capture, synth_config
 

@@ -32,10 +32,11 @@ def bench_capture(out: Path, preset: str, project_path: str | None, fits: str, m
 def _synthetic_capture(out: Path, preset: str, project_path: str | None, model):
     from morf.capture.project import CaptureProject
     from morf.errors import InputError
+    from morf.synth.ground_truth import has_holdout
 
     if project_path:
         project = CaptureProject.open(project_path)
-        if not (project.ground_truth_dir / "holdout.npz").is_file():
+        if not has_holdout(project):
             raise InputError(f"{project.root} has no hold-out sequence (a synthetic capture is needed)")
         return project
     root = out / "capture"

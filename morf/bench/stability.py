@@ -91,9 +91,10 @@ def add_arguments(p) -> None:
 def _capture(out: Path, name: str, sp: StabilityPreset, model, **changes):
     from morf.capture.project import CaptureProject
     from morf.synth import make_synthetic_capture, synth_config
+    from morf.synth.ground_truth import has_holdout
 
     root = out / "captures" / name
-    if CaptureProject.is_project(root) and (root / "ground_truth" / "holdout.npz").is_file():
+    if CaptureProject.is_project(root) and has_holdout(root):
         return CaptureProject.open(root)
     preset, overrides = sp.synth
     cfg = synth_config(preset, **{**overrides, **CLEAN, **changes})
@@ -104,23 +105,24 @@ def _capture(out: Path, name: str, sp: StabilityPreset, model, **changes):
 def _write_noisy_fits(project, sigma_deg: float, seed: int) -> None:
     """fits/fits.npz = the true poses plus Gaussian noise on every bone's axis-angle."""
     from morf.fitting.fits_io import BodyFits, save_fits
-    from morf.io import load_npz
+    from morf.synth.ground_truth import load_ground_truth
 
-    gt = load_npz(project.ground_truth_dir / "gt.npz")
+    gt = load_ground_truth(project)
     rng = np.random.default_rng(seed)
-    rot = gt["rotvecs"] + rng.normal(0, np.deg2rad(sigma_deg), gt["rotvecs"].shape).astype(np.float32)
+    rot = gt.rotvecs + rng.normal(0, np.deg2rad(sigma_deg), gt.rotvecs.shape).astype(np.float32)
     n = len(rot)
     nan = np.full(n, np.nan, np.float32)
-    save_fits(project.fits_path, BodyFits(rot, gt["transl"], gt["shape"], nan, nan, nan,
+    save_fits(project.fits_path, BodyFits(rot, gt.transl, gt.shape, nan, nan, nan,
                                           np.zeros((n, 23, 2), np.float32), {"synthetic_noise_deg": sigma_deg}))
 
 
 def _set_hidden_turn(root: Path, hidden_deg: float) -> None:
     """Drop (review.json) the frames facing more than 180 - hidden/2 degrees away from the camera;
     0 clears the drops. The shared clean capture is set this way before each of its trainings."""
-    from morf.io import atomic_write_json, load_npz
+    from morf.io import atomic_write_json
+    from morf.synth.ground_truth import load_ground_truth
 
-    yaw = load_npz(Path(root) / "ground_truth" / "gt.npz")["yaw"]
+    yaw = load_ground_truth(root, require=("yaw",)).yaw
     away = np.abs((np.degrees(yaw) + 180) % 360 - 180)
     drop = [int(i) for i in np.flatnonzero(away > 180 - hidden_deg / 2)] if hidden_deg > 0 else []
     atomic_write_json(Path(root) / "review.json", {"drop": drop, "keep": []})

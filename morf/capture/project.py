@@ -21,7 +21,8 @@ Layout (format "morf-capture", version 1)::
       avatar/             the exported avatar (morf export; morf/export/avatar_folder.py)
       dataset/            imported standard datasets only: reference files (not read by the pipeline)
       ground_truth/       synthetic captures only: camera, poses, shape, hold-out set
-                          (full layout in morf/synth/capture.py)
+                          (full layout in morf/synth/capture.py; gt.npz and holdout.npz
+                          read and written by morf/synth/ground_truth.py)
 
 Every file is written atomically, so a killed command never leaves a damaged project, and
 re-running a stage replaces its outputs whole.
@@ -170,7 +171,7 @@ class CaptureProject:
 
     @property
     def is_synthetic(self) -> bool:
-        return (self.root / "ground_truth").is_dir()
+        return self.ground_truth_dir.is_dir()
 
     def frame_path(self, i: int) -> Path:
         ext = self.manifest.get("frame_ext", ".png")
@@ -304,4 +305,23 @@ class CaptureProject:
 
     @property
     def ground_truth_dir(self) -> Path:
+        """``ground_truth/``: what a synthetic capture knows to be true (written by :mod:`morf.synth.capture`)."""
         return self.root / "ground_truth"
+
+    @property
+    def ground_truth_path(self) -> Path:
+        """``ground_truth/gt.npz``: read and written only through :mod:`morf.synth.ground_truth`."""
+        return self.ground_truth_dir / "gt.npz"
+
+    @property
+    def holdout_path(self) -> Path:
+        """``ground_truth/holdout.npz``: read and written only through :mod:`morf.synth.ground_truth`."""
+        return self.ground_truth_dir / "holdout.npz"
+
+    def holdout_frame_path(self, j: int) -> Path:
+        """Image ``j`` of the synthetic hold-out sequence (see :mod:`morf.synth.ground_truth`)."""
+        return self.ground_truth_dir / "holdout" / "frames" / f"{j:06d}.png"
+
+    def holdout_mask_path(self, j: int) -> Path:
+        """Mask ``j`` of the synthetic hold-out sequence, 0 or 255."""
+        return self.ground_truth_dir / "holdout" / "masks" / f"{j:06d}.png"

@@ -56,8 +56,9 @@ def add_playback_options(p) -> None:
 def run(args, shape=None) -> int:
     """Render ``args.motion``; ``shape`` (1, 6) is the body the motion is retargeted to (default Anny's)."""
     from morf.errors import InputError
+    from morf.motion.clip import resample
     from morf.raster.camera_paths import front_camera, orbit_camera
-    from morf.playback.motion_input import load_playback_motion, resample
+    from morf.playback.motion_input import load_playback_motion
     from morf.playback.player import open_player
     from morf.playback.video_sink import VideoSink
     from morf.progress import progress
@@ -79,7 +80,8 @@ def run(args, shape=None) -> int:
         precision = "fp32"
     with open_player(args.avatar, size=args.size, precision=precision, background=bg) as player:
         clip = load_playback_motion(args.motion, player.avatar.skeleton.num_bones, shape, args.motion_fps)
-        rotvecs, transl = resample(clip, args.fps)
+        clip = resample(clip, args.fps)
+        rotvecs, transl = clip.rotvecs, clip.transl
         if args.max_frames > 0:
             rotvecs, transl = rotvecs[:args.max_frames], transl[:args.max_frames]
         size = args.size

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from morf.synth.ground_truth import has_holdout, load_holdout
 from morf.train.data import BodyFitArrays, published_test_frames, split_holdout, usable_frame_ids
 
 
@@ -58,12 +59,9 @@ def ordinal(k: int) -> str:
 
 def novel_poses_target(project) -> EvalTarget | None:
     """A synthetic capture's hold-out sequence, when it has one."""
-    from morf.io import load_npz
-
-    path = project.ground_truth_dir / "holdout.npz"
-    if not path.is_file():
+    if not has_holdout(project):
         return None
-    n = len(load_npz(path)["rotvecs"])
+    n = load_holdout(project).num_frames
     if n == 0:
         return None
     return EvalTarget("novel-poses", "synthetic hold-out sequence (novel poses)", "novel-poses", tuple(range(n)))

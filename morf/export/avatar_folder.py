@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from morf.errors import InputError
-from morf.export.skeleton import Skeleton
+from morf.export.skeleton import SkinningSkeleton
 from morf.io import atomic_write_json, load_npz, save_npz
 from morf.raster.neural_raster import SkinnedMesh
 from morf.raster.texture_quant import QuantizedTexture
@@ -50,7 +50,7 @@ class ExportedAvatar:
     manifest: dict
     texture: QuantizedTexture
     mesh: SkinnedMesh
-    skeleton: Skeleton
+    skeleton: SkinningSkeleton
 
     def renderer_path(self, precision: str = "int8") -> Path:
         if precision not in RENDERERS:
@@ -74,7 +74,7 @@ def sha256_of(path: Path) -> str:
     return h.hexdigest()
 
 
-def write_arrays(folder: Path, texture: QuantizedTexture, mesh: SkinnedMesh, skeleton: Skeleton) -> None:
+def write_arrays(folder: Path, texture: QuantizedTexture, mesh: SkinnedMesh, skeleton: SkinningSkeleton) -> None:
     """Write texture.npz, mesh.npz and skeleton.npz into ``folder``."""
     save_npz(folder / "texture.npz", texture=texture.data, scales=texture.scales)
     save_npz(folder / "mesh.npz", rest_vertices=mesh.rest_vertices.astype(np.float32), uvs=mesh.uvs.astype(np.float32),
@@ -133,4 +133,5 @@ def load_exported_avatar(root: str | Path, verify: bool = False) -> ExportedAvat
     texture = QuantizedTexture(data=t["texture"], scales=t["scales"].astype(np.float32))
     mesh = SkinnedMesh(rest_vertices=m["rest_vertices"], uvs=m["uvs"], faces=m["faces"],
                        bone_indices=m["bone_indices"], bone_weights=m["bone_weights"])
-    return ExportedAvatar(root=root, manifest=manifest, texture=texture, mesh=mesh, skeleton=Skeleton.from_arrays(s))
+    return ExportedAvatar(root=root, manifest=manifest, texture=texture, mesh=mesh,
+                          skeleton=SkinningSkeleton.from_arrays(s))

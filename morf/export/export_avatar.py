@@ -18,7 +18,7 @@ import numpy as np
 
 from morf.export.avatar_folder import RENDERERS, replace_folder, write_arrays, write_manifest
 from morf.export.onnx_renderer import OPSET, export_fp32, export_int8
-from morf.export.skeleton import Skeleton, skeleton_from_body_model
+from morf.export.skeleton import SkinningSkeleton, skeleton_from_body_model
 from morf.pipeline.control import Progress, StageControl
 from morf.raster.gl_context import create_headless_context
 from morf.raster.neural_raster import NUM_CHANNELS, NeuralRasterizer, SkinnedMesh, to_layout
@@ -61,7 +61,7 @@ def skinned_mesh_from_body_model(model, shape) -> SkinnedMesh:
                        faces=rm.faces, bone_indices=rm.bone_indices, bone_weights=rm.bone_weights)
 
 
-def rasterize_views(ctx, mesh: SkinnedMesh, texture: QuantizedTexture, skeleton: Skeleton,
+def rasterize_views(ctx, mesh: SkinnedMesh, texture: QuantizedTexture, skeleton: SkinningSkeleton,
                     views: Sequence[View]) -> list[np.ndarray]:
     """uint8 (1, 16, H, W) neural rasterizations of ``views`` (all cameras of one size)."""
     if not views:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from morf.export.gltf_rig import pose_nodes
-from morf.export.skeleton import Skeleton
+from morf.export.skeleton import SkinningSkeleton
 
 
 @dataclass(frozen=True)
@@ -47,7 +47,7 @@ def align_quaternion_signs(q: np.ndarray) -> np.ndarray:
     return out
 
 
-def joint_animation(skeleton: Skeleton, rotvecs: np.ndarray, transl: np.ndarray, fps: float,
+def joint_animation(skeleton: SkinningSkeleton, rotvecs: np.ndarray, transl: np.ndarray, fps: float,
                     name: str = "motion") -> JointAnimation:
     """Keyframes that make the glTF skin follow a motion in the body model's own pose parameters.
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from morf.export.skeleton import Skeleton
+from morf.export.skeleton import SkinningSkeleton
 
 # Anny world (Z up, faces -Y) -> glTF world (Y up, faces +Z)
 Y_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
@@ -56,7 +56,7 @@ def to_gltf_axes(frames: np.ndarray) -> np.ndarray:
     return C @ np.asarray(frames, np.float64) @ C.T
 
 
-def rest_frames(skeleton: Skeleton) -> np.ndarray:
+def rest_frames(skeleton: SkinningSkeleton) -> np.ndarray:
     """(J, 4, 4) float64 global rest bone frames ``P_c = [R_c | h_c]`` (Anny axes)."""
     P = np.zeros((skeleton.num_bones, 4, 4))
     P[:, :3, :3] = skeleton.rest_rotations
@@ -65,7 +65,7 @@ def rest_frames(skeleton: Skeleton) -> np.ndarray:
     return P
 
 
-def posed_frames(skeleton: Skeleton, rotvecs: np.ndarray, transl: np.ndarray) -> np.ndarray:
+def posed_frames(skeleton: SkinningSkeleton, rotvecs: np.ndarray, transl: np.ndarray) -> np.ndarray:
     """(J, 4, 4) float64 global posed bone frames ``W_c = T_c P_c`` (Anny axes) of one pose.
 
     Args:
@@ -102,7 +102,7 @@ def trs_of(local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return q, local[:, :3, 3].copy()
 
 
-def gltf_rig(skeleton: Skeleton) -> GltfRig:
+def gltf_rig(skeleton: SkinningSkeleton) -> GltfRig:
     """The skin's joints in their bind pose (the shaped rest pose of ``skeleton``)."""
     parents = skeleton.parents.astype(np.int32)
     q, t = trs_of(local_transforms(to_gltf_axes(rest_frames(skeleton)), parents))
@@ -113,8 +113,8 @@ def gltf_rig(skeleton: Skeleton) -> GltfRig:
                    inverse_bind=inverse_bind)
 
 
-def pose_nodes(skeleton: Skeleton, rotvecs: np.ndarray, transl: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Node-local TRS (glTF axes) that pose the skin as :meth:`Skeleton.bone_transforms` does.
+def pose_nodes(skeleton: SkinningSkeleton, rotvecs: np.ndarray, transl: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Node-local TRS (glTF axes) that pose the skin as :meth:`SkinningSkeleton.bone_transforms` does.
 
     Args:
         rotvecs: (J, 3) axis-angle per bone (Anny "local-ref"); transl: (3,) root translation (Anny axes).

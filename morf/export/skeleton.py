@@ -19,8 +19,8 @@ import numpy as np
 
 
 @dataclass(frozen=True)
-class Skeleton:
-    """A shaped skeleton ready for posing.
+class SkinningSkeleton:
+    """An avatar's shaped Anny skeleton, ready for posing: pose in, bone skinning matrices out.
 
     Fields:
         names: (J,) str bone names; parents: (J,) int32, -1 for the root, parents before children.
@@ -92,11 +92,12 @@ class Skeleton:
                 "reference_rotations": self.reference_rotations}
 
     @staticmethod
-    def from_arrays(a: dict[str, np.ndarray]) -> "Skeleton":
-        return Skeleton(names=np.asarray(a["bone_names"]).astype(str), parents=np.asarray(a["bone_parents"], np.int32),
-                        rest_rotations=np.asarray(a["rest_rotations"], np.float64),
-                        rest_heads=np.asarray(a["rest_heads"], np.float64),
-                        reference_rotations=np.asarray(a["reference_rotations"], np.float64))
+    def from_arrays(a: dict[str, np.ndarray]) -> "SkinningSkeleton":
+        return SkinningSkeleton(names=np.asarray(a["bone_names"]).astype(str),
+                                parents=np.asarray(a["bone_parents"], np.int32),
+                                rest_rotations=np.asarray(a["rest_rotations"], np.float64),
+                                rest_heads=np.asarray(a["rest_heads"], np.float64),
+                                reference_rotations=np.asarray(a["reference_rotations"], np.float64))
 
 
 def rotvec_to_matrix(rotvecs: np.ndarray) -> np.ndarray:
@@ -113,7 +114,7 @@ def rotvec_to_matrix(rotvecs: np.ndarray) -> np.ndarray:
     return np.eye(3) + a * K + b * (K @ K)
 
 
-def skeleton_from_body_model(model, shape) -> Skeleton:
+def skeleton_from_body_model(model, shape) -> SkinningSkeleton:
     """The shaped skeleton of an Anny body model (needs torch; used at export time only).
 
     Args:
@@ -125,5 +126,6 @@ def skeleton_from_body_model(model, shape) -> Skeleton:
         rest = model.rest(shape)["rest_bone_poses"][0].double().cpu().numpy()
         ref = model.anny.reference_bone_orientations
         U = rest[:, :3, :3] if ref is None else ref.double().cpu().numpy()
-    return Skeleton(names=np.asarray(model.bone_names, dtype=str), parents=np.asarray(model.bone_parents, np.int32),
-                    rest_rotations=rest[:, :3, :3].copy(), rest_heads=rest[:, :3, 3].copy(), reference_rotations=U)
+    return SkinningSkeleton(names=np.asarray(model.bone_names, dtype=str),
+                            parents=np.asarray(model.bone_parents, np.int32), rest_rotations=rest[:, :3, :3].copy(),
+                            rest_heads=rest[:, :3, 3].copy(), reference_rotations=U)

@@ -16,7 +16,7 @@ import numpy as np
 
 from morf.errors import InputError
 from morf.io import load_npz
-from morf.motion.skeleton import Skeleton, SourceMotion
+from morf.motion.skeleton import SourceMotion, SourceSkeleton
 from morf.motion.so3 import rotvec_to_matrix
 
 SMPL_BODY_JOINTS = (
@@ -45,7 +45,7 @@ SMPL_REST = np.array([
 ])
 
 
-def smpl_skeleton() -> Skeleton:
+def smpl_skeleton() -> SourceSkeleton:
     """The 22 SMPL body joints plus 5 end points, rest pose in metres, Y up."""
     names = SMPL_BODY_JOINTS + tuple(n for n, _ in SMPL_END_JOINTS)
     parents = SMPL_BODY_PARENTS + tuple(p for _, p in SMPL_END_JOINTS)
@@ -53,7 +53,7 @@ def smpl_skeleton() -> Skeleton:
     for j, p in enumerate(parents):
         if p >= 0:
             offsets[j] = SMPL_REST[j] - SMPL_REST[p]
-    return Skeleton(names, parents, offsets, "y")
+    return SourceSkeleton(names, parents, offsets, "y")
 
 
 # Keys under which motion .npz files store their frame rate (AMASS SMPL-H, AMASS SMPL-X, ours).

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from morf.errors import InputError
-from morf.motion.skeleton import Skeleton, SourceMotion, UNITS, detect_unit
+from morf.motion.skeleton import SourceMotion, SourceSkeleton, UNITS, detect_unit
 from morf.motion.so3 import euler_to_matrix
 
 _AXES = {"xrotation": "X", "yrotation": "Y", "zrotation": "Z"}
@@ -109,7 +109,7 @@ def read_bvh(path: str | os.PathLike, up_axis: str = "auto", unit: str = "auto")
 
     offsets = np.asarray(parsed.offsets, dtype=np.float64)
     names = tuple(parsed.names)
-    raw = Skeleton(names, tuple(parsed.parents), offsets, "y")
+    raw = SourceSkeleton(names, tuple(parsed.parents), offsets, "y")
     if up_axis == "auto":
         up_axis = guess_up_axis(raw)
     if unit == "auto":
@@ -142,7 +142,7 @@ def read_bvh(path: str | os.PathLike, up_axis: str = "auto", unit: str = "auto")
                 root_pos[:, _POS[c]] = block[:, k]
         # Position channels of other joints would stretch bones; Anny's bones have fixed
         # lengths, so only their rotations are used and the rest offsets stay.
-    skeleton = Skeleton(names, tuple(parsed.parents), offsets * scale, up_axis)
+    skeleton = SourceSkeleton(names, tuple(parsed.parents), offsets * scale, up_axis)
     fps = 1.0 / frame_time if frame_time > 0 else 30.0
     if abs(fps - round(fps)) < 0.01:  # "Frame Time: .0083333" means 120 fps
         fps = float(round(fps))
@@ -173,7 +173,7 @@ def _parse_motion(lines: list[str], path: Path) -> tuple[int, float, np.ndarray]
     return frames, frame_time, data
 
 
-def guess_up_axis(skeleton: Skeleton) -> str:
+def guess_up_axis(skeleton: SourceSkeleton) -> str:
     """"y" or "z": the axis along which the head-like joints sit farthest above the feet."""
     from morf.motion.name_matching import body_part_joints
 

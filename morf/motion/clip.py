@@ -1,18 +1,26 @@
-"""A motion in the body model's own pose parameters: what the player and the studio animate."""
+"""A motion in the body model's own pose parameters: what the player and the studio animate.
+
+Numpy only at import, so the torch-free player can use it; torch is imported by the methods that
+build :class:`~morf.body.model.BodyPose` batches.
+"""
 
 from __future__ import annotations
 
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import torch
 
-from morf.body.model import BodyPose
 from morf.errors import InputError
 from morf.io import load_npz, save_npz
 from morf.motion.so3 import slerp_rotvecs
+
+if TYPE_CHECKING:
+    import torch
+
+    from morf.body.model import BodyPose
 
 CLIP_FORMAT_VERSION = 1
 
@@ -64,6 +72,10 @@ class MotionClip:
 
     def poses(self, frames: np.ndarray | slice, device: str | torch.device = "cpu") -> BodyPose:
         """Several frames as one batch: rotvecs (B, J, 3), transl (B, 3)."""
+        import torch
+
+        from morf.body.model import BodyPose
+
         r = torch.as_tensor(np.asarray(self.rotvecs[frames], dtype=np.float32), device=device)
         t = torch.as_tensor(np.asarray(self.transl[frames], dtype=np.float32), device=device)
         return BodyPose(r, t)

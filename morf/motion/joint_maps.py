@@ -135,7 +135,7 @@ KNOWN_MAPS = (SMPL_MAP, CMU_MAP, CMU_OLD_MAP)
 
 
 def map_for(skeleton) -> JointMap:
-    """The documented map whose joints a :class:`~morf.motion.skeleton.Skeleton` has; otherwise
+    """The documented map whose joints a :class:`~morf.motion.skeleton.SourceSkeleton` has; otherwise
     the fuzzy name matcher's (:func:`morf.motion.name_matching.match_joint_map`)."""
     have = set(skeleton.names)
     for jm in KNOWN_MAPS:

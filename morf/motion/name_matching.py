@@ -15,7 +15,7 @@ import numpy as np
 
 from morf.errors import InputError
 from morf.motion.joint_maps import Anchor, JointMap, limb_anchors
-from morf.motion.skeleton import Skeleton
+from morf.motion.skeleton import SourceSkeleton
 
 _TOKENS = re.compile(r"[A-Z]+(?=[A-Z][a-z])|[A-Z]?[a-z]+|[A-Z]+|\d+")
 _PARTS = ("hand", "wrist", "foot", "ankle", "toe", "head", "neck", "finger", "thumb", "index", "middle",
@@ -69,12 +69,12 @@ def body_part_joints(names) -> tuple[list[int], list[int]]:
     return heads, feet
 
 
-def _top(sk: Skeleton, idx: list[int]) -> int | None:
+def _top(sk: SourceSkeleton, idx: list[int]) -> int | None:
     """The joint of ``idx`` nearest the root (fewest ancestors)."""
     return min(idx, key=lambda i: len(sk.ancestors(i))) if idx else None
 
 
-def _segments_to(sk: Skeleton, rest: np.ndarray, start: int, end: int) -> list[tuple[int, int]]:
+def _segments_to(sk: SourceSkeleton, rest: np.ndarray, start: int, end: int) -> list[tuple[int, int]]:
     """Segments with a length on the path ``start`` -> ``end`` (``start`` an ancestor of ``end``), each as
     (owner joint, joint at its far end); the owner is the last joint at the segment's near point."""
     path = [end] + sk.ancestors(end)
@@ -87,7 +87,7 @@ def _segments_to(sk: Skeleton, rest: np.ndarray, start: int, end: int) -> list[t
     return segs
 
 
-def _tip(sk: Skeleton, rest: np.ndarray, j: int, prefer=("middle",), avoid=("thumb",)) -> int | None:
+def _tip(sk: SourceSkeleton, rest: np.ndarray, j: int, prefer=("middle",), avoid=("thumb",)) -> int | None:
     """A descendant of ``j`` at another point, along the preferred child chain."""
     frontier = sk.children(j)
     while frontier:
@@ -101,12 +101,12 @@ def _tip(sk: Skeleton, rest: np.ndarray, j: int, prefer=("middle",), avoid=("thu
     return None
 
 
-def _lca(sk: Skeleton, a: int, b: int) -> int:
+def _lca(sk: SourceSkeleton, a: int, b: int) -> int:
     up_a = [a] + sk.ancestors(a)
     return next(j for j in [b] + sk.ancestors(b) if j in up_a)
 
 
-def match_joint_map(sk: Skeleton) -> JointMap:
+def match_joint_map(sk: SourceSkeleton) -> JointMap:
     """Build a :class:`JointMap` for an unfamiliar skeleton; InputError if no body can be found."""
     names, rest = sk.names, sk.rest_positions()
     hands = {s: _top(sk, _find(names, s, ("hand", "wrist"), ("finger", "thumb", "end"))) for s in "LR"}
@@ -147,7 +147,7 @@ def match_joint_map(sk: Skeleton) -> JointMap:
     return JointMap("fuzzy", tuple(anchors), (sides["L"], sides["R"]), neck_base)
 
 
-def _owner_at(sk: Skeleton, rest: np.ndarray, j: int) -> int:
+def _owner_at(sk: SourceSkeleton, rest: np.ndarray, j: int) -> int:
     """The joint that owns the segment starting at ``j``'s point (``j`` or a zero-offset descendant)."""
     while True:
         same = [c for c in sk.children(j) if np.linalg.norm(rest[c] - rest[j]) <= 1e-6
@@ -157,7 +157,7 @@ def _owner_at(sk: Skeleton, rest: np.ndarray, j: int) -> int:
         j = same[0]
 
 
-def _spine_anchors(sk: Skeleton, rest: np.ndarray, root: int, head: int) -> list[Anchor]:
+def _spine_anchors(sk: SourceSkeleton, rest: np.ndarray, root: int, head: int) -> list[Anchor]:
     """Spine and neck segments from the hips to the head onto Anny's spine bones by height."""
     segs = _segments_to(sk, rest, root, head)
     lengths = np.array([np.linalg.norm(rest[b] - rest[a]) for a, b in segs])

@@ -23,15 +23,18 @@ The root translation is the source hip position scaled by Anny's leg length over
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.ndimage import minimum_filter1d
 
 from morf.errors import InputError
-from morf.motion.anny_rest import TargetRest
 from morf.motion.joint_maps import SPREAD_BONES, JointMap, map_for
 from morf.motion.skeleton import SourceMotion, forward_kinematics, to_z_up
 from morf.motion.so3 import axis_rotation, fraction, frame_from, matrix_to_rotvec, rotvec_to_matrix, swing
+
+if TYPE_CHECKING:
+    from morf.motion.anny_rest import TargetRest
 
 
 @dataclass(frozen=True)

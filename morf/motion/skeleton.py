@@ -14,8 +14,9 @@ from morf.motion.so3 import axis_rotation
 
 
 @dataclass(frozen=True)
-class Skeleton:
-    """A joint hierarchy in its rest pose (all joint rotations identity).
+class SourceSkeleton:
+    """The skeleton of a source motion (BVH, SMPL family): a joint hierarchy in its rest pose
+    (all joint rotations identity).
 
     Fields:
         names: J joint names (BVH end sites are joints named ``<parent>_end``).
@@ -73,7 +74,7 @@ class SourceMotion:
             empty tuple when the format has no such thing).
     """
 
-    skeleton: Skeleton
+    skeleton: SourceSkeleton
     local_rotations: np.ndarray
     root_positions: np.ndarray
     fps: float

@@ -1,33 +1,18 @@
-"""Motions for playback: every motion file :func:`morf.motion.load_motion` reads, as Anny poses."""
+"""Motions for playback: every motion file :func:`morf.motion.load_motion` reads, as a
+:class:`~morf.motion.clip.MotionClip` of Anny poses checked against the avatar's bones."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from morf.errors import InputError
+from morf.motion.clip import MotionClip
 
 
-@dataclass(frozen=True)
-class PlaybackMotion:
-    """Poses to play.
-
-    Fields:
-        rotvecs: (T, J, 3) float32 axis-angle per bone (Anny "local-ref"); transl: (T, 3) float32; fps: frames/s.
-    """
-
-    rotvecs: np.ndarray
-    transl: np.ndarray
-    fps: float
-
-    @property
-    def num_frames(self) -> int:
-        return int(self.rotvecs.shape[0])
-
-
-def load_playback_motion(path: str | Path, num_bones: int, shape=None, source_fps: float | None = None) -> PlaybackMotion:
+def load_playback_motion(path: str | Path, num_bones: int, shape=None, source_fps: float | None = None) -> MotionClip:
     """Read any motion :func:`morf.motion.load_motion` reads (detected by content: Anny poses
     ``rotvecs`` (T, J, 3) + ``transl`` (T, 3) + ``fps``, MoRF clips, AMASS SMPL-H / SMPL-X,
     AIST++ / SMPL, a capture's ``fits/fits.npz``, BVH), retargeted onto Anny with phenotype
@@ -42,17 +27,8 @@ def load_playback_motion(path: str | Path, num_bones: int, shape=None, source_fp
     if not path.is_file():
         raise InputError(f"motion file not found: {path}")
     m = load_motion(path, shape=shape, source_fps=source_fps)
-    clip = PlaybackMotion(np.asarray(m.rotvecs, np.float32), np.asarray(m.transl, np.float32), float(m.fps))
-    T = clip.rotvecs.shape[0]
-    if clip.rotvecs.ndim != 3 or clip.rotvecs.shape[1:] != (num_bones, 3) or clip.transl.shape != (T, 3) or T == 0:
+    clip = replace(m, rotvecs=np.asarray(m.rotvecs, np.float32), transl=np.asarray(m.transl, np.float32))
+    if clip.rotvecs.shape[1] != num_bones or clip.num_frames == 0:
         raise InputError(f"{path}: motion must be rotvecs (T, {num_bones}, 3) and transl (T, 3), "
                          f"got {clip.rotvecs.shape} and {clip.transl.shape}")
     return clip
-
-
-def resample(clip: PlaybackMotion, fps: float) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest-frame resampling to ``fps`` (playback speed is kept): rotvecs (N, J, 3), transl (N, 3)."""
-    duration = clip.num_frames / clip.fps
-    n = max(1, int(round(duration * fps)))
-    idx = np.minimum(np.round(np.arange(n) * clip.fps / fps).astype(int), clip.num_frames - 1)
-    return clip.rotvecs[idx], clip.transl[idx]

@@ -105,7 +105,7 @@ class NeuralRasterizer:
         """Render one frame into :attr:`fbo`.
 
         Args:
-            bone_transforms: (J, 4, 4) skinning matrices (see :meth:`Skeleton.bone_transforms`).
+            bone_transforms: (J, 4, 4) skinning matrices (see :meth:`SkinningSkeleton.bone_transforms`).
             camera: a :class:`morf.camera.PinholeCamera` (or anything with ``width``, ``height``,
                 ``view_matrix()`` and ``gl_projection(near, far)``) of this rasterizer's size.
         """

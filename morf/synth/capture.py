@@ -6,18 +6,9 @@ morf_project.json with the camera), so every later stage runs on it unchanged, p
     ground_truth/
       synth_config.json      the resolved SynthConfig (re-running it rebuilds the same files)
       camera.json            the camera (PinholeCamera.to_dict)
-      gt.npz                 per capture frame (N):
-                               rotvecs (N, 104, 3), transl (N, 3), shape (1, 6): the true pose/shape
-                               yaw (N,), phase (N,) str: "turn" | "hands"
-                               keypoints3d (N, 23, 3) world; keypoints_true (N, 23, 3) projected,
-                                 no noise, no corruption (x, y, in-image flag)
-                               corrupted (N,) bool, corruption (N,) str ("" when clean): frames whose
-                                 stored keypoints come from a wrong pose
-                               slide_freqs (K, 2), slide_phases (K, 2), slide_coeffs (N, K, 2),
-                                 slide_weight (Vr,): the cloth sliding field (SlideField) and how much
-                                 each render vertex follows it; slide_grid (N, 32, 32, 2) sampled
-                               loose_offset (V,): garment offset along the normals per model vertex (m)
-                               vertex_regions (V, 5): skin, shirt, trousers, shoes, hair weights
+      gt.npz                 per capture frame: the true poses, shape, keypoints, corrupted frames,
+                             cloth sliding field, garment offsets and regions (format and reader:
+                             morf.synth.ground_truth)
       masks/000000.png       clean rendered masks of the dressed person (equal to the project's
                              masks as written; kept here in case those are replaced)
       body_masks/000000.png  masks of the body alone, without the loose garments
@@ -26,8 +17,7 @@ morf_project.json with the camera), so every later stage runs on it unchanged, p
       holdout/frames/, holdout/masks/
                              a sequence in novel poses (arm raises, hip sway, steps), with the
                              same garments but no cloth sliding
-      holdout.npz            rotvecs (M, 104, 3), transl (M, 3), shape (1, 6), yaw (M,), phase (M,) str,
-                             keypoints (M, 23, 3) projected; camera K (3, 3), R (3, 3), t (3,), width, height
+      holdout.npz            its poses, keypoints and camera (morf.synth.ground_truth)
 
 The manifest is written last, so an interrupted run never looks like a finished project.
 """
@@ -42,11 +32,12 @@ import numpy as np
 from morf.camera import PinholeCamera
 from morf.capture.project import MANIFEST, CaptureProject, Keypoints2D
 from morf.errors import InputError
-from morf.io import atomic_write_json, save_npz, write_image
+from morf.io import atomic_write_json, write_image
 from morf.pipeline.control import Progress, StageControl
 from morf.progress import progress
 from morf.raster import render_textured, rasterize_uv, upload_texture
 from morf.synth.config import SynthConfig
+from morf.synth.ground_truth import GroundTruth, HoldoutSequence, save_ground_truth, save_holdout, write_holdout_images
 from morf.synth.keypoints import close_detector, detect, make_detector, noisy, project_keypoints
 from morf.synth.motion import capture_motion, holdout_motion
 from morf.synth.nuisance import SlideField, corrupt_keypoints, make_slide_field
@@ -61,7 +52,7 @@ def _prepare_folder(root: Path, overwrite: bool) -> None:
     if root.is_dir() and any(root.iterdir()):
         if not overwrite:
             raise InputError(f"{root} is not empty; choose a new folder or pass --force to rebuild a synthetic project")
-        if not (CaptureProject.is_project(root) and (root / "ground_truth").is_dir()):
+        if not (CaptureProject.is_project(root) and CaptureProject(root, {}).is_synthetic):
             raise InputError(f"{root} is not empty and not a synthetic MoRF project; refusing to overwrite it")
         for name in _OUTPUTS:  # everything here was derived from the old capture
             p = root / name
@@ -108,7 +99,7 @@ def make_synthetic_capture(root, config: SynthConfig, *, model=None, control: St
     corruption = np.full(N, "", dtype="<U16")
 
     writer = CaptureProject(root, {"num_frames": N, "frame_ext": ".png", "width": config.size, "height": config.size})
-    gt_dir = root / "ground_truth"
+    gt_dir = writer.ground_truth_dir
     detector = make_detector(config.detector)
     texture = upload_texture(scene.clothing.image)
     points = np.zeros((N, 23, 3), np.float32)
@@ -140,7 +131,7 @@ def make_synthetic_capture(root, config: SynthConfig, *, model=None, control: St
             write_image(gt_dir / "body_masks" / f"{i:06d}.png", body_mask.astype(np.uint8) * 255)
             bar.update(1)
             control.report(Progress("synth", i + 1, N + M, f"capture frame {i + 1}/{N}", frame=i))
-        _render_holdout(scene, config, streams, texture, gt_dir, control, bar)
+        _render_holdout(scene, config, streams, texture, writer, control, bar)
     finally:
         bar.close()
         texture.release()
@@ -149,12 +140,13 @@ def make_synthetic_capture(root, config: SynthConfig, *, model=None, control: St
     writer.save_keypoints(Keypoints2D(points=points, detected=np.ones(N, bool), source=source))
     write_image(gt_dir / "texture.png", scene.clothing.image)
     atomic_write_json(gt_dir / "camera.json", cam.to_dict())
-    save_npz(gt_dir / "gt.npz", rotvecs=motion.rotvecs, transl=motion.transl, shape=scene.shape.numpy(),
-             yaw=motion.yaw, phase=motion.phase.astype(str), keypoints3d=kp3d, keypoints_true=true_points,
-             corrupted=corrupted, corruption=corruption, slide_freqs=field.freqs, slide_phases=field.phases,
-             slide_coeffs=field.coeffs.astype(np.float32), slide_weight=scene.slide_weight,
-             slide_grid=np.stack([field.grid(i) for i in range(N)]).astype(np.float32),
-             loose_offset=scene.loose_offset, vertex_regions=scene.vertex_regions)
+    save_ground_truth(writer, GroundTruth(
+        rotvecs=motion.rotvecs, transl=motion.transl, shape=scene.shape.numpy(), yaw=motion.yaw,
+        phase=motion.phase.astype(str), keypoints3d=kp3d, keypoints_true=true_points, corrupted=corrupted,
+        corruption=corruption, slide_freqs=field.freqs, slide_phases=field.phases,
+        slide_coeffs=field.coeffs.astype(np.float32), slide_weight=scene.slide_weight,
+        slide_grid=np.stack([field.grid(i) for i in range(N)]).astype(np.float32),
+        loose_offset=scene.loose_offset, vertex_regions=scene.vertex_regions))
     used = {"detector": "mediapipe" if detector is not None else "none",
             "frames_with_detector_keypoints": int((source == "mediapipe").sum())}
     atomic_write_json(gt_dir / "synth_config.json", {"config": config.to_dict(), "resolved": used})
@@ -164,7 +156,7 @@ def make_synthetic_capture(root, config: SynthConfig, *, model=None, control: St
         extra={"frame_ext": ".png"})
 
 
-def _render_holdout(scene: SynthScene, config: SynthConfig, streams, texture, gt_dir: Path,
+def _render_holdout(scene: SynthScene, config: SynthConfig, streams, texture, writer: CaptureProject,
                     control: StageControl, bar) -> None:
     """Novel poses with the same garments and no sliding, for judging generalisation."""
     M, N = config.holdout_frames, config.frames
@@ -175,11 +167,9 @@ def _render_holdout(scene: SynthScene, config: SynthConfig, streams, texture, gt
         control.check()
         rgb, mask = render_textured(posed.dressed, scene.mesh, cam, texture, background=config.background,
                                     msaa=config.msaa, shading=config.shading)
-        write_image(gt_dir / "holdout" / "frames" / f"{j:06d}.png", rgb)
-        write_image(gt_dir / "holdout" / "masks" / f"{j:06d}.png", mask.astype(np.uint8) * 255)
+        write_holdout_images(writer, j, rgb, mask)
         kp[j] = project_keypoints(posed.keypoints3d[None], cam)[0]
         bar.update(1)
         control.report(Progress("synth", N + j + 1, N + M, f"hold-out frame {j + 1}/{M}"))
-    save_npz(gt_dir / "holdout.npz", rotvecs=motion.rotvecs, transl=motion.transl, shape=scene.shape.numpy(),
-             yaw=motion.yaw, phase=motion.phase.astype(str), keypoints=kp, K=cam.K, R=cam.R, t=cam.t,
-             width=np.int64(cam.width), height=np.int64(cam.height))
+    save_holdout(writer, HoldoutSequence(rotvecs=motion.rotvecs, transl=motion.transl, shape=scene.shape.numpy(),
+                                         yaw=motion.yaw, phase=motion.phase.astype(str), keypoints=kp, camera=cam))

@@ -21,6 +21,8 @@ from morf.errors import ProjectError
 from morf.fitting.fits_io import BodyFits, load_fits
 from morf.io import load_npz, save_npz
 from morf.pipeline.control import Progress, StageControl
+from morf.synth.ground_truth import (GroundTruth, has_ground_truth, has_holdout, load_ground_truth, load_holdout,
+                                     read_holdout_frame, read_holdout_mask)
 from morf.train.frames import UV_SCALE, FrameSet
 
 CACHE_VERSION = 1
@@ -60,14 +62,9 @@ def _from_fits(fits: BodyFits) -> BodyFitArrays:
                          np.ones(fits.num_frames, bool), "fits", fits.offsets)
 
 
-def _from_ground_truth(path: Path) -> BodyFitArrays:
-    d = load_npz(path)
-    for k in ("rotvecs", "transl", "shape"):
-        if k not in d:
-            raise ProjectError(f"{path} lacks {k!r}")
-    rot = d["rotvecs"].astype(np.float32)
-    valid = d["valid"].astype(bool) if "valid" in d else np.ones(len(rot), bool)
-    return BodyFitArrays(rot, d["transl"].astype(np.float32), _mean_shape(d["shape"]), valid, "ground-truth")
+def _from_ground_truth(truth: GroundTruth) -> BodyFitArrays:
+    return BodyFitArrays(truth.rotvecs.astype(np.float32), truth.transl.astype(np.float32), _mean_shape(truth.shape),
+                         truth.valid.astype(bool), "ground-truth")
 
 
 def load_body_fits(project, source: str = "auto") -> BodyFitArrays:
@@ -76,13 +73,12 @@ def load_body_fits(project, source: str = "auto") -> BodyFitArrays:
     if source not in FIT_SOURCES:
         raise ProjectError(f"unknown fits source {source!r}; choose one of {', '.join(FIT_SOURCES)}")
     has_fits = project.fits_path.is_file()
-    gt = project.ground_truth_dir / "gt.npz"
     if source == "fits" or (source == "auto" and has_fits):
         if not has_fits:
             raise ProjectError(f"no body fits in {project.root}; run 'morf fit {project.root}' first")
         return _from_fits(load_fits(project))
-    if gt.is_file():
-        return _from_ground_truth(gt)
+    if has_ground_truth(project):
+        return _from_ground_truth(load_ground_truth(project))
     if source == "ground-truth":
         raise ProjectError(f"{project.root} has no ground truth (only synthetic captures do)")
     raise ProjectError(f"no body fits in {project.root}; run 'morf fit {project.root}' first")
@@ -275,10 +271,9 @@ def fitted_frame_offset(project, fits: BodyFitArrays) -> np.ndarray:
     or the novel-pose hold-out compares a body that is too large and shifted (zero without a
     ground truth).
     """
-    path = project.ground_truth_dir / "gt.npz"
-    if fits.source != "fits" or not path.is_file():
+    if fits.source != "fits" or not has_ground_truth(project):
         return np.zeros(3, np.float32)
-    gt = load_npz(path)["transl"].astype(np.float32)
+    gt = load_ground_truth(project).transl.astype(np.float32)
     n = min(len(gt), len(fits.transl))
     ok = fits.valid[:n]
     if not ok.any():
@@ -294,32 +289,24 @@ def build_holdout_frames(project, model, working: PinholeCamera, shape: np.ndarr
     the avatar was trained on) the poses are moved into the fitted frame
     (:func:`fitted_frame_offset`). None when the project has no hold-out sequence.
     """
-    gt = project.ground_truth_dir
-    path = gt / "holdout.npz"
-    if not path.is_file():
+    if not has_holdout(project):
         return None
-    d = load_npz(path)
-    rot, tr = d["rotvecs"].astype(np.float32), d["transl"].astype(np.float32)
+    hold = load_holdout(project)
+    rot, tr = hold.rotvecs.astype(np.float32), hold.transl.astype(np.float32)
     if fits is not None:
         tr = tr + fitted_frame_offset(project, fits)
     if len(rot) == 0:
         return None
-    cam = project.camera()
-    if "K" in d:
-        K = d["K"]
-        cam = PinholeCamera(float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2]), int(d["width"]),
-                            int(d["height"]), d["R"].astype(float), d["t"].astype(float))
+    cam = project.camera() if hold.camera is None else hold.camera
     x0, y0, side = crop_of(cam, working)
     R = working.width
     images, masks, uvs, uvms, facings = [], [], [], [], []
     done = 0
     for uv, uvm, fac in rasterize_frames(model, rot, tr, shape.reshape(1, -1), working):
         for j in range(len(uv)):
-            from morf.io import read_image
-
             i = done + j
-            images.append(crop_image(read_image(gt / "holdout" / "frames" / f"{i:06d}.png"), x0, y0, side, R))
-            m = read_image(gt / "holdout" / "masks" / f"{i:06d}.png", grayscale=True)
+            images.append(crop_image(read_holdout_frame(project, i), x0, y0, side, R))
+            m = read_holdout_mask(project, i)
             masks.append(crop_image(m, x0, y0, side, R) > 127)
         done += len(uv)
         uvs.append(np.round(np.clip(uv, 0, 1) * UV_SCALE).astype(np.uint16))

@@ -19,6 +19,7 @@ class FakeProject:
         self.image_size = (size, size)
         self.fits_path = root / "fits" / "fits.npz"
         self.ground_truth_dir = root / "ground_truth"
+        self.ground_truth_path = self.ground_truth_dir / "gt.npz"
         y, x = np.mgrid[0:size, 0:size]
         k = size / 128
         self.mask = (abs(x - size / 2) < 20 * k) & (y > 14 * k) & (y < 114 * k)  # a person 99 px tall at 128 px

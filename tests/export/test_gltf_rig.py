@@ -1,4 +1,4 @@
-"""The glTF rig on a small random skeleton: bind pose, poses against Skeleton.bone_transforms, weights,
+"""The glTF rig on a small random skeleton: bind pose, poses against SkinningSkeleton.bone_transforms, weights,
 animation keyframes, and the .glb container read back by pygltflib."""
 
 from __future__ import annotations
@@ -10,15 +10,15 @@ from scipy.spatial.transform import Rotation
 from morf.export.glb import ARRAY_BUFFER, GlbBuilder
 from morf.export.gltf_animation import align_quaternion_signs, joint_animation, moving_joints
 from morf.export.gltf_rig import Y_UP, global_transforms, gltf_rig, pose_nodes, to_gltf_axes, top_influences
-from morf.export.skeleton import Skeleton
+from morf.export.skeleton import SkinningSkeleton
 
 
-def random_skeleton(seed: int = 0) -> Skeleton:
+def random_skeleton(seed: int = 0) -> SkinningSkeleton:
     rng = np.random.default_rng(seed)
     parents = np.array([-1, 0, 1, 1, 3], np.int32)
     R = Rotation.random(5, random_state=seed).as_matrix()
     U = Rotation.random(5, random_state=seed + 1).as_matrix()
-    return Skeleton(names=np.array(list("abcde")), parents=parents, rest_rotations=R,
+    return SkinningSkeleton(names=np.array(list("abcde")), parents=parents, rest_rotations=R,
                     rest_heads=rng.normal(0, 0.3, (5, 3)), reference_rotations=U)
 
 

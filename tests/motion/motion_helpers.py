@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from morf.motion.skeleton import Skeleton, SourceMotion
+from morf.motion.skeleton import SourceMotion, SourceSkeleton
 
 # A Mixamo-like T-pose skeleton, Y up, facing +Z, the person's left at +X, in centimetres.
 # (name, parent, offset)
@@ -25,11 +25,11 @@ TPOSE_JOINTS = (
 )
 
 
-def tpose_skeleton(scale: float = 0.01) -> Skeleton:
+def tpose_skeleton(scale: float = 0.01) -> SourceSkeleton:
     names = tuple(n for n, _, _ in TPOSE_JOINTS)
     parents = tuple(-1 if p is None else names.index(p) for _, p, _ in TPOSE_JOINTS)
     offsets = np.array([o for _, _, o in TPOSE_JOINTS], dtype=np.float64) * scale
-    return Skeleton(names, parents, offsets, "y")
+    return SourceSkeleton(names, parents, offsets, "y")
 
 
 def tpose_motion(frames: int = 2, fps: float = 30.0) -> SourceMotion:

@@ -26,6 +26,17 @@ def test_loads_and_plays_without_torch(tiny_avatar):
     assert int(r.stdout.split()[-1]) > 200
 
 
+def test_motion_clips_import_without_torch():
+    """The player's motions are MotionClips, whose module (and the player's) imports no torch."""
+    script = textwrap.dedent("""
+        import sys
+        import morf.motion.clip, morf.playback.motion_input, morf.playback.player
+        assert "torch" not in sys.modules, "torch was imported"
+    """)
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr[-2000:]
+
+
 def test_manifest_describes_the_folder(tiny_avatar):
     import json
 

@@ -26,6 +26,10 @@ def test_play_writes_video_and_frames(tiny_avatar, tmp_path):
     assert main(["play", str(tiny_avatar), "--motion", str(motion), "--out", str(tmp_path / "frames"),
                  "--size", "64", "--camera", "orbit", "--fps", "15"]) == 0
     assert len(list((tmp_path / "frames").glob("*.png"))) == 2
+    # The motion is resampled by slerp at k / fps over its 0.1 s (first to last frame): 7 frames at 60 fps.
+    assert main(["play", str(tiny_avatar), "--motion", str(motion), "--out", str(tmp_path / "frames60"),
+                 "--size", "64", "--fps", "60"]) == 0
+    assert len(list((tmp_path / "frames60").glob("*.png"))) == 7
 
 
 def test_play_bad_motion(tiny_avatar, tmp_path, capsys):

@@ -1,6 +1,7 @@
 """A tiny synthetic capture is a valid project whose ground truth explains its images."""
 
 import json
+from dataclasses import fields
 
 import cv2
 import numpy as np
@@ -13,6 +14,7 @@ from morf.camera import PinholeCamera
 from morf.capture.project import CaptureProject
 from morf.io import load_npz, read_image
 from morf.synth import make_synthetic_capture, synth_config
+from morf.synth.ground_truth import GroundTruth, load_ground_truth, load_holdout, read_holdout_frame, read_holdout_mask
 
 pytestmark = pytest.mark.gl
 
@@ -38,19 +40,22 @@ def test_tiny_preset_builds_a_valid_project(tiny):
     kp = p.load_keypoints()
     assert kp.points.shape == (N, 23, 3) and kp.detected.all()
     assert set(kp.source) == {"ground_truth"}  # the tiny preset runs no detector
-    gt = load_npz(p.ground_truth_dir / "gt.npz")
-    assert gt["rotvecs"].shape == (N, 104, 3) and gt["transl"].shape == (N, 3) and gt["shape"].shape == (1, 6)
-    assert gt["corrupted"].shape == (N,) and gt["slide_coeffs"].shape[0] == N
-    assert set(gt["phase"]) == {"turn", "hands"}
+    every = tuple(f.name for f in fields(GroundTruth) if f.name != "valid")  # valid is optional: every frame when absent
+    gt = load_ground_truth(p, require=every)  # the capture writes every array of the format
+    assert set(load_npz(p.ground_truth_path)) == set(every)
+    assert gt.rotvecs.shape == (N, 104, 3) and gt.transl.shape == (N, 3) and gt.shape.shape == (1, 6)
+    assert gt.corrupted.shape == (N,) and gt.slide_coeffs.shape[0] == N and gt.valid.all()
+    assert set(gt.phase) == {"turn", "hands"}
     # the person turns all the way round
-    assert gt["yaw"][0] == pytest.approx(0, abs=1e-6) and gt["yaw"].max() == pytest.approx(2 * np.pi, abs=1e-4)
-    hold = load_npz(p.ground_truth_dir / "holdout.npz")
-    assert hold["rotvecs"].shape == (4, 104, 3)
+    assert gt.yaw[0] == pytest.approx(0, abs=1e-6) and gt.yaw.max() == pytest.approx(2 * np.pi, abs=1e-4)
+    hold = load_holdout(p, require=("shape", "yaw", "phase", "keypoints", "camera"))
+    assert hold.num_frames == 4 and hold.rotvecs.shape == (4, 104, 3)
+    assert np.allclose(hold.camera.K, p.camera().K) and np.allclose(hold.camera.t, p.camera().t)
     for j in range(4):
-        assert read_image(p.ground_truth_dir / "holdout" / "frames" / f"{j:06d}.png").shape == (128, 128, 3)
-        assert (read_image(p.ground_truth_dir / "holdout" / "masks" / f"{j:06d}.png", grayscale=True) > 127).any()
+        assert read_holdout_frame(p, j).shape == (128, 128, 3)
+        assert (read_holdout_mask(p, j) > 127).any()
     # novel poses: no hold-out pose equals a capture pose
-    d = np.abs(hold["rotvecs"][:, None, 1:] - gt["rotvecs"][None, :, 1:]).max(axis=(2, 3))
+    d = np.abs(hold.rotvecs[:, None, 1:] - gt.rotvecs[None, :, 1:]).max(axis=(2, 3))
     assert d.min() > 0.2
     cfg = json.loads((p.ground_truth_dir / "synth_config.json").read_text())
     assert cfg["config"]["preset"] == "tiny" and cfg["config"]["corrupt"] == 0.25
@@ -62,7 +67,7 @@ def test_masks_match_the_projected_geometry(tiny, body_model):
     from morf.raster import rasterize_uv
 
     p = CaptureProject.open(tiny.root)
-    gt = load_npz(p.ground_truth_dir / "gt.npz")
+    gt = load_npz(p.ground_truth_path)
     cam = p.camera()
     rm = render_mesh_for(body_model)
     frames = [0, 5, 11]
@@ -95,7 +100,7 @@ def test_masks_match_the_projected_geometry(tiny, body_model):
 
 def test_corrupted_frames_are_recorded(tiny):
     p = CaptureProject.open(tiny.root)
-    gt = load_npz(p.ground_truth_dir / "gt.npz")
+    gt = load_npz(p.ground_truth_path)
     stored = p.load_keypoints().points
     err = np.linalg.norm(stored[..., :2] - gt["keypoints_true"][..., :2], axis=-1).max(-1)  # (N,)
     bad = gt["corrupted"]
@@ -113,7 +118,7 @@ def test_same_seed_same_capture(tmp_path, body_model):
     for i in range(3):
         assert np.array_equal(a.load_frame(i), b.load_frame(i))
     assert np.array_equal(a.load_keypoints().points, b.load_keypoints().points)
-    ga, gb = load_npz(a.ground_truth_dir / "gt.npz"), load_npz(b.ground_truth_dir / "gt.npz")
+    ga, gb = load_npz(a.ground_truth_path), load_npz(b.ground_truth_path)
     assert ga.keys() == gb.keys() and all(np.array_equal(ga[k], gb[k]) for k in ga)
     assert not np.array_equal(a.load_frame(1), c.load_frame(1))
     # an existing folder is refused unless asked to rebuild it

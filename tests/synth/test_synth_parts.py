@@ -126,8 +126,8 @@ def test_plain_clothing_has_less_detail_and_same_scene(tmp_path):
     printed = make_synthetic_capture(tmp_path / "print", synth_config("tiny", frames=2, holdout_frames=0))
     plain = make_synthetic_capture(tmp_path / "plain", synth_config("tiny", frames=2, holdout_frames=0, clothing="plain"))
     assert detail(plain) < 0.7 * detail(printed)
-    a = np.load(printed.ground_truth_dir / "gt.npz")
-    b = np.load(plain.ground_truth_dir / "gt.npz")
+    a = np.load(printed.ground_truth_path)
+    b = np.load(plain.ground_truth_path)
     assert np.array_equal(a["rotvecs"], b["rotvecs"]) and np.array_equal(a["shape"], b["shape"])
 
 
