@@ -23,7 +23,8 @@ The rule (thresholds in :class:`SizingRule`, calibration in docs/benchmarks.md):
 3. Renderer: the preset's. The rule can step down the preset's ladder for plain, tight clothing
    and up when much of the person lies outside the fitted body (``SizingRule`` steps), but at
    default size (docs/benchmarks.md) the ladder's smaller renderer cost 1.0-3.6 dB on plain, print
-   and loose scenes and the larger one lost 1.5 dB on the loose scene, so both steps are 0.
+   and loose scenes and the larger one lost 1.5 dB on the loose scene, so both steps are 0 (measured
+   on the stem x2 ladder the ``cpu`` preset used before its stem x4 base 24 renderer).
 
 Frame count and motion range do not change the sizes (they decide what can be learned at all);
 they are reported so a user sees why a capture may disappoint.
@@ -49,7 +50,7 @@ from morf.train.config import TrainConfig, preset
 # Renderer ladders (smallest first) per base preset; the middle one is the preset's own.
 LADDERS: dict[str, tuple[str, ...]] = {
     "tiny": ("tiny_b4", "tiny_b8", "tiny_b16"),
-    "cpu": ("stem2_b8", "stem2_b16", "stem2_b24"),
+    "cpu": ("stem4_b16", "stem4_b24", "stem4_b32"),
 }
 CROP_MARGIN = 1.16  # training crop side / person height (morf.train.data.person_square, 8 % margins)
 

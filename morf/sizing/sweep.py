@@ -20,10 +20,10 @@ from morf.train.config import TrainConfig, preset
 RENDERERS: dict[str, dict] = {
     "plain_b16": dict(stem=1, width=16, depth=4, max_width=64, skip_hidden=16),
     "stem2_b8": dict(stem=2, width=8, depth=4, max_width=32, skip_hidden=8),
-    "stem2_b16": dict(stem=2, width=16, depth=4, max_width=64, skip_hidden=16),  # the "cpu" preset
+    "stem2_b16": dict(stem=2, width=16, depth=4, max_width=64, skip_hidden=16),
     "stem2_b24": dict(stem=2, width=24, depth=4, max_width=96, skip_hidden=16),
     "stem4_b16": dict(stem=4, width=16, depth=4, max_width=64, skip_hidden=16),
-    "stem4_b24": dict(stem=4, width=24, depth=4, max_width=96, skip_hidden=16),
+    "stem4_b24": dict(stem=4, width=24, depth=4, max_width=96, skip_hidden=16),  # the "cpu" preset
     "stem4_b32": dict(stem=4, width=32, depth=4, max_width=128, skip_hidden=16),
     "stem4_b48": dict(stem=4, width=48, depth=4, max_width=192, skip_hidden=16),
     # CI sizes (the "tiny" training preset's renderer and its neighbours)

@@ -15,12 +15,13 @@ def _args(**kw):
 
 
 def test_renderer_option_replaces_the_presets_renderer():
-    cfg, reasons = resolve_config(_args(renderer="stem4_b24"))
+    cfg, reasons = resolve_config(_args(renderer="stem2_b16"))
     assert reasons == []
-    assert (cfg.renderer.stem, cfg.renderer.width, cfg.renderer.max_width) == (4, 24, 96)
+    assert (cfg.renderer.stem, cfg.renderer.width, cfg.renderer.max_width) == (2, 16, 64)
     assert cfg.renderer.in_channels == cfg.texture_channels
+    assert cfg.renderer.rgb_skip  # only the size changes, not the preset's colour skip
     default, _ = resolve_config(_args())
-    assert (default.renderer.stem, default.renderer.width) == (2, 16)
+    assert (default.renderer.stem, default.renderer.width) == (4, 24)
 
 
 def test_bad_renderer_choices_are_user_errors():
