@@ -34,8 +34,8 @@ PRESETS = {
     "tiny": DemoPreset("tiny", "fast", "tiny", None, 128, 8),
     # Under ten minutes on 2 CPU cores: a default-size capture, a shortened cpu-preset training (the
     # colour starts from the projected frames, so a few hundred steps already look like the person;
-    # the stem x4 renderer affords 1200 of the preset's 1500 in the time 600 took at stem x2).
-    "quick": DemoPreset("default", "default", "cpu", 1200, 640, 240),
+    # the stem x4 renderer affords 1000 of the preset's 1500 in about the time 600 took at stem x2).
+    "quick": DemoPreset("default", "default", "cpu", 1000, 640, 240),
     # The cpu preset trained to its plateau (tens of minutes).
     "full": DemoPreset("default", "default", "cpu", None, 640, 0),
 }
