@@ -69,7 +69,7 @@ def push_pull_fill(rgb: torch.Tensor, covered: torch.Tensor, levels: int) -> tor
     as it is covered and takes the upsampled coarser colour for the rest. Covered pixels come
     back unchanged; uncovered pixels within about ``2**levels`` pixels of the body get its colour.
     ``covered`` must be 0 or 1 (the rasterizer's coverage). Only pooling, division, bilinear
-    resizing and a select, so it exports to ONNX as plain ops.
+    resizing and elementwise arithmetic, so it exports to ONNX as plain ops.
     """
     if levels <= 0:
         return rgb

@@ -192,18 +192,18 @@ def measure_points(project, sweep, pairs, model, out: Path, ray=None, workers: i
             results[point.name] = (old, True)
         else:
             root = str(Path(project.root).resolve())
-            need.append((point, cfg, Training(root, cfg, f"pareto-{train_key(cfg)}",
-                                              eval_resolution=_identity(sweep, point, cfg)[1])))
-    trained = train_all([t for _, _, t in need], ray, workers, cpus_per_task)
+            key, eval_res = _identity(sweep, point, cfg)
+            need.append((point, cfg, key, Training(root, cfg, f"pareto-{train_key(cfg)}", eval_resolution=eval_res)))
+    trained = train_all([t for _, _, _, t in need], ray, workers, cpus_per_task)
     failed = []
-    for point, cfg, t in need:
+    for point, cfg, key, t in need:
         o = trained[(t.root, t.run)]
         if not o.ok:
             failed.append(Outcome(point.name, error=o.error))
             continue
         t0 = time.time()
         row = {"name": point.name, "axis": point.axis, "method": cfg.method, "precision": point.precision,
-               "key": _identity(sweep, point, cfg)[0], "config": _summary(cfg), **o.value}
+               "key": key, "config": _summary(cfg), **o.value}
         row.update(fps=None, frame_ms=None, renderer_ms=None, int8_psnr_vs_fp32_db=None)
         if not row["diverged"]:
             row.update(speed_of_run(row["run"], out / "work", sweep.fps_size, sweep.fps_frames, point.precision, model))

@@ -283,17 +283,17 @@ def _train_missing(out: Path, sp: StabilityPreset, series, methods, repeats: int
     jobs = []  # (result path, result header, Training, Setting)
     for s in series:
         for i, level in enumerate(sp.levels[s]):
-            for m in methods:
-                for r in range(repeats):
-                    path = _point_path(out, s, i, m, r)
-                    if path.is_file():
-                        continue
-                    st = prepare(s, i, level, out, sp, model)
-                    cfg = train_preset(sp.train[0], m, **sp.train[1]).replace(seed=r)
-                    tag = f"-seed{r}" if r else ""
-                    jobs.append((path, {"series": s, "level": level, "method": m, "seed": r},
-                                 Training(str(Path(st.project).resolve()), cfg, f"{st.stem}-{m}{tag}",
-                                          st.fits_source), st))
+            missing = [(m, r, _point_path(out, s, i, m, r)) for m in methods for r in range(repeats)]
+            missing = [(m, r, path) for m, r, path in missing if not path.is_file()]
+            if not missing:
+                continue
+            st = prepare(s, i, level, out, sp, model)  # once a level: it opens (or makes) the capture
+            for m, r, path in missing:
+                cfg = train_preset(sp.train[0], m, **sp.train[1]).replace(seed=r)
+                tag = f"-seed{r}" if r else ""
+                jobs.append((path, {"series": s, "level": level, "method": m, "seed": r},
+                             Training(str(Path(st.project).resolve()), cfg, f"{st.stem}-{m}{tag}",
+                                      st.fits_source), st))
     failed = []
     clean = str(out / "captures" / "clean")
     for hidden, noise, idx in plan_waves([j[3] for j in jobs]):
