@@ -10,6 +10,9 @@ Transpose):
       decoder: bilinear x2 upsampling + skip concat + two 3x3 convs per level
       head: 3x3 conv at H/s; if stem > 1 it is upsampled bilinearly to H and concatenated with
             the raw input (the full-resolution skip), then two 1x1 convs -> 4 channels.
+            With ``head_stride`` 2 the head runs at H/2: the raw input enters through a 2x2
+            stride-2 conv, and the 4 outputs are upsampled bilinearly to H (the texture-colour
+            skip of ``rgb_skip`` stays at full resolution).
 
 Output ``(B, 4, H, W)``: channels 0-2 are linear RGB, trained towards [0, 1] premultiplied by the
 mask (black background; clamp for display), channel 3 is the mask logit. H and W must be multiples
@@ -51,6 +54,10 @@ class RendererConfig:
     # (a push-pull fill over this many 2x levels) before the residual is added, so where the real
     # silhouette reaches past the fitted body the skip offers the neighbouring colour, not black.
     fill_levels: int = 4
+    # 1: the head's 1x1 convolutions run at the input's resolution. 2: at half of it, a quarter of
+    # the pixels (with a stem of 4 at 640x640 the full-resolution head was a third of the int8
+    # graph's time); only its 4 outputs are upsampled to full resolution.
+    head_stride: int = 1
 
     @property
     def multiple(self) -> int:
@@ -61,32 +68,43 @@ class RendererConfig:
 MASK_BIAS_INIT = -2.0
 
 
+def _half(t: torch.Tensor) -> torch.Tensor:
+    """The 2x2 mean: on even sides as a bilinear resize by 1/2 (the same numbers, one Resize in
+    ONNX, which onnxruntime runs in about half the time of its AveragePool at 640x640); odd
+    sides pool with a partial last window."""
+    if t.shape[-2] % 2 == 0 and t.shape[-1] % 2 == 0:
+        return F.interpolate(t, scale_factor=0.5, mode="bilinear", align_corners=False)
+    return F.avg_pool2d(t, 2, 2, ceil_mode=True)
+
+
 def push_pull_fill(rgb: torch.Tensor, covered: torch.Tensor, levels: int) -> torch.Tensor:
     """Fill uncovered pixels of ``rgb`` (B, 3, H, W) with the colour of nearby covered ones.
 
-    Push: average-pool colour and coverage ``levels`` times (colour stays premultiplied by
-    coverage); pull: from the coarsest level up, a pixel keeps its own normalised colour as far
-    as it is covered and takes the upsampled coarser colour for the rest. Covered pixels come
-    back unchanged; uncovered pixels within about ``2**levels`` pixels of the body get its colour.
-    ``covered`` must be 0 or 1 (the rasterizer's coverage). Only pooling, division, bilinear
-    resizing and elementwise arithmetic, so it exports to ONNX as plain ops.
+    Push: average colour and coverage over 2x2 blocks ``levels`` times (colour stays
+    premultiplied by coverage); pull: from the coarsest level up, a pixel keeps its own
+    normalised colour as far as it is covered and takes the upsampled coarser colour for the
+    rest. Covered pixels come back unchanged; uncovered pixels within about ``2**levels`` pixels
+    of the body get its colour. ``covered`` must be 0 or 1 (the rasterizer's coverage) and
+    ``rgb`` zero where it is 0 (a rasterization is). Only resizing, division and elementwise
+    arithmetic, so it exports to ONNX as plain ops.
     """
     if levels <= 0:
         return rgb
-    cols, covs = [rgb * covered], [covered]
+    cols, covs = [rgb], [covered]
     for _ in range(levels):
-        cols.append(F.avg_pool2d(cols[-1], 2, 2, ceil_mode=True))
-        covs.append(F.avg_pool2d(covs[-1], 2, 2, ceil_mode=True))
+        cols.append(_half(cols[-1]))
+        covs.append(_half(covs[-1]))
     fill = cols[-1] / covs[-1].clamp_min(1e-4)
     for col, cov in zip(reversed(cols[1:-1]), reversed(covs[1:-1])):
         up = F.interpolate(fill, size=col.shape[-2:], mode="bilinear", align_corners=False)
         a = (cov * 4).clamp(max=1.0)  # a quarter covered is enough to trust the level's own colour
         fill = a * (col / cov.clamp_min(1e-4)) + (1 - a) * up
-    # Full resolution: the coverage is 0 or 1 there, so the pull step reduces to a choice, written
-    # as arithmetic (covered pixels keep their colour bit for bit): four float ops in the playback
-    # graph instead of nine (onnxruntime's Where, broadcasting the mask over the planes, was slower).
+    # Full resolution: the coverage is 0 or 1 there and rgb is zero where it is 0, so the pull
+    # step reduces to adding the coarser colour where uncovered, written as arithmetic (covered
+    # pixels keep their colour bit for bit): three float ops in the playback graph (onnxruntime's
+    # Where, broadcasting the mask over the planes, was slower).
     up = F.interpolate(fill, size=rgb.shape[-2:], mode="bilinear", align_corners=False).to(rgb.dtype)
-    return rgb * covered + up * (1 - covered)
+    return rgb + up * (1 - covered)
 
 
 def _block(cin: int, cout: int, stride: int = 1) -> nn.Sequential:
@@ -120,6 +138,8 @@ class UNetRenderer(nn.Module):
         super().__init__()
         if cfg.stem not in (1, 2, 4):
             raise ValueError("renderer stem must be 1, 2 or 4")
+        if cfg.head_stride not in (1, 2) or (cfg.head_stride > 1 and cfg.stem == 1):
+            raise ValueError("renderer head_stride must be 1, or 2 with a stem of 2 or 4")
         self.cfg = cfg
         ch = [min(cfg.width * 2 ** i, cfg.max_width) for i in range(cfg.depth + 1)]
         if cfg.stem == 1:
@@ -134,9 +154,14 @@ class UNetRenderer(nn.Module):
             for i in reversed(range(cfg.depth)))
         if cfg.stem == 1:
             self.head = nn.Conv2d(ch[0], 4, 3, 1, 1)
-        else:
+        elif cfg.head_stride == 1:
             self.head_low = nn.Sequential(nn.Conv2d(ch[0], ch[0], 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
             self.head = nn.Sequential(nn.Conv2d(ch[0] + cfg.in_channels, cfg.skip_hidden, 1),
+                                      nn.LeakyReLU(0.2, inplace=True), nn.Conv2d(cfg.skip_hidden, 4, 1))
+        else:  # head[0] reads the trunk's features, head_x the raw input (summed before head[1])
+            self.head_low = nn.Sequential(nn.Conv2d(ch[0], ch[0], 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
+            self.head_x = nn.Conv2d(cfg.in_channels, cfg.skip_hidden, cfg.head_stride, cfg.head_stride, bias=False)
+            self.head = nn.Sequential(nn.Conv2d(ch[0], cfg.skip_hidden, 1),
                                       nn.LeakyReLU(0.2, inplace=True), nn.Conv2d(cfg.skip_hidden, 4, 1))
         if cfg.rgb_skip:
             self.colour = TextureColour(cfg.fill_levels)
@@ -168,6 +193,12 @@ class UNetRenderer(nn.Module):
         h = self.trunk(x)
         if self.cfg.stem == 1:
             return h
+        if self.cfg.head_stride > 1:
+            h = self.head[0](self.head_low(h))
+            up = self.cfg.stem // self.cfg.head_stride
+            if up > 1:
+                h = F.interpolate(h, scale_factor=float(up), mode="bilinear", align_corners=False)
+            return self.head[1](h + self.head_x(x))
         # head[0] is a 1x1 conv on cat(upsample(h), x). A 1x1 conv commutes with bilinear
         # upsampling, so its h part runs at low resolution before the upsampling and its x part
         # at full resolution, summed: the same function without a full-resolution concat
@@ -177,6 +208,12 @@ class UNetRenderer(nn.Module):
         h = F.interpolate(h, scale_factor=float(self.cfg.stem), mode="bilinear", align_corners=False)
         return self.head[1](h + F.conv2d(x, conv.weight[:, c:]))
 
+    def to_full(self, out: torch.Tensor) -> torch.Tensor:
+        """:attr:`last`'s output at the input's resolution (upsampled with ``head_stride`` 2)."""
+        if self.cfg.head_stride == 1:
+            return out
+        return F.interpolate(out, scale_factor=float(self.cfg.head_stride), mode="bilinear", align_corners=False)
+
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return self.forward_parts(x)[0]
 
@@ -184,7 +221,7 @@ class UNetRenderer(nn.Module):
         """``(output, residual)``: the output of :meth:`forward` and, with ``rgb_skip``, the RGB the
         network adds over the texture's colour, before the mask multiplies it (None without
         ``rgb_skip``). Training penalises it (``TrainConfig.w_residual``)."""
-        out = self.last(self.features(x))
+        out = self.to_full(self.last(self.features(x)))
         residual = None
         if self.cfg.rgb_skip:
             residual = out[:, :3]

@@ -79,6 +79,7 @@ def equalize_renderer(renderer, inputs: Iterable[torch.Tensor], input_range: flo
         return r
     D = len(r.down)
     stem = r.cfg.stem > 1
+    split_head = stem and getattr(r.cfg, "head_stride", 1) > 1
     pairs = ([(r.head[0], r.head[1], r.head[2])] if stem else []) + [(b[0], b[1], b[2]) for b in list(r.down) + list(r.up)]
     # One pass measures everything: each rescaling below changes only the tensor it targets (the
     # consumer compensates), so no range measured here is changed by another rescaling.
@@ -98,7 +99,7 @@ def equalize_renderer(renderer, inputs: Iterable[torch.Tensor], input_range: flo
             if g > 0:
                 _scale_out(src[2], 1.0 / g)
                 _scale_in(r.up[i][0], g, 0, src[2].out_channels)
-        if stem:  # full-resolution head: [upsampled head_low features, raw rasterization]
+        if stem and not split_head:  # full-resolution head: [upsampled head_low features, raw rasterization]
             b = top["head_low"] / input_range
             if b > 0:
                 _scale_out(r.head_low[0], 1.0 / b)
@@ -107,6 +108,8 @@ def equalize_renderer(renderer, inputs: Iterable[torch.Tensor], input_range: flo
             ch = rng[f"act{j}"].clamp_min(1e-6)
             s = (ch.max() / ch).clamp(max=100.0)  # a dead channel is not blown up
             _scale_out(first, s)
+            if j == 0 and split_head:  # head[1] reads head[0](features) + head_x(raster)
+                _scale_out(r.head_x, s)
             _scale_in(second, 1.0 / s, 0, second.in_channels)
     return r
 

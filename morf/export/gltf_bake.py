@@ -158,7 +158,8 @@ def bake_base_colour(trained, model, cfg: BakeConfig = BakeConfig()) -> BakedCol
     # The islands as floor_texture grew them (a grown texel that is exactly black counts as
     # background and is refilled from its equally dark neighbours: no harm).
     grown = covered | (texture[:3].sum(0) > 0)
-    rgb = torch.from_numpy(texture[None, :3])
-    filled = push_pull_fill(rgb, torch.from_numpy(grown[None, None].astype(np.float32)), max(1, int(math.log2(size))))
+    grown_t = torch.from_numpy(grown[None, None].astype(np.float32))
+    rgb = torch.from_numpy(texture[None, :3]) * grown_t
+    filled = push_pull_fill(rgb, grown_t, max(1, int(math.log2(size))))
     out = np.round(filled[0].permute(1, 2, 0).clamp(0, 1).numpy() * 255).astype(np.uint8)
     return BakedColour(rgb=out, seen=seen, covered=covered, views=views, cameras=cameras)

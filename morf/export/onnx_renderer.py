@@ -81,7 +81,9 @@ def widen_input(renderer, channels: int):
         conv.in_channels += extra
 
     pad(wide.stem[0], cfg.in_channels)
-    if cfg.stem > 1:  # the full-resolution head reads cat(h, x): x's channels come last
+    if cfg.stem > 1 and getattr(cfg, "head_stride", 1) > 1:  # the head reads x through head_x
+        pad(wide.head_x, cfg.in_channels)
+    elif cfg.stem > 1:  # the full-resolution head reads cat(h, x): x's channels come last
         pad(wide.head[0], wide.head[0].in_channels)
     wide.cfg = dataclasses.replace(cfg, in_channels=channels)
     return wide
@@ -128,6 +130,8 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
             w[3] /= k
             b[3] = (b[3] - c) / k
             out = torch.nn.functional.conv2d(self.renderer.features(x), w, b, stride=last.stride, padding=last.padding)
+            if hasattr(self.renderer, "to_full"):
+                out = self.renderer.to_full(out)
             logit = out[:, 3:4] if colours is None else out[:, 3:4] * k + c
             mask = torch.sigmoid(logit)
             rgb = out[:, :3]

@@ -22,10 +22,10 @@ RENDERERS: dict[str, dict] = {
     "stem2_b8": dict(stem=2, width=8, depth=4, max_width=32, skip_hidden=8),
     "stem2_b16": dict(stem=2, width=16, depth=4, max_width=64, skip_hidden=16),
     "stem2_b24": dict(stem=2, width=24, depth=4, max_width=96, skip_hidden=16),
-    "stem4_b16": dict(stem=4, width=16, depth=4, max_width=64, skip_hidden=16),
-    "stem4_b24": dict(stem=4, width=24, depth=4, max_width=96, skip_hidden=16),  # the "cpu" preset
-    "stem4_b32": dict(stem=4, width=32, depth=4, max_width=128, skip_hidden=16),
-    "stem4_b48": dict(stem=4, width=48, depth=4, max_width=192, skip_hidden=16),
+    "stem4_b16": dict(stem=4, width=16, depth=4, max_width=64, skip_hidden=16, head_stride=2),
+    "stem4_b24": dict(stem=4, width=24, depth=4, max_width=96, skip_hidden=16, head_stride=2),  # the "cpu" preset
+    "stem4_b32": dict(stem=4, width=32, depth=4, max_width=128, skip_hidden=16, head_stride=2),
+    "stem4_b48": dict(stem=4, width=48, depth=4, max_width=192, skip_hidden=16, head_stride=2),
     # CI sizes (the "tiny" training preset's renderer and its neighbours)
     "tiny_b4": dict(stem=2, width=4, depth=2, max_width=256, skip_hidden=8),
     "tiny_b8": dict(stem=2, width=8, depth=2, max_width=256, skip_hidden=8),

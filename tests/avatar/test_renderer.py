@@ -6,9 +6,9 @@ from morf.avatar.model import AvatarModel
 from morf.avatar.renderer import RendererConfig, UNetRenderer, count_parameters
 
 
-@pytest.mark.parametrize("stem", [1, 2, 4])
-def test_output_shape_and_ranges(stem):
-    r = UNetRenderer(RendererConfig(in_channels=6, width=4, depth=2, stem=stem, skip_hidden=4))
+@pytest.mark.parametrize("stem,head_stride", [(1, 1), (2, 1), (4, 1), (2, 2), (4, 2)])
+def test_output_shape_and_ranges(stem, head_stride):
+    r = UNetRenderer(RendererConfig(in_channels=6, width=4, depth=2, stem=stem, skip_hidden=4, head_stride=head_stride))
     out = r(torch.randn(2, 6, 32, 48))
     assert out.shape == (2, 4, 32, 48)
     assert torch.isfinite(out).all()
@@ -95,6 +95,30 @@ def test_head_runs_its_concat_conv_split_by_resolution():
         h = F.interpolate(r.head_low(r.trunk(x)), scale_factor=2.0, mode="bilinear", align_corners=False)
         ref = r.head[:-1](torch.cat([h, x], 1))
         torch.testing.assert_close(r.features(x), ref, atol=1e-5, rtol=1e-5)
+
+
+def test_half_resolution_head_reads_the_raster_through_a_strided_conv():
+    """head_stride 2: the head's 1x1 convs run at half the input's size and only its 4 outputs
+    are upsampled; the raster's detail still reaches every output pixel (through head_x), and
+    the texture colour of rgb_skip stays at full resolution."""
+    torch.manual_seed(0)
+    cfg = RendererConfig(in_channels=6, width=8, depth=2, stem=4, skip_hidden=5, head_stride=2, rgb_skip=True,
+                         premultiply=False)
+    r = UNetRenderer(cfg).eval()
+    assert r.head_x.stride == (2, 2) and r.head[0].in_channels == 8
+    x = torch.rand(1, 6, 32, 32) * 0.8 + 0.1
+    with torch.no_grad():
+        assert r.features(x).shape[-2:] == (16, 16)
+        out = r(x)
+        torch.testing.assert_close(out[:, :3], x[:, :3])  # step 0: the texture colour, pixel for pixel
+        r.last.weight.normal_(0, 0.1)
+        y = x.clone()
+        y[..., 9, 9] += 0.5  # one raster pixel changes the residual most right around it
+        diff = (r(y) - r(x))[0, :3].abs().sum(0)
+    at = divmod(int(diff.argmax()), 32)
+    assert abs(at[0] - 9) <= 2 and abs(at[1] - 9) <= 2
+    with pytest.raises(ValueError, match="head_stride"):
+        UNetRenderer(RendererConfig(stem=1, head_stride=2))
 
 
 def test_push_pull_fill_keeps_covered_and_fills_near_pixels():

@@ -7,11 +7,11 @@ from morf.avatar.renderer import RendererConfig, UNetRenderer
 from morf.export.equalize import _max_abs, equalize_renderer
 
 
-def _imbalanced(stem):
+def _imbalanced(stem, head_stride=1):
     """A renderer whose internal ranges are as lopsided as a trained one's (its function is a
     random renderer's: every imbalance is compensated by the consuming convolution)."""
     torch.manual_seed(0)
-    r = UNetRenderer(RendererConfig(width=8, depth=2, stem=stem, skip_hidden=8)).eval()
+    r = UNetRenderer(RendererConfig(width=8, depth=2, stem=stem, skip_hidden=8, head_stride=head_stride)).eval()
     with torch.no_grad():
         c = r.up[0][2].out_channels
         r.up[0][2].weight *= 20.0
@@ -27,13 +27,15 @@ def _imbalanced(stem):
             r.head[0].weight[:, :c] /= 60.0
             r.head[0].weight[2] *= 40.0
             r.head[0].bias[2] *= 40.0
+            if head_stride > 1:
+                r.head_x.weight[2] *= 40.0
             r.head[2].weight[:, 2] /= 40.0
     return r
 
 
-@pytest.mark.parametrize("stem", [2, 1])
-def test_equalized_renderer_computes_the_same_function(stem):
-    r = _imbalanced(stem)
+@pytest.mark.parametrize("stem,head_stride", [(2, 1), (1, 1), (4, 2)])
+def test_equalized_renderer_computes_the_same_function(stem, head_stride):
+    r = _imbalanced(stem, head_stride)
     xs = [torch.rand(1, 16, 32, 32) * 2 - 1 for _ in range(3)]
     e = equalize_renderer(r, xs)
     with torch.no_grad():

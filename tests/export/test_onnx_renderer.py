@@ -45,13 +45,16 @@ def renderers():
     torch.manual_seed(0)
     out = {"stem2": UNetRenderer(RendererConfig(width=8, depth=2, stem=2, skip_hidden=8)).eval(),
            "stem1": UNetRenderer(RendererConfig(width=8, depth=2, stem=1)).eval(),
-           "skip": UNetRenderer(RendererConfig(width=8, depth=2, stem=2, skip_hidden=8, rgb_skip=True)).eval()}
+           "skip": UNetRenderer(RendererConfig(width=8, depth=2, stem=2, skip_hidden=8, rgb_skip=True)).eval(),
+           "half": UNetRenderer(RendererConfig(width=8, depth=2, stem=4, skip_hidden=8, rgb_skip=True,
+                                               head_stride=2)).eval()}
     with torch.no_grad():  # a residual that is not zero, as after training
-        out["skip"].last.weight[:3].normal_(0, 0.05)
+        for name in ("skip", "half"):
+            out[name].last.weight[:3].normal_(0, 0.05)
     return out
 
 
-@pytest.mark.parametrize("name", ["stem2", "stem1", "skip"])
+@pytest.mark.parametrize("name", ["stem2", "stem1", "skip", "half"])
 @pytest.mark.parametrize("layout", ["nhwc", "nchw", "planes"])
 def test_fp32_matches_torch(tmp_path, renderers, name, layout):
     rasters, scales = _rasters(1, seed=1)
@@ -65,12 +68,12 @@ def test_fp32_matches_torch(tmp_path, renderers, name, layout):
     x[0, 5, 1, 2:9] = 129  # on the body through one channel only: the colour head's coverage must see it
     feed = to_layout(np.ascontiguousarray(x[0].transpose(1, 2, 0)), layout)
     np.testing.assert_allclose(_run(tmp_path / "r.onnx", feed), _torch_reference(renderers[name], x, scales), atol=2e-5)
-    if name == "skip":  # the coverage comes from the bytes, not from 16 dequantised float planes
+    if name in ("skip", "half"):  # the coverage comes from the bytes, not from 16 dequantised float planes
         ops = [n.op_type for n in model.graph.node]
         assert "ReduceSum" not in ops and "ReduceMax" in ops
 
 
-@pytest.mark.parametrize("name", ["stem2", "skip"])
+@pytest.mark.parametrize("name", ["stem2", "skip", "half"])
 def test_int8_close_to_fp32(tmp_path, renderers, name):
     calib, scales = _rasters(4, seed=2)
     held, _ = _rasters(2, seed=5)
@@ -80,8 +83,8 @@ def test_int8_close_to_fp32(tmp_path, renderers, name):
     nodes = onnx.load(tmp_path / "q.onnx").graph.node
     ops = {n.op_type for n in nodes}
     assert "QuantizeLinear" in ops and "DequantizeLinear" in ops
-    if name == "skip":  # the texture-colour fill stays float: nothing quantises its pooled colours
-        pooled = {n.output[0] for n in nodes if n.op_type == "AveragePool"}
+    if name != "stem2":  # the texture-colour fill stays float: nothing quantises its pooled colours
+        pooled = {n.output[0] for n in nodes if n.op_type == "Resize" and n.name.startswith("/colour/")}
         assert pooled and not any(n.op_type == "QuantizeLinear" and n.input[0] in pooled for n in nodes)
     for x in held:
         a, b = _run(tmp_path / "f.onnx", x), _run(tmp_path / "q.onnx", x)
