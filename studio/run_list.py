@@ -1,7 +1,8 @@
 """The training runs already on disk (``PROJECT/runs/<name>/``), as the Training panel lists them.
 
-Read from the small files only (config.json, the last line of metrics.jsonl, avatar.pt's presence,
-``PROJECT/eval/eval.json``); nothing here imports torch or loads a model.
+Read from the small files only, through :mod:`morf.train.run_files` (config.json, the last step of
+metrics.jsonl, avatar.pt's presence), and ``PROJECT/eval/eval.json``; nothing here imports torch or
+loads a model.
 """
 
 from __future__ import annotations
@@ -9,6 +10,8 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
+
+from morf.train.run_files import RunFiles
 
 
 @dataclass(frozen=True)
@@ -28,17 +31,6 @@ class RunSummary:
         if self.finished:
             return f"finished, {self.steps} steps"
         return f"step {self.step} of {self.steps}, not finished" if self.step else "not started"
-
-
-def _last_step(path: Path) -> int:
-    if not path.is_file():
-        return 0
-    for line in reversed(path.read_text().splitlines()):
-        try:
-            return int(json.loads(line).get("step", 0))
-        except (json.JSONDecodeError, TypeError, ValueError, AttributeError):
-            continue  # a line cut by a kill
-    return 0
 
 
 def _holdout_scores(project_root: Path) -> dict[str, float]:
@@ -66,15 +58,14 @@ def read_runs(project_root: str | Path) -> list[RunSummary]:
     scores = _holdout_scores(root)
     found = []
     for d in runs_dir.iterdir():
-        cfg_path = d / "config.json"
-        if d.name.startswith(".") or not cfg_path.is_file():
+        run = RunFiles(d)
+        if d.name.startswith(".") or not run.config_path.is_file():
             continue
         try:
-            cfg = json.loads(cfg_path.read_text())
+            cfg = run.read_config_dict()
             summary = RunSummary(d.name, str(cfg.get("method", "?")), str(cfg.get("preset", "?")),
-                                 int(cfg.get("steps", 0)), _last_step(d / "metrics.jsonl"),
-                                 (d / "avatar.pt").is_file(), scores.get(d.name))
+                                 int(cfg.get("steps", 0)), run.last_step(), run.is_done, scores.get(d.name))
         except (OSError, json.JSONDecodeError, TypeError, ValueError, AttributeError):
             continue
-        found.append((cfg_path.stat().st_mtime, summary))
+        found.append((run.config_path.stat().st_mtime, summary))
     return [s for _, s in sorted(found, key=lambda t: -t[0])]

@@ -3,15 +3,13 @@ trained on, and the RGB floor that goes with each hold-out setting."""
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
 from morf.errors import MorfError, ProjectError
 from morf.train.config import TrainConfig
 from morf.train.run_dir import RunDir
-
-_FITS_NOTE = re.compile(r"\bfits: ([\w-]+);")
+from morf.train.run_files import AVATAR_FILE, RunFiles
 
 
 @dataclass(frozen=True)
@@ -40,12 +38,7 @@ class RunInfo:
 
 def run_fits_source(run_dir: Path) -> str:
     """The fits source a run's train.log names ("fits: <source>; frames cache: ..."), else "auto"."""
-    log = Path(run_dir) / "train.log"
-    if log.is_file():
-        m = _FITS_NOTE.search(log.read_text(errors="replace"))
-        if m and m.group(1) in ("fits", "ground-truth"):
-            return m.group(1)
-    return "auto"
+    return RunFiles(run_dir).fits_source()
 
 
 def read_run(run_dir: Path) -> RunInfo:
@@ -58,9 +51,9 @@ def finished_runs(project) -> list[RunInfo]:
     root = Path(project.runs_dir)
     if not root.is_dir():
         return []
-    done = sorted((d for d in root.iterdir() if (d / "avatar.pt").is_file()),
-                  key=lambda d: (d / "avatar.pt").stat().st_mtime)
-    return [read_run(d) for d in done]
+    done = sorted((RunFiles(d) for d in root.iterdir() if RunFiles(d).is_done),
+                  key=lambda run: run.avatar_path.stat().st_mtime)
+    return [read_run(run.root) for run in done]
 
 
 def select_runs(project, names: tuple[str, ...] | list[str] = ()) -> list[RunInfo]:
@@ -77,8 +70,8 @@ def select_runs(project, names: tuple[str, ...] | list[str] = ()) -> list[RunInf
         if not d.is_dir():
             known = ", ".join(r.name for r in finished_runs(project)) or "none"
             raise ProjectError(f"no run named {name!r} in {root} (finished runs: {known})")
-        if not (d / "avatar.pt").is_file():
-            raise ProjectError(f"run {name!r} has not finished (no avatar.pt); resume it with 'morf train'")
+        if not RunFiles(d).is_done:
+            raise ProjectError(f"run {name!r} has not finished (no {AVATAR_FILE}); resume it with 'morf train'")
         out.append(read_run(d))
     return out
 
@@ -106,6 +99,6 @@ def floor_run_name(project, holdout: int, fits_source: str) -> str:
     appended when that name holds a floor built on other fits."""
     name = f"rgb-holdout{holdout}"
     d = Path(project.runs_dir) / name
-    if (d / "avatar.pt").is_file() and run_fits_source(d) != fits_source:
+    if RunFiles(d).is_done and run_fits_source(d) != fits_source:
         name += f"-{fits_source}"
     return name

@@ -18,6 +18,7 @@ import numpy as np
 from morf.errors import ProjectError
 from morf.pipeline.control import Progress, StageControl
 from morf.raster.neural_raster import LAYOUTS
+from morf.train.run_files import AVATAR_FILE, CONFIG_FILE
 
 
 
@@ -46,14 +47,14 @@ def finished_runs(project) -> list[Path]:
     runs = Path(project.runs_dir)
     if not runs.is_dir():
         return []
-    done = [d for d in runs.iterdir() if (d / "avatar.pt").is_file()]
-    return sorted(done, key=lambda d: (d / "avatar.pt").stat().st_mtime)
+    done = [d for d in runs.iterdir() if (d / AVATAR_FILE).is_file()]
+    return sorted(done, key=lambda d: (d / AVATAR_FILE).stat().st_mtime)
 
 
 def is_floor_run(run_dir: Path) -> bool:
     """Whether a run is the RGB floor (``morf train --method rgb``), which has no network to export."""
     try:
-        return json.loads((Path(run_dir) / "config.json").read_text()).get("method") == "rgb"
+        return json.loads((Path(run_dir) / CONFIG_FILE).read_text()).get("method") == "rgb"
     except (OSError, ValueError, AttributeError):
         return False
 
@@ -70,7 +71,7 @@ def pick_run(project, name: str | None) -> Path:
         d = runs / name
         if not d.is_dir():
             raise ProjectError(f"no run named {name!r} in {runs}")
-        if not (d / "avatar.pt").is_file():
+        if not (d / AVATAR_FILE).is_file():
             raise ProjectError(f"run {name!r} has not finished (no avatar.pt); resume it with 'morf train'")
         if is_floor_run(d):
             raise floor_error(d)
@@ -89,7 +90,7 @@ def exported_run(project) -> str | None:
     path = Path(project.avatar_dir) / MANIFEST
     try:
         run = json.loads(path.read_text())["source"]["run"]
-        trained = (Path(project.runs_dir) / run / "avatar.pt").stat().st_mtime
+        trained = (Path(project.runs_dir) / run / AVATAR_FILE).stat().st_mtime
     except (OSError, ValueError, KeyError, TypeError):
         return None
     return run if path.stat().st_mtime >= trained else None

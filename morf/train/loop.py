@@ -25,6 +25,7 @@ from morf.train.frames import FrameSet
 from morf.train.health import CollapseMonitor
 from morf.train.recovery import RecoveryPolicy
 from morf.train.run_dir import RunDir
+from morf.train.start_log import log_start
 from morf.train.trained_avatar import save_trained_avatar
 from morf.train.trainer import Trainer
 
@@ -118,21 +119,7 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         trainer.load_state_dict(run.load_checkpoint(map_location=trainer.device))
         run.log(f"resumed at step {trainer.step}")
     else:
-        run.log(f"start: method {cfg.method}, preset {cfg.preset}, {frames.num_frames} frames at "
-                f"{frames.resolution} px, device {trainer.device}")
-        if perceptual is not None:
-            run.log("perceptual loss: VGG-16")
-        elif cfg.w_gan > 0 and cfg.w_feature_matching > 0:
-            run.log("perceptual loss: no VGG-16 weights (--vgg / MORF_VGG16_WEIGHTS); using discriminator "
-                    "feature matching instead")
-        else:
-            run.log("perceptual loss: none (no VGG-16 weights given with --vgg / MORF_VGG16_WEIGHTS); "
-                    f"structure from the SSIM term (weight {cfg.w_ssim})")
-        if cfg.bf16:
-            run.log("bfloat16 autocast: " + ("on" if trainer.bf16 else
-                                             "off (this CPU has neither AMX-BF16 nor AVX512-BF16; emulated it is slower)"))
-        for line in notes or []:
-            run.log(line)
+        log_start(run, cfg, frames, trainer.device, trainer.bf16, perceptual is not None, notes)
     resumed_from = trainer.step
     if run.is_done and trainer.step >= cfg.steps:
         return TrainResult(run.root, trainer.step, {}, trainer.elapsed_s / 60, resumed_from)

@@ -8,21 +8,11 @@ minutes of training time (``time_s`` of the log, which excludes time the run was
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
-
-def read_metrics(path: str | Path) -> list[dict]:
-    """The run's metric lines (a torn last line, from a killed run, is skipped)."""
-    rows = []
-    for line in Path(path).read_text().splitlines():
-        try:
-            rows.append(json.loads(line))
-        except json.JSONDecodeError:
-            continue
-    return rows
+from morf.train.run_files import METRICS_FILE, read_metrics_file
 
 
 def plateau(rows: list[dict], key: str = "l1", tolerance: float = 0.05, windows: int = 10) -> dict | None:
@@ -45,5 +35,5 @@ def plateau(rows: list[dict], key: str = "l1", tolerance: float = 0.05, windows:
 
 
 def run_plateau(run_dir: str | Path, **kwargs) -> dict | None:
-    path = Path(run_dir) / "metrics.jsonl"
-    return plateau(read_metrics(path), **kwargs) if path.is_file() else None
+    path = Path(run_dir) / METRICS_FILE
+    return plateau(read_metrics_file(path), **kwargs) if path.is_file() else None

@@ -23,6 +23,7 @@ from morf.camera import PinholeCamera
 from morf.errors import ProjectError
 from morf.train.config import TrainConfig
 from morf.train.run_dir import load_torch_file
+from morf.train.run_files import AVATAR_FILE
 
 FORMAT = "morf-avatar"
 VERSION = 1
@@ -82,7 +83,7 @@ def save_trained_avatar(path: str | Path, texture: torch.Tensor, renderer: nn.Mo
 def load_trained_avatar(run_dir: str | Path) -> TrainedAvatar:
     """Load ``run_dir/avatar.pt`` (written when ``morf train`` finishes)."""
     run_dir = Path(run_dir)
-    path = run_dir / "avatar.pt" if run_dir.is_dir() else run_dir
+    path = run_dir / AVATAR_FILE if run_dir.is_dir() else run_dir
     if not path.is_file():
         raise ProjectError(f"no trained avatar in {run_dir}: training has not finished (run 'morf train' again to resume)")
     d = load_torch_file(path)

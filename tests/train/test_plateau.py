@@ -4,7 +4,8 @@ import json
 
 import numpy as np
 
-from morf.train.plateau import plateau, read_metrics
+from morf.train.plateau import plateau
+from morf.train.run_files import read_metrics_file as read_metrics
 
 
 def _rows(n=1000, tau=100.0, noise=0.0, seed=0):
