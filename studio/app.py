@@ -37,7 +37,7 @@ from studio.layout import draw_ui  # noqa: E402
 from studio.live_render import LiveRenderer  # noqa: E402
 from studio.loader import ImageLoader  # noqa: E402
 from studio.pacing import IDLE_FPS, MAX_FPS, SNAPSHOT_FPS, FramePacer, Wakeup  # noqa: E402
-from studio.player import PoseRenderer, open_player  # noqa: E402
+from studio.player import PoseRenderer, open_player, shutdown_motion_loader  # noqa: E402
 from studio.project_view import ProjectView  # noqa: E402
 from studio.stages import LIBRARY_STAGES, LoadedStages, cpu_load_stage, load_library_stages  # noqa: E402
 from studio.state import PANELS, AppState, LivePanelState  # noqa: E402
@@ -414,6 +414,7 @@ class StudioApp:
         if not stopped:
             print("morf-studio: the running stage did not stop within 15 s; leaving it behind", file=sys.stderr)
         self._close_project()
+        shutdown_motion_loader()
         imgui.backends.opengl3_shutdown()
         imgui.backends.glfw_shutdown()
         implot.destroy_context()

@@ -22,7 +22,6 @@ from morf.errors import MorfError
 if TYPE_CHECKING:
     from morf.motion.clip import MotionClip
 
-MOTION_SUFFIXES = (".bvh", ".npz")
 
 
 class PoseRenderer(Protocol):
@@ -152,12 +151,20 @@ def load_motion_async(path: Path, num_bones: int) -> "Future[tuple[MotionFrames 
     return _MOTION_POOL.submit(load_motion, path, num_bones)
 
 
+def shutdown_motion_loader() -> None:
+    """End the motion-loading thread (the app calls this when it closes; a later load starts it again)."""
+    global _MOTION_POOL
+    pool, _MOTION_POOL = _MOTION_POOL, None
+    if pool is not None:
+        pool.shutdown(wait=False, cancel_futures=True)
+
+
 def list_motions(folder: str | Path) -> list[Path]:
-    """.bvh and .npz files under ``folder`` (recursively, sorted), empty when it is not a folder."""
-    folder = Path(folder).expanduser()
-    if not folder.is_dir():
-        return []
-    return sorted(p for p in folder.rglob("*") if p.suffix.lower() in MOTION_SUFFIXES and p.is_file())
+    """.bvh and .npz files under ``folder`` (recursively, sorted by name), empty when it is not a
+    folder: the library's motion listing (:func:`morf.motion.library.motion_library`)."""
+    from morf.motion.library import motion_library
+
+    return [path for _, path in motion_library(folder)]
 
 
 def as_rgb(image: Any) -> np.ndarray:

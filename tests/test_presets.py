@@ -71,3 +71,10 @@ def test_morf_fit_names_the_known_presets_of_an_unknown_one(tmp_path, capsys):
     CaptureProject.create(tmp_path / "p", num_frames=1, width=8, height=8, fps=None, source={"kind": "test"})
     assert main(["fit", str(tmp_path / "p"), "--preset", "huge"]) == InputError.exit_code
     assert "unknown fit preset 'huge'; choose one of default, fast, tiny, baseline" in capsys.readouterr().err
+
+
+def test_replace_refuses_unknown_fields_with_an_input_error():
+    with pytest.raises(InputError, match="bogus"):
+        TRAIN_PRESETS["cpu"].replace(bogus=1)
+    with pytest.raises(InputError, match="bogus"):
+        FitConfig().replace(bogus=1)

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 VARIANT_NAMES = ("plain_b16", "stem2_b16", "stem4_b16", "stem4_b24", "stem4_b32")  # see morf.sizing.sweep.RENDERERS
-DEFAULT_VARIANT = "stem4_b24"  # the "cpu" training preset's renderer
+DEFAULT_VARIANT = "stem4_b16"  # the "cpu" training preset's renderer
 THREADS = 2  # onnxruntime intra-op threads of the measured player
 
 

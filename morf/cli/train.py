@@ -42,8 +42,8 @@ def add_parser(sub):
                    help="VGG-16 weights (torchvision state dict) for the perceptual loss; else $MORF_VGG16_WEIGHTS; "
                         "without them the SSIM term carries the structure (train.log says which term a run used)")
     p.add_argument("--renderer", default=None, metavar="NAME",
-                   help="renderer size instead of the preset's: stem2_b8, stem2_b16, stem2_b24, stem4_b16, "
-                        "stem4_b24 (cpu), stem4_b32, stem4_b48, plain_b16 (see docs/benchmarks.md for speed against quality)")
+                   help="renderer size instead of the preset's: stem2_b8, stem2_b16, stem2_b24, stem4_b8, stem4_b16 (cpu), "
+                        "stem4_b24, stem4_b32, stem4_b48, plain_b16 (see docs/benchmarks.md for speed against quality)")
     p.add_argument("--device", default="auto", help="auto (CUDA when present), cpu or cuda")
     p.add_argument("--config", default=None, metavar="JSON",
                    help="start from a config file (a run's config.json) instead of a preset")

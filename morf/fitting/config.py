@@ -119,6 +119,7 @@ class FitConfig:
     filter: FilterConfig = field(default_factory=FilterConfig)
 
     def replace(self, **changes) -> "FitConfig":
+        check_keys(FitConfig, changes, "fitting config")
         cfg = dataclasses.replace(self, **changes)
         cfg.validate()
         return cfg

@@ -1,42 +1,22 @@
 """``--preset auto``: pick the smallest neural texture, channel count and renderer a capture needs.
 
-The rule (thresholds in :class:`SizingRule`, calibration in docs/benchmarks.md):
+The rule (thresholds in :class:`SizingRule`; the measurements behind each one are in
+docs/benchmarks.md, "Automatic size choice"):
 
-1. Texture resolution from texel density. Anny's atlas spans about 0.82 atlas sides per body
-   height, so a person ``h`` pixels tall in the training images sees ``0.82 * S / h`` texels per
-   pixel at atlas size ``S``. ``h`` is the person's height at the training resolution (the crop
-   is about 1.16 person heights), capped by the height in the capture (upsampling adds nothing).
-   Patterned clothing (medium or high detail: the fine-band colour energy at the training scale,
-   ``CaptureFeatures.detail``) gets about one texel per pixel: at half a texel per pixel (128^2)
-   the default-size print scored 0.05 dB over its base in one run and 0.95 dB under it in another,
-   64^2 cost it 1.2 dB, and a striped print of medium detail lost 2.6 dB at 128^2. Plain
-   clothing is band-limited and is given less, and so are loose garments (at least 20 % of the
-   person mask outside the fitted body's silhouette): much of such a garment lies off the body
-   surface, where the renderer paints it from the silhouette. S =
-   the smallest power of two >= density * h / 0.82, in [64, 1024] for plain clothing and loose
-   garments and [128, 1024] otherwise.
+1. Texture resolution from texel density: a person ``h`` pixels tall in the training images sees
+   ``0.82 * S / h`` texels per pixel at atlas size ``S`` (Anny's atlas spans about 0.82 sides per
+   body height). Patterned clothing gets about one texel per pixel, plain clothing and loose
+   garments (much of which lies off the body surface) less; ``S`` is the smallest power of two
+   that reaches the density, within the detail level's bounds.
 2. Channels (never above the base preset): 16 for plain clothing that follows the body, 8 for
-   patterned clothing and loose garments. At default size 8 channels cost plain clothing 0.7 dB,
-   and with a 128^2 texture they cost plain and print 1.3-1.5 dB; at 256^2 they gained three
-   print captures 0.1-1.2 dB and cost a fourth 1.4 dB, and the loose scene kept its quality at
-   64^2 x 8.
-3. Renderer: the preset's. The rule can step down the preset's ladder for plain, tight clothing
-   and up when much of the person lies outside the fitted body (``SizingRule`` steps), but at
-   default size (docs/benchmarks.md) the ladder's smaller renderer cost 1.0-3.6 dB on plain, print
-   and loose scenes and the larger one lost 1.5 dB on the loose scene, so both steps are 0 (measured
-   on the stem x2 ladder the ``cpu`` preset used before its stem x4 base 24 renderer).
+   patterned clothing and loose garments.
+3. Renderer: the preset's; the rule can step along the preset's ladder for plain or loose
+   clothing, and the calibration set both steps to 0.
 
 Frame count and motion range do not change the sizes (they decide what can be learned at all);
-they are reported so a user sees why a capture may disappoint.
-
-How far to trust it: on three captures it was not calibrated on (docs/benchmarks.md, third and
-fourth rounds) its single-training verdicts came out 0.7-2.8 dB under the best point; over three
-seeds per point all three choices (plain 64^2 x 16, print 256^2 x 8, loose 64^2 x 8) came within
-the 0.5 dB margin of the best point at comparable speed (0.11, -0.01 and 0.41 dB under). The
-base's seed noise at default size ranged from 0.3 to 3.0 dB (std over three seeds) between
-captures, so those gaps' standard errors (0.4-1.8 dB) leave none of the verdicts beyond it. The
-preset's renderer and 256^2 for patterned clothing held throughout; the smaller textures and 8
-channels are the rule's bets.
+they are reported so a user sees why a capture may disappoint. Over three seeds per point the
+rule's choices came within 0.5 dB of the best sweep point on three captures it was not calibrated
+on; the smaller textures and 8 channels are its bets.
 """
 
 from __future__ import annotations
@@ -50,55 +30,35 @@ from morf.train.config import TrainConfig, preset
 # Renderer ladders (smallest first) per base preset; the middle one is the preset's own.
 LADDERS: dict[str, tuple[str, ...]] = {
     "tiny": ("tiny_b4", "tiny_b8", "tiny_b16"),
-    "cpu": ("stem4_b16", "stem4_b24", "stem4_b32"),
+    "cpu": ("stem4_b8", "stem4_b16", "stem4_b24"),
 }
 CROP_MARGIN = 1.16  # training crop side / person height (morf.train.data.person_square, 8 % margins)
 
 
 @dataclass(frozen=True)
 class SizingRule:
-    """Thresholds of the automatic size choice."""
+    """Thresholds of the automatic size choice (the measurements behind each value:
+    docs/benchmarks.md, "Figures behind SizingRule")."""
 
-    # fine-band colour RMS at the training scale (CaptureFeatures.detail). Default-size captures measured:
-    # plain clothing 0.017 and 0.009, prints 0.057 and 0.030 (a colour stripe), loose garments 0.052 and 0.028
+    # fine-band colour RMS at the training scale (CaptureFeatures.detail)
     detail_high: float = 0.04  # at or above this: detailed clothing
     detail_low: float = 0.023  # below this: plain clothing (between the busiest plain and the calmest print)
-    # texels per training pixel for detailed clothing: on the default-size print scene (221 px of
-    # person at 256 px) 0.95 texels per pixel (256^2) held its quality in two runs, 0.47 (128^2) in one
-    # of two (+0.05 and -0.95 dB against the base), 0.24 (64^2) lost 1.2 dB
-    density_high: float = 0.9
-    # ... for medium detail: the striped print (0.030) lost 2.6 dB at 128^2 (0.47 texels per pixel)
-    # against its base at 256^2, and 3.8 dB against 256^2 x 8, so medium detail is sized like detailed
-    density_mid: float = 0.9
-    density_low: float = 0.22  # ... for plain clothing (64^2 held its quality at default size)
+    density_high: float = 0.9  # texels per training pixel for detailed clothing
+    density_mid: float = 0.9  # ... for medium detail (sized like detailed: a striped print lost 2.6 dB at half)
+    density_low: float = 0.22  # ... for plain clothing
     excess_high: float = 0.2  # share of the mask outside the fitted body that counts as loose garments
-    # loose garments: texels per pixel and smallest texture. Much of the garment lies off the body
-    # surface, where the renderer paints it from the silhouette, not from texels: on the default-size
-    # loose scene 64^2 (0.24 texels per pixel) was its best point (19.16 dB against 18.88 at 256^2)
-    density_loose: float = 0.22
+    density_loose: float = 0.22  # loose garments: painted from the silhouette more than from texels
     min_texture_loose: int = 64
-    # channels for tight clothing at each detail level (plain, medium, detailed) and for loose garments.
-    # At default size 8 channels cost plain clothing 0.7 dB (22.33 against 23.00 dB) and with 128^2
-    # textures plain 1.5 dB and print 1.3 dB; at 256^2 the print lost nothing (+0.2, +0.1 dB in two
-    # runs), and 64^2 x 8 on the loose scene scored 1.2 dB over its base (256^2 x 16); the striped
-    # print (medium) scored 25.05 dB at 256^2 x 8 against 23.87 at 256^2 x 16, a checked one (medium)
-    # 22.23 against 23.65
-    channels_by_detail: tuple[int, int, int] = (16, 8, 8)
-    # loose garments at 64^2: 8 channels against 16 scored +0.6 dB on one loose capture and -0.7 dB on
-    # another (single trainings; the means of the two agree within 0.1 dB)
+    channels_by_detail: tuple[int, int, int] = (16, 8, 8)  # tight clothing: plain, medium, detailed
     channels_loose: int = 8
-    plain_renderer_step: int = 0  # ladder steps for plain, tight clothing (-1 = one smaller: b8 cost 3.6 dB)
-    loose_renderer_step: int = 0  # ... for loose garments (+1 = b24 cost 1.5 dB, 38 % slower; -1 = b8 cost 1.0 dB)
+    plain_renderer_step: int = 0  # ladder steps for plain, tight clothing (-1 = one smaller)
+    loose_renderer_step: int = 0  # ... for loose garments
     # smallest texture per detail level (plain, medium, detailed): below 128^2 the atlas islands are a
-    # few texels wide and bleed into each other; on the quick sweep 64^2 cost 1.5-6.4 dB on all three
-    # scenes and at default size 1.2 dB on the print, so only plain clothing may go to 64^2 (and loose
-    # garments, min_texture_loose; see docs/benchmarks.md for their default-size checks)
+    # few texels wide and bleed into each other, so only plain clothing (and loose garments) go to 64^2
     min_texture_by_detail: tuple[int, int, int] = (64, 128, 128)
     max_texture: int = 1024
     quality_margin_db: float = 0.5  # "near the best": within this much person-PSNR of the best on the sweep
-    # ... and within this share of its fps: one sweep measured the same model at 25.3 and 25.8 fps
-    # and graphs of equal cost at 20.6-27.2 fps (20 frames each on a shared VM)
-    fps_margin_frac: float = 0.2
+    fps_margin_frac: float = 0.2  # ... and within this share of its fps (this VM's fps noise for equal graphs)
 
 
 def _pow2_at_least(x: float, lo: int, hi: int) -> int:

@@ -22,8 +22,9 @@ RENDERERS: dict[str, dict] = {
     "stem2_b8": dict(stem=2, width=8, depth=4, max_width=32, skip_hidden=8),
     "stem2_b16": dict(stem=2, width=16, depth=4, max_width=64, skip_hidden=16),
     "stem2_b24": dict(stem=2, width=24, depth=4, max_width=96, skip_hidden=16),
-    "stem4_b16": dict(stem=4, width=16, depth=4, max_width=64, skip_hidden=16, head_stride=2),
-    "stem4_b24": dict(stem=4, width=24, depth=4, max_width=96, skip_hidden=16, head_stride=2),  # the "cpu" preset
+    "stem4_b8": dict(stem=4, width=8, depth=4, max_width=32, skip_hidden=8, head_stride=2),
+    "stem4_b16": dict(stem=4, width=16, depth=4, max_width=64, skip_hidden=16, head_stride=2),  # the "cpu" preset
+    "stem4_b24": dict(stem=4, width=24, depth=4, max_width=96, skip_hidden=16, head_stride=2),
     "stem4_b32": dict(stem=4, width=32, depth=4, max_width=128, skip_hidden=16, head_stride=2),
     "stem4_b48": dict(stem=4, width=48, depth=4, max_width=192, skip_hidden=16, head_stride=2),
     # CI sizes (the "tiny" training preset's renderer and its neighbours)
@@ -132,7 +133,7 @@ def renderer_fields(spec) -> dict:
     if isinstance(spec, str):
         if spec not in RENDERERS:
             raise InputError(f"unknown renderer {spec!r}; choose one of {', '.join(RENDERERS)}")
-        return dict(RENDERERS[spec])
+        return {"head_stride": 1, **RENDERERS[spec]}  # a name gives the whole architecture
     return {k: v for k, v in dict(spec).items() if k != "in_channels"}
 
 
@@ -151,7 +152,8 @@ def resolve(sweep: SweepPreset, point: SweepPoint, **extra) -> TrainConfig:
 def train_key(cfg: TrainConfig) -> str:
     """A short stable name for a training config (the run folder is ``pareto-<key>``).
 
-    The decay fields, the weight average, the residual penalty and the warp fade are left out while off (they change nothing then), so
+    The decay fields, the weight average, the residual penalty, the warp fade and a full-resolution
+    renderer head are left out while off (they change nothing then), so
     runs made before they existed keep their names."""
     d = cfg.to_dict()
     if d["lr_decay_start"] >= 1.0:
@@ -162,6 +164,8 @@ def train_key(cfg: TrainConfig) -> str:
         del d["w_residual"]
     if d["warp_fade_start"] >= 1.0 and d["warp_fade_end"] >= 1.0:
         del d["warp_fade_start"], d["warp_fade_end"]
+    if d["renderer"].get("head_stride") == 1:
+        del d["renderer"]["head_stride"]
     return hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:10]
 
 

@@ -140,6 +140,7 @@ class TrainConfig:
         return TrainConfig.from_dict(d)
 
     def replace(self, **changes) -> "TrainConfig":
+        check_keys(TrainConfig, changes, "training config")
         cfg = dataclasses.replace(self, **changes)
         cfg.validate()
         return cfg
@@ -208,17 +209,19 @@ PRESETS: dict[str, TrainConfig] = {
         warp=WarpConfig(latent_dim=8, style_dim=16, mlp_layers=2, fourier_freqs=3, base_resolution=16, width=8, levels=2),
         disc_width=8, disc_scales=1, disc_layers=2, inpaint_steps=5, inpaint_views=2,
         checkpoint_minutes=1.0, report_every=5, log_every=5),
-    # 7-8 minutes on 2 CPU cores with native bf16 at 256 px (0.3 s a step); ~0.5M-parameter renderer.
+    # 6-7 minutes on 2 CPU cores with native bf16 at 256 px (0.25 s a step); 0.49M-parameter renderer.
     # The hold-out scores of the default capture were the same at 300 and 1200 steps (fit error,
     # not training, bounds them); 1500 leaves the image time to sharpen.
     "cpu": TrainConfig(
         preset="cpu", resolution=256, zoom_resolution=512, batch_size=4, steps=1500, texture_channels=16, texture_size=256,
-        # stem x4 base 24: with the colour skip the full-resolution detail comes from the texture, and
-        # on the default capture's hold-out it scored the same as stem x2 base 16 (20.96 against
+        # stem x4 (base 24 first, now 16): with the colour skip the full-resolution detail comes from the
+        # texture, and on the default capture's hold-out it scored the same as stem x2 base 16 (20.96 against
         # 20.93 dB person PSNR, seed 0) while it trains 2x and plays 1.6x faster (docs/avatar.md).
         # Its head runs at half resolution (head_stride 2): 10 ms less a 640x640 int8 frame, and on
         # the same hold-out 21.25 against 20.96 dB at 256 px, 20.10 against 20.06 at 512 (seed 0).
-        renderer=RendererConfig(in_channels=16, width=24, depth=4, max_width=96, stem=4, skip_hidden=16, rgb_skip=True,
+        # Base width 16 then scored the same as 24 (21.35 against 21.25 dB, seed 0), plays faster and
+        # its int8 outline holds (docs/avatar.md, "Base width 16").
+        renderer=RendererConfig(in_channels=16, width=16, depth=4, max_width=64, stem=4, skip_hidden=16, rgb_skip=True,
                                 head_stride=2),
         # L1 + SSIM, no adversarial terms: without VGG weights the discriminator's feature matching
         # stood in for the perceptual loss, outweighed the L1 six to one and pulled the colours

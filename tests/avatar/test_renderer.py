@@ -20,7 +20,7 @@ def test_presets_sizes():
 
     cpu = count_parameters(UNetRenderer(PRESETS["cpu"].renderer))
     gpu = count_parameters(UNetRenderer(PRESETS["gpu"].renderer))
-    assert 0.8e6 <= cpu <= 1.5e6  # stem x4 base 24: 1.1 M (docs/avatar.md, presets table)
+    assert 0.4e6 <= cpu <= 0.6e6  # stem x4 base 16, half-resolution head: 0.49 M (docs/avatar.md)
     assert 12e6 <= gpu <= 17e6
 
 

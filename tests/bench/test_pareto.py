@@ -157,3 +157,19 @@ def test_bad_seed_count_is_one_line_error(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "seeds must be at least 1" in err[0]
     assert not (tmp_path / "p").exists()
+
+
+def test_a_renderer_name_gives_its_whole_architecture_and_its_own_run_name(monkeypatch):
+    from morf.sizing import sweep
+    from morf.sizing.sweep import PRESETS, SweepPoint, resolve, train_key
+
+    cfg = resolve(PRESETS["default"], SweepPoint("r", "renderer", {"renderer": "stem2_b16"}))
+    half = resolve(PRESETS["default"], SweepPoint("r", "renderer", {"renderer": "stem4_b16"}))
+    assert cfg.renderer.head_stride == 1 and half.renderer.head_stride == 2  # not the preset's head
+    assert train_key(half) != train_key(cfg)
+    # a full-resolution head leaves the name alone: runs made before the field keep theirs
+    hashed = []
+    monkeypatch.setattr(sweep.json, "dumps", lambda d, **kw: hashed.append(d) or "{}")
+    train_key(cfg)
+    train_key(half)
+    assert "head_stride" not in hashed[0]["renderer"] and hashed[1]["renderer"]["head_stride"] == 2

@@ -20,8 +20,11 @@ def test_renderer_option_replaces_the_presets_renderer():
     assert (cfg.renderer.stem, cfg.renderer.width, cfg.renderer.max_width) == (2, 16, 64)
     assert cfg.renderer.in_channels == cfg.texture_channels
     assert cfg.renderer.rgb_skip  # only the size changes, not the preset's colour skip
+    assert cfg.renderer.head_stride == 1  # the name gives the whole architecture: stem2_b16's head is full-res
     default, _ = resolve_config(_args())
-    assert (default.renderer.stem, default.renderer.width) == (4, 24)
+    assert (default.renderer.stem, default.renderer.width, default.renderer.head_stride) == (4, 16, 2)
+    plain, _ = resolve_config(_args(renderer="plain_b16"))
+    assert plain.renderer.stem == 1 and plain.renderer.head_stride == 1
 
 
 def test_bad_renderer_choices_are_user_errors():
