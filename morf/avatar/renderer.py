@@ -154,15 +154,16 @@ class UNetRenderer(nn.Module):
             for i in reversed(range(cfg.depth)))
         if cfg.stem == 1:
             self.head = nn.Conv2d(ch[0], 4, 3, 1, 1)
-        elif cfg.head_stride == 1:
+        else:
             self.head_low = nn.Sequential(nn.Conv2d(ch[0], ch[0], 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
-            self.head = nn.Sequential(nn.Conv2d(ch[0] + cfg.in_channels, cfg.skip_hidden, 1),
+            # head_stride 1: head[0] reads cat(upsampled features, raw input); 2: the features alone,
+            # and head_x the raw input (summed before head[1])
+            reads = ch[0] + (cfg.in_channels if cfg.head_stride == 1 else 0)
+            self.head = nn.Sequential(nn.Conv2d(reads, cfg.skip_hidden, 1),
                                       nn.LeakyReLU(0.2, inplace=True), nn.Conv2d(cfg.skip_hidden, 4, 1))
-        else:  # head[0] reads the trunk's features, head_x the raw input (summed before head[1])
-            self.head_low = nn.Sequential(nn.Conv2d(ch[0], ch[0], 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
-            self.head_x = nn.Conv2d(cfg.in_channels, cfg.skip_hidden, cfg.head_stride, cfg.head_stride, bias=False)
-            self.head = nn.Sequential(nn.Conv2d(ch[0], cfg.skip_hidden, 1),
-                                      nn.LeakyReLU(0.2, inplace=True), nn.Conv2d(cfg.skip_hidden, 4, 1))
+            if cfg.head_stride > 1:
+                self.head_x = nn.Conv2d(cfg.in_channels, cfg.skip_hidden, cfg.head_stride, cfg.head_stride,
+                                        bias=False)
         if cfg.rgb_skip:
             self.colour = TextureColour(cfg.fill_levels)
         with torch.no_grad():
