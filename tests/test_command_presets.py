@@ -1,7 +1,7 @@
-"""The presets of whole commands (``morf demo``, ``morf bench stability``, ``morf bench pareto``)
-are made of the stages' registered presets (``morf.presets``) plus overrides: every name they use
-must be in the registry and every override must make a valid config, so renaming or reshaping a
-stage preset fails here instead of in a user's run."""
+"""The presets of whole commands (``morf demo``, ``morf bench stability``, ``morf bench pareto``;
+stages ``demo``, ``stability`` and ``sweep`` of ``morf.presets``) are made of the stages' registered
+presets plus overrides: every name they use must be in the registry and every override must make a
+valid config, so renaming or reshaping a stage preset fails here instead of in a user's run."""
 
 from __future__ import annotations
 
@@ -13,22 +13,18 @@ from morf.train.config import preset as train_preset
 
 
 def _demo_rows():
-    from morf.cli.demo import PRESETS
-
     return [(f"demo {name}", p.synth, {}, p.fit, p.train, {"steps": p.train_steps} if p.train_steps else {})
-            for name, p in PRESETS.items()]
+            for name, p in presets.presets_of("demo").items()]
 
 
 def _stability_rows():
-    from morf.bench.stability import PRESETS
-
-    return [(f"stability {name}", p.synth[0], p.synth[1], "fast", p.train[0], p.train[1]) for name, p in PRESETS.items()]
+    return [(f"stability {name}", p.synth[0], p.synth[1], "fast", p.train[0], p.train[1])
+            for name, p in presets.presets_of("stability").items()]
 
 
 def _sweep_rows():
-    from morf.sizing.sweep import PRESETS
-
-    return [(f"sweep {name}", p.synth[0], p.synth[1], None, p.train[0], p.train[1]) for name, p in PRESETS.items()]
+    return [(f"sweep {name}", p.synth[0], p.synth[1], None, p.train[0], p.train[1])
+            for name, p in presets.presets_of("sweep").items()]
 
 
 @pytest.mark.parametrize("rows", [_demo_rows, _stability_rows, _sweep_rows], ids=["demo", "stability", "sweep"])

@@ -11,14 +11,29 @@ from morf import presets
 from morf.errors import InputError
 from morf.fitting.config import PRESETS as FIT_PRESETS
 from morf.fitting.config import FitConfig
+from morf.presets.demo import PRESETS as DEMO_PRESETS
+from morf.presets.demo import DemoPreset
+from morf.presets.stability import PRESETS as STABILITY_PRESETS
+from morf.presets.stability import StabilityPreset
+from morf.presets.sweep import PRESETS as SWEEP_PRESETS
+from morf.presets.sweep import SweepPreset
 from morf.synth.config import PRESETS as SYNTH_PRESETS
 from morf.synth.config import SynthConfig
 from morf.train.config import PRESETS as TRAIN_PRESETS
 from morf.train.config import TrainConfig
 
+# The presets of whole commands: stage -> (config class, the command line that runs one, up to its
+# output folder).
+COMMAND_STAGES = {
+    "demo": (DemoPreset, ["demo"]),
+    "stability": (StabilityPreset, ["bench", "stability", "--out"]),
+    "sweep": (SweepPreset, ["bench", "pareto", "--out"]),
+}
+
 
 def test_the_registry_holds_each_stages_own_table():
-    assert dict(presets.PRESETS) == {"synth": SYNTH_PRESETS, "fit": FIT_PRESETS, "train": TRAIN_PRESETS}
+    assert dict(presets.PRESETS) == {"synth": SYNTH_PRESETS, "fit": FIT_PRESETS, "train": TRAIN_PRESETS,
+                                     "demo": DEMO_PRESETS, "stability": STABILITY_PRESETS, "sweep": SWEEP_PRESETS}
     for stage, cls in (("synth", SynthConfig), ("fit", FitConfig), ("train", TrainConfig)):
         table = presets.presets_of(stage)
         assert table is presets.PRESETS[stage] and table
@@ -26,17 +41,35 @@ def test_the_registry_holds_each_stages_own_table():
             assert isinstance(config, cls)
             assert presets.preset(stage, name) is config
             config.validate()
+    for stage, (cls, _) in COMMAND_STAGES.items():
+        table = presets.presets_of(stage)
+        assert table is presets.PRESETS[stage] and "tiny" in table
+        for name, config in table.items():
+            assert isinstance(config, cls) and presets.preset(stage, name) is config
+
+
+def test_the_registry_imports_no_command():
+    """The command presets are plain data below the commands: reading them loads no benchmark or CLI."""
+    import subprocess
+    import sys
+
+    code = ("import sys, morf.presets; loaded = [m for m in sys.modules if m.startswith(('morf.bench', 'morf.cli', "
+            "'morf.sizing'))]; print(loaded); sys.exit(bool(loaded))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
+KNOWN = {"fit": "default, fast, tiny, baseline", "train": "tiny, cpu, gpu", "synth": "tiny, default",
+         "demo": "tiny, quick, full", "stability": "tiny, default", "sweep": "tiny, quick, default"}
 
 
 def test_unknown_stages_and_preset_names_are_input_errors_listing_the_known_ones():
-    with pytest.raises(InputError, match="stages with presets: synth, fit, train"):
+    with pytest.raises(InputError, match="stages with presets: synth, fit, train, demo, stability, sweep"):
         presets.preset("paint", "default")
-    with pytest.raises(InputError, match="unknown fit preset 'huge'; choose one of default, fast, tiny, baseline"):
-        presets.preset("fit", "huge")
-    with pytest.raises(InputError, match="unknown train preset 'auto'; choose one of tiny, cpu, gpu"):
-        presets.preset("train", "auto")
-    with pytest.raises(InputError, match="unknown synth preset 'huge'; choose one of tiny, default"):
-        presets.preset("synth", "huge")
+    for stage, known in KNOWN.items():
+        name = "auto" if stage == "train" else "huge"  # auto is chosen from a capture, not a table entry
+        with pytest.raises(InputError, match=f"unknown {stage} preset '{name}'; choose one of {known}$"):
+            presets.preset(stage, name)
 
 
 def test_the_default_training_preset_follows_the_device(monkeypatch):
@@ -47,6 +80,8 @@ def test_the_default_training_preset_follows_the_device(monkeypatch):
     monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
     assert presets.default_preset("train") == "cpu"
     assert presets.default_preset("fit") == presets.default_preset("synth") == "default"
+    assert presets.default_preset("demo") == "quick"
+    assert presets.default_preset("stability") == presets.default_preset("sweep") == "default"
     with pytest.raises(InputError, match="stages with presets"):
         presets.default_preset("paint")
 
@@ -78,3 +113,63 @@ def test_replace_refuses_unknown_fields_with_an_input_error():
         TRAIN_PRESETS["cpu"].replace(bogus=1)
     with pytest.raises(InputError, match="bogus"):
         FitConfig().replace(bogus=1)
+
+
+def _error_of(tmp_path, capsys, argv) -> str:
+    """The one-line error (after argparse's usage) ``morf ARGV`` stops with, exit status 2, no traceback."""
+    from morf.cli.main import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and "Traceback" not in err
+    assert not any(tmp_path.iterdir())  # nothing made before the refusal
+    return err.strip().splitlines()[-1]
+
+
+@pytest.mark.parametrize("stage", sorted(COMMAND_STAGES))
+def test_commands_offer_the_registrys_presets_and_refuse_unknown_ones(stage, tmp_path, capsys):
+    line = _error_of(tmp_path, capsys, [*COMMAND_STAGES[stage][1], str(tmp_path / "out"), "--preset", "nope"])
+    assert "argument --preset: invalid choice: 'nope'" in line
+    assert all(repr(name) in line for name in presets.presets_of(stage)), line
+
+
+@pytest.mark.parametrize("bench", ["quality", "step"])
+def test_training_benchmarks_offer_the_registrys_training_presets(bench, tmp_path, capsys):
+    line = _error_of(tmp_path, capsys, ["bench", bench, "--out", str(tmp_path / "out"), "--preset", "nope"])
+    assert "argument --preset: invalid choice: 'nope'" in line
+    assert all(repr(name) in line for name in presets.presets_of("train")), line
+
+
+def test_every_benchmark_preset_flag_takes_its_choices_and_default_from_the_registry():
+    import argparse
+
+    from morf.cli import bench
+
+    parser = bench.add_parser(argparse.ArgumentParser().add_subparsers())
+    (benchmarks,) = [a.choices for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    stages = {"quality": "train", "step": "train", "stability": "stability", "pareto": "sweep"}
+    for name, stage in stages.items():
+        (flag,) = [a for a in benchmarks[name]._actions if "--preset" in a.option_strings]
+        assert tuple(flag.choices) == tuple(presets.presets_of(stage)), name
+        assert flag.default in flag.choices, name
+
+
+def test_command_functions_refuse_unknown_presets_with_input_errors(tmp_path):
+    """Called as a library (no argparse in front), an unknown name is the registry's InputError,
+    raised before anything is made or loaded."""
+    from morf.bench.auto_check import auto_check
+    from morf.bench.pareto import run_sweep
+    from morf.bench.stability import run_stability
+    from morf.cli import demo
+
+    with pytest.raises(InputError, match="unknown stability preset 'nope'; choose one of tiny, default"):
+        run_stability(tmp_path / "s", "nope")
+    with pytest.raises(InputError, match="unknown sweep preset 'nope'; choose one of tiny, quick, default"):
+        run_sweep(tmp_path / "p", "nope")
+    with pytest.raises(InputError, match="unknown sweep preset 'nope'; choose one of tiny, quick, default"):
+        auto_check(tmp_path / "a", "nope", scenes=("print",))
+    with pytest.raises(InputError, match="unknown demo preset 'nope'; choose one of tiny, quick, full"):
+        demo.run(SimpleNamespace(dir=str(tmp_path / "d"), preset="nope", motion=None))
+    assert not any(tmp_path.iterdir())
+

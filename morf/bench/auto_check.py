@@ -67,7 +67,8 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
     from morf.bench.pareto import QUALITY, make_capture, run_sweep
     from morf.errors import InputError
     from morf.sizing.choose import SizingRule, choose_train_config
-    from morf.sizing.sweep import PRESETS, SweepPoint
+    from morf.presets import preset as named_preset
+    from morf.sizing.sweep import SweepPoint
 
     unknown = [s for s in scenes if s not in SCENE_ORDER]
     if unknown:
@@ -77,7 +78,7 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
     projects = scene_projects(list(scenes), project_path)
 
     out = Path(out)
-    sweep = PRESETS[preset]
+    sweep = named_preset("sweep", preset)
     rule = SizingRule()
     if model is None:
         from morf.body import load_body_model

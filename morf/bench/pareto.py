@@ -44,8 +44,10 @@ PAPER_NOTE = ("Paper (MoRF, WACV 2024): 640x640 at 30 fps on a Snapdragon 888 ph
 
 
 def add_arguments(p) -> None:
+    from morf.presets import default_preset, presets_of
+
     p.add_argument("--out", required=True, help="folder for pareto.json, pareto.md, charts and per-point results")
-    p.add_argument("--preset", choices=("tiny", "quick", "default"), default="default",
+    p.add_argument("--preset", choices=tuple(presets_of("sweep")), default=default_preset("sweep"),
                    help="sweep size: tiny (CI, seconds), quick (about an hour), default (many hours)")
     p.add_argument("--project", default=None,
                    help="an existing synthetic capture (default: make one in OUT); with --auto-check, "
@@ -330,13 +332,14 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
     from morf.bench.common import machine_info, markdown_table, write_results
     from morf.errors import InputError
     from morf.scale.ray_runtime import RayOptions
-    from morf.sizing.sweep import NOISE_AXES, PRESETS, resolve, select
+    from morf.presets import preset as named_preset
+    from morf.sizing.sweep import NOISE_AXES, resolve, select
 
     if seeds < 1:
         raise InputError(f"seeds must be at least 1, got {seeds}")
 
     out = Path(out)
-    sweep = PRESETS[preset]
+    sweep = named_preset("sweep", preset)
     if model is None:
         from morf.body import load_body_model
 

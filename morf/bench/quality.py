@@ -33,8 +33,10 @@ DEFAULT_METHODS = "morf,stylepeople,rgb"
 
 
 def add_arguments(p):
+    from morf.presets import presets_of
+
     p.add_argument("--out", required=True, help="output folder for quality.json / quality.md and the images")
-    p.add_argument("--preset", choices=("tiny", "cpu", "gpu"), default="cpu", help="training preset (tiny: CI)")
+    p.add_argument("--preset", choices=tuple(presets_of("train")), default="cpu", help="training preset (tiny: CI)")
     p.add_argument("--project", default=None,
                    help="an existing synthetic capture project (default: make and fit one in OUT/capture)")
     p.add_argument("--methods", default=DEFAULT_METHODS,

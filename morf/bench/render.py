@@ -17,6 +17,8 @@ import subprocess
 import sys
 import tempfile
 import time
+from morf.bench.render_results import (TABLE_COLUMNS, GraphProfile, MeasuredAvatar, OpTime, PlaybackMeasurement,
+                                       RenderResult)
 from pathlib import Path
 
 import numpy as np
@@ -66,14 +68,13 @@ def time_player(p, rot, tr, cams, frames: int, steps: dict | None = None) -> tup
     return seq, float(np.median(rt))
 
 
-def measure(avatar_dir: str, size: int, frames: int) -> dict:
+def measure(avatar_dir: str, size: int, frames: int) -> PlaybackMeasurement:
     """Timings of one avatar (run in a process without torch)."""
     from morf.raster.camera_paths import front_camera
     from morf.playback.player import Player
 
     rot, tr = bench_motion(frames + 5, 104)
     cams = [front_camera(size, yaw_deg=10.0 * i) for i in range(len(rot))]
-    out: dict = {}
     with Player(avatar_dir, size=size, background=(255, 255, 255), threads=THREADS) as p:
         for i in list(range(5)) * 3:  # warm-up: shader compile, ORT's first-run allocations and arena growth
             p.render(rot[i], tr[i], cams[i])
@@ -82,24 +83,21 @@ def measure(avatar_dir: str, size: int, frames: int) -> dict:
         t0 = time.perf_counter()
         images = list(p.render_sequence((rot[i], tr[i], cams[i]) for i in range(5, len(rot))))
         piped = (time.perf_counter() - t0) / frames
-        out["breakdown_ms"] = {k: float(np.median(v)) for k, v in steps.items()}
-        out["renderer_only_ms"] = renderer_ms
-        out["peak_rss_mb"] = _peak_rss_mb()  # before the profiling session and the fp32 comparison below
+        breakdown = {k: float(np.median(v)) for k, v in steps.items()}
+        peak_rss_mb = _peak_rss_mb()  # before the profiling session and the fp32 comparison below
         profile = graph_profile(p, p.rasterize(rot[0], tr[0], cams[0]))
-        out["kernels"] = profile
-        share = profile["composite_share"]
+        share = profile.composite_share
         if share is not None:  # the renderer graph also composites: split its time by the profile
-            bd = out["breakdown_ms"]
-            bd["composite_ms"] = bd["renderer_ms"] * share
-            bd["renderer_ms"] -= bd["composite_ms"]
-            out["composite_share_of_graph"] = share
-    out.update(threads=THREADS, frame_ms=seq * 1e3, fps_end_to_end=1.0 / seq, frame_ms_pipelined=piped * 1e3,
-               fps_pipelined=1.0 / piped)
+            breakdown["composite_ms"] = breakdown["renderer_ms"] * share
+            breakdown["renderer_ms"] -= breakdown["composite_ms"]
     with Player(avatar_dir, size=size, background=(255, 255, 255), precision="fp32") as p32:
         ref = [p32.render(rot[i], tr[i], cams[i]) for i in range(5, 5 + min(5, frames))]
     mse = np.mean([np.mean((a.astype(np.float32) - b) ** 2) for a, b in zip(ref, images)]) / 255.0 ** 2
-    out["int8_psnr_vs_fp32_image_db"] = float(-10 * np.log10(max(mse, 1e-12)))
-    return out
+    return PlaybackMeasurement(
+        breakdown_ms=breakdown, renderer_only_ms=renderer_ms, peak_rss_mb=peak_rss_mb, kernels=profile,
+        composite_share_of_graph=share, threads=THREADS, frame_ms=seq * 1e3, fps_end_to_end=1.0 / seq,
+        frame_ms_pipelined=piped * 1e3, fps_pipelined=1.0 / piped,
+        int8_psnr_vs_fp32_image_db=float(-10 * np.log10(max(mse, 1e-12))))
 
 
 # onnxruntime op types by what they compute in: int8 kernels, the float <-> int8 conversions between them
@@ -122,12 +120,10 @@ def op_kind(op: str, input_types: list[str]) -> str:
     return "8-bit data"
 
 
-def graph_profile(player, raster, runs: int = 10) -> dict:
-    """What onnxruntime ran for the renderer graph, from its profiler (a separate session).
-
-    Returns ``ops``: op type -> {kind (see :func:`op_kind`), nodes, ms a run}, sorted by time;
-    ``kind_share``: kind -> share of the kernel time; ``composite_share``: share of the kernel time
-    in the compositing nodes (None for a graph that does not composite).
+def graph_profile(player, raster, runs: int = 10) -> GraphProfile:
+    """What onnxruntime ran for the renderer graph, from its profiler (a separate session): every
+    op type's kind, node count and ms a run (costliest first), each kind's share of the kernel
+    time, and the compositing nodes' share (see :class:`GraphProfile`).
     """
     import onnxruntime as ort
 
@@ -156,20 +152,19 @@ def graph_profile(player, raster, runs: int = 10) -> dict:
         a = e.get("args", {})
         op = a.get("op_name", "?")
         types = [next(iter(t)) for t in a.get("input_type_shape", []) if t]
-        o = ops.setdefault(op, {"kind": op_kind(op, types), "nodes": 0, "ms": 0.0})
+        o = ops.setdefault(op, {"kind": op_kind(op, types), "ms": 0.0})
         nodes.setdefault(op, set()).add(e["name"])
         o["ms"] += e["dur"] / 1e3 / runs
         total += e["dur"]
         comp += e["dur"] if e["name"].startswith(COMPOSITE_PREFIX) else 0.0
-    for op, o in ops.items():
-        o["nodes"] = len(nodes[op])
+    timed = {op: OpTime(o["kind"], len(nodes[op]), o["ms"]) for op, o in ops.items()}
     kinds: dict[str, float] = {}
-    for o in ops.values():
-        kinds[o["kind"]] = kinds.get(o["kind"], 0.0) + o["ms"]
+    for o in timed.values():
+        kinds[o.kind] = kinds.get(o.kind, 0.0) + o.ms
     total_ms = sum(kinds.values()) or 1.0
-    return {"ops": dict(sorted(ops.items(), key=lambda kv: -kv[1]["ms"])),
-            "kind_share": {k: v / total_ms for k, v in sorted(kinds.items(), key=lambda kv: -kv[1])},
-            "composite_share": (comp / total if total else None) if player.renderer.composites else None}
+    return GraphProfile(ops=dict(sorted(timed.items(), key=lambda kv: -kv[1].ms)),
+                        kind_share={k: v / total_ms for k, v in sorted(kinds.items(), key=lambda kv: -kv[1])},
+                        composite_share=(comp / total if total else None) if player.renderer.composites else None)
 
 
 def cpu_report(model: str, cores: int | None, features: dict) -> str:
@@ -181,12 +176,12 @@ def cpu_report(model: str, cores: int | None, features: dict) -> str:
             f"AVX512-BF16 {yes('avx512_bf16' in flags)}, VNNI {vnni}, AVX2 {yes('avx2' in flags)}")
 
 
-def kernel_summary(profile: dict, top: int = 4) -> str:
+def kernel_summary(profile: GraphProfile, top: int = 4) -> str:
     """One line per kind: its share of the renderer graph's time and its costliest op types."""
     lines = []
-    for kind, share in profile["kind_share"].items():
-        ops = [(op, o) for op, o in profile["ops"].items() if o["kind"] == kind]
-        named = ", ".join(f"{op} x{o['nodes']} {o['ms']:.1f} ms" for op, o in ops[:top])
+    for kind, share in profile.kind_share.items():
+        ops = [(op, o) for op, o in profile.ops.items() if o.kind == kind]
+        named = ", ".join(f"{op} x{o.nodes} {o.ms:.1f} ms" for op, o in ops[:top])
         more = f", {len(ops) - top} more" if len(ops) > top else ""
         lines.append(f"  {kind}: {100 * share:.0f}% ({named}{more})")
     return "\n".join(lines)
@@ -216,7 +211,7 @@ def _peak_rss_mb() -> float:
 
 def _child_main() -> None:
     args = json.loads(sys.argv[1])
-    print(json.dumps(measure(args["avatar"], args["size"], args["frames"])))
+    print(json.dumps(measure(args["avatar"], args["size"], args["frames"]).to_dict()))
 
 
 def run_torch_free(module: str, entry: str, payload: dict, what: str) -> dict:
@@ -231,7 +226,8 @@ def run_torch_free(module: str, entry: str, payload: dict, what: str) -> dict:
 
 
 def measure_in_child(avatar: Path, size: int, frames: int) -> dict:
-    """:func:`measure` in a fresh process that never imports torch."""
+    """:func:`measure` in a fresh process that never imports torch; the measurement as the child
+    wrote it (:meth:`PlaybackMeasurement.to_dict`; read it with :meth:`PlaybackMeasurement.from_dict`)."""
     return run_torch_free("morf.bench.render", "_child_main", {"avatar": str(avatar), "size": size, "frames": frames},
                           f"measurement of {avatar}")
 
@@ -263,61 +259,51 @@ def run(args) -> int:
     t0 = time.time()
     from morf.cpu_features import cpu_summary
 
-    result: dict = {"benchmark": "render", "size": args.size, "precision": "int8", "threads": THREADS,
-                    "frames": args.frames, "machine": machine_info(), "cpu_features": cpu_summary(),
-                    "command": "morf bench render " + " ".join(sys.argv[3:] if sys.argv[1:3] == ["bench", "render"] else [])}
-    rows = []
+    machine, features = machine_info(), cpu_summary()
+    command = "morf bench render " + " ".join(sys.argv[3:] if sys.argv[1:3] == ["bench", "render"] else [])
     with tempfile.TemporaryDirectory() as tmpd:
         if args.avatar:
             avatars = {"given": Path(args.avatar)}
-            result["avatar"] = str(Path(args.avatar).resolve())
+            described = str(Path(args.avatar).resolve())
         else:
             names = [DEFAULT_VARIANT] if args.no_variants else list(VARIANT_NAMES)
             avatars = _build(Path(tmpd), names, args.size)
-            result["avatar"] = f"synthetic: spectral texture 256x256x16 + random-init renderer '{DEFAULT_VARIANT}' (cpu preset)"
-        per = {}
+            described = f"synthetic: spectral texture 256x256x16 + random-init renderer '{DEFAULT_VARIANT}' (cpu preset)"
+        per: dict[str, MeasuredAvatar] = {}
         for key, path in avatars.items():
             print(f"measuring {key}", file=sys.stderr)
-            m = measure_in_child(path, args.size, args.frames)
-            man = json.loads((path / "manifest.json").read_text())
-            m["int8_psnr_vs_fp32_db"] = man["int8_quality"]["psnr_db"]
-            m["int8_ssim_vs_fp32"] = man["int8_quality"]["ssim"]
-            m["renderer_config"] = man["renderer"]["config"]
-            m["input_layout"] = man["renderer"]["input_layout"]
-            per[key] = m
-            rows.append({"avatar": key, "renderer ms": m["renderer_only_ms"], "frame ms": m["frame_ms"],
-                         "fps": m["fps_end_to_end"], "fps pipelined": m["fps_pipelined"],
-                         "int8 PSNR dB": m["int8_psnr_vs_fp32_db"], "peak RSS MB": m["peak_rss_mb"]})
+            m = PlaybackMeasurement.from_dict(measure_in_child(path, args.size, args.frames))
+            per[key] = MeasuredAvatar.from_manifest(m, json.loads((path / "manifest.json").read_text()))
     main_key = "given" if args.avatar else DEFAULT_VARIANT
     main = per[main_key]
-    result.update(fps=main["fps_end_to_end"], fps_pipelined=main["fps_pipelined"],
-                  pipeline_gain_ms=main["frame_ms"] - main["frame_ms_pipelined"],
-                  breakdown_ms=main["breakdown_ms"], peak_rss_mb=main["peak_rss_mb"],
-                  int8_psnr_vs_fp32=main["int8_psnr_vs_fp32_db"], int8_ssim_vs_fp32=main["int8_ssim_vs_fp32"],
-                  int8_psnr_vs_fp32_image=main["int8_psnr_vs_fp32_image_db"], kernels=main["kernels"], avatars=per,
-                  seconds=round(time.time() - t0, 1))
-    if main.get("renderer_config"):
+    seconds = round(time.time() - t0, 1)
+    limit = None
+    if main.renderer_config:
         from morf.bench.compute_limit import compute_limit
 
         print("timing int8 matrix multiplies (the CPU's limit)", file=sys.stderr)
-        result["compute_limit"] = compute_limit(main["renderer_config"], args.size, main["renderer_only_ms"], THREADS)
-    cpu_line = cpu_report(result["machine"]["cpu"], result["machine"]["cores"], result["cpu_features"])
-    kernels = kernel_summary(main["kernels"])
+        limit = compute_limit(main.renderer_config, args.size, main.measurement.renderer_only_ms, THREADS)
+    result = RenderResult(size=args.size, threads=THREADS, frames=args.frames, machine=machine, cpu_features=features,
+                          command=command, avatar=described, main=main_key, avatars=per, seconds=seconds,
+                          compute_limit=limit)
+    cpu_line = cpu_report(machine["cpu"], machine["cores"], features)
+    kernels = kernel_summary(main.measurement.kernels)
+    breakdown = main.measurement.breakdown_ms
     md = [f"# Playback speed at {args.size}x{args.size} (int8, onnxruntime {THREADS} threads)\n",
-          f"Avatar: {result['avatar']}. Machine: {cpu_line}.\n",
-          markdown_table(rows, ["avatar", "renderer ms", "frame ms", "fps", "fps pipelined", "int8 PSNR dB", "peak RSS MB"]),
+          f"Avatar: {result.avatar}. Machine: {cpu_line}.\n",
+          markdown_table([a.table_row(key) for key, a in per.items()], TABLE_COLUMNS),
           "\nBreakdown of one frame (median ms, sequential, " + main_key + "):\n",
-          markdown_table([main["breakdown_ms"]], list(main["breakdown_ms"])),
+          markdown_table([breakdown], list(breakdown)),
           f"\nWhat onnxruntime ran for the renderer graph ({main_key}; share of its kernel time):\n",
           "```\n" + kernels + "\n```\n"]
-    lim = result.get("compute_limit")
-    if lim:
-        md.append(limit_line(lim, main_key) + "\n")
-    path = write_results(args.out, "render", result, "\n".join(md))
+    if limit:
+        md.append(limit_line(limit, main_key) + "\n")
+    path = write_results(args.out, "render", result.to_dict(), "\n".join(md))
     print(f"CPU: {cpu_line}")
     print(f"renderer graph kernels ({main_key}; share of its kernel time, op types with node count and ms a run):")
     print(kernels)
-    if lim:
-        print(limit_line(lim, main_key))
-    print(f"{main_key}: {result['fps']:.1f} fps end to end, {result['fps_pipelined']:.1f} fps pipelined; wrote {path}")
+    if limit:
+        print(limit_line(limit, main_key))
+    print(f"{main_key}: {main.measurement.fps_end_to_end:.1f} fps end to end, "
+          f"{main.measurement.fps_pipelined:.1f} fps pipelined; wrote {path}")
     return 0

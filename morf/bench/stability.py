@@ -38,8 +38,12 @@ import dataclasses
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from morf.presets.stability import StabilityPreset  # the presets: stage "stability" of morf.presets
 
 METHODS = ("morf", "stylepeople", "anr")
 SERIES = ("misalignment", "slide", "loose", "fast", "keypoints", "coverage")
@@ -50,34 +54,12 @@ BREAKDOWN_DB = 1.0  # about the run-to-run noise of one training (docs/avatar.md
 CLEAN = {"slide": 0.0, "loose": 0.0, "kp_noise": 0.0, "corrupt": 0.0}
 
 
-@dataclass(frozen=True)
-class StabilityPreset:
-    """Fields: synth: (synth preset, overrides) of the clean capture; train: (training preset,
-    overrides); fit_scale: iterations factor on the "fast" fit preset; levels: per series."""
-
-    synth: tuple[str, dict]
-    train: tuple[str, dict]
-    fit_scale: float
-    levels: dict
-
-
-PRESETS = {
-    "tiny": StabilityPreset(("tiny", {"frames": 8, "holdout_frames": 3}),
-                            ("tiny", {"steps": 4, "inpaint_steps": 0}), 0.05,
-                            {"misalignment": [0, 10], "slide": [0, 0.03], "loose": [0, 0.1], "fast": [1, 2],
-                             "keypoints": [0, 15], "coverage": [0, 180]}),
-    "default": StabilityPreset(("default", {"frames": 64, "size": 256, "holdout_frames": 16, "detector": "none"}),
-                               ("cpu", {"resolution": 128, "steps": 400, "inpaint_steps": 40, "inpaint_views": 8}),
-                               1.0,
-                               {"misalignment": [0, 2, 5, 10], "slide": [0, 0.006, 0.015, 0.03],
-                                "loose": [0, 0.025, 0.06, 0.12], "fast": [1, 2, 4, 8],
-                                "keypoints": [0, 3, 8, 15], "coverage": [0, 90, 180, 240]}),
-}
-
-
 def add_arguments(p) -> None:
+    from morf.presets import default_preset, presets_of
+
     p.add_argument("--out", required=True, help="folder for stability.json, stability.md, charts, captures")
-    p.add_argument("--preset", choices=tuple(PRESETS), default="default", help="tiny: CI (seconds per point)")
+    p.add_argument("--preset", choices=tuple(presets_of("stability")), default=default_preset("stability"),
+                   help="tiny: CI (seconds per point)")
     p.add_argument("--series", default=",".join(SERIES), help="comma-separated subset of: " + ", ".join(SERIES))
     p.add_argument("--methods", default=",".join(METHODS), help="comma-separated subset of: " + ", ".join(METHODS))
     p.add_argument("--repeats", type=int, default=1,
@@ -325,10 +307,11 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
     from morf.bench.charts import series_chart
     from morf.bench.common import machine_info, markdown_table, write_results
     from morf.errors import InputError
+    from morf.presets import preset as named_preset
     from morf.scale.ray_runtime import RayOptions
 
     out = Path(out)
-    sp = PRESETS[preset]
+    sp = named_preset("stability", preset)
     series = series or list(SERIES)
     methods = methods or list(METHODS)
     bad = [s for s in series if s not in SERIES] + [m for m in methods if m not in METHODS]

@@ -11,13 +11,68 @@ synthetic capture in ``OUT/capture``. Writes ``DIR/step.json`` and ``DIR/step.md
 from __future__ import annotations
 
 import time
+from dataclasses import asdict, dataclass
 from pathlib import Path
+
+COLUMNS = ["bf16", "s_per_step", "chosen_by_trainer"]
+
+
+@dataclass(frozen=True)
+class StepTime:
+    """One setting of ``morf bench step``.
+
+    Fields:
+        bf16: bfloat16 autocast on; s_per_step: mean seconds a training step;
+        chosen_by_trainer: the setting the trainer picks by itself on this CPU.
+    """
+
+    bf16: bool
+    s_per_step: float
+    chosen_by_trainer: bool
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @staticmethod
+    def from_dict(d: dict) -> StepTime:
+        return StepTime(d["bf16"], d["s_per_step"], d["chosen_by_trainer"])
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """``step.json``.
+
+    Fields:
+        preset, method: the timed training configuration; project: the capture project's folder;
+        frames: its training frames; steps: timed steps a setting; rows: one StepTime a setting
+        (bf16 on, then off); machine: :func:`morf.bench.common.machine_info`.
+    """
+
+    preset: str
+    method: str
+    project: str
+    frames: int
+    steps: int
+    rows: tuple[StepTime, ...]
+    machine: dict
+
+    def to_dict(self) -> dict:
+        return {"benchmark": "step", "preset": self.preset, "method": self.method, "project": self.project,
+                "frames": self.frames, "steps": self.steps, "rows": [r.to_dict() for r in self.rows],
+                "machine": self.machine}
+
+    @staticmethod
+    def from_dict(d: dict) -> StepResult:
+        return StepResult(d["preset"], d["method"], d["project"], d["frames"], d["steps"],
+                          tuple(StepTime.from_dict(r) for r in d["rows"]), d["machine"])
 
 
 def add_arguments(p):
+    from morf.presets import presets_of
+
     p.add_argument("--out", required=True, help="output folder for step.json / step.md")
     p.add_argument("--project", default=None, help="a capture project (default: build the default synthetic one)")
-    p.add_argument("--preset", choices=("tiny", "cpu", "gpu"), default="cpu", help="training preset to time")
+    p.add_argument("--preset", choices=tuple(presets_of("train")), default="cpu", help="training preset to time")
     p.add_argument("--method", choices=("morf", "stylepeople", "anr"), default="morf")
     p.add_argument("--steps", type=int, default=40, help="timed steps per setting")
     p.add_argument("--warmup", type=int, default=6, help="untimed steps first")
@@ -73,15 +128,15 @@ def run(args) -> int:
         trainer = Trainer(cfg, frames, texture, device="cpu", zoom_frames=zoom)
         trainer.bf16 = bf16  # forced either way: the point is to see what each costs here
         s = time_steps(trainer, args.steps, args.warmup)
-        rows.append({"bf16": bf16, "s_per_step": s, "chosen_by_trainer": bf16 == (cfg.bf16 and native_bf16())})
+        rows.append(StepTime(bf16, s, bf16 == (cfg.bf16 and native_bf16())))
         print(f"bf16 autocast {'on ' if bf16 else 'off'}: {s:.3f} s/step")
     machine = machine_info()
-    result = {"benchmark": "step", "preset": args.preset, "method": args.method, "project": str(project.root),
-              "frames": frames.num_frames, "steps": args.steps, "rows": rows, "machine": machine}
+    result = StepResult(args.preset, args.method, str(project.root), frames.num_frames, args.steps, tuple(rows),
+                        machine)
     md = (f"# Training step time ({args.preset} preset, {args.method})\n\n"
           f"CPU: {machine['cpu']}; flags: {', '.join(machine['cpu_features']['flags']) or 'none read'}; "
           f"native bf16: {machine['cpu_features']['native_bf16']}\n\n"
-          + markdown_table(rows, ["bf16", "s_per_step", "chosen_by_trainer"], "{:.3f}"))
-    path = write_results(out, "step", result, md)
+          + markdown_table([r.to_dict() for r in rows], COLUMNS, "{:.3f}"))
+    path = write_results(out, "step", result.to_dict(), md)
     print(f"wrote {path}")
     return 0

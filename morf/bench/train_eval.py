@@ -12,9 +12,37 @@ from __future__ import annotations
 import json
 import math
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 from morf.errors import InputError, TrainingDiverged
+
+
+@dataclass(frozen=True)
+class PlaybackSpeed:
+    """Playback speed of an exported avatar (:func:`measure_speed`); the fp32 one travels from its
+    measuring child as JSON.
+
+    Fields:
+        fps: end to end, sequential; frame_ms: its milliseconds a frame; renderer_ms: the renderer
+        graph alone, median; int8_psnr_vs_fp32_image_db: the int8 player's frames against the fp32
+        player's (int8 only; None for fp32, then left out of :meth:`to_dict`).
+    """
+
+    fps: float
+    frame_ms: float
+    renderer_ms: float
+    int8_psnr_vs_fp32_image_db: float | None = None
+
+    def to_dict(self) -> dict:
+        d = {"fps": self.fps, "frame_ms": self.frame_ms, "renderer_ms": self.renderer_ms}
+        if self.int8_psnr_vs_fp32_image_db is not None:
+            d["int8_psnr_vs_fp32_image_db"] = self.int8_psnr_vs_fp32_image_db
+        return d
+
+    @staticmethod
+    def from_dict(d: dict) -> PlaybackSpeed:
+        return PlaybackSpeed(d["fps"], d["frame_ms"], d["renderer_ms"], d.get("int8_psnr_vs_fp32_image_db"))
 
 
 def holdout_quality(project, run_dir, model, resolution: int | None = None) -> dict:
@@ -72,21 +100,20 @@ def export_for_speed(run_dir, out_dir: Path, size: int, body_model) -> dict:
                                   heldout_views=2, renderer=av.renderer, texture=av.texture)
 
 
-def measure_speed(avatar_dir: Path, size: int, frames: int, precision: str) -> dict:
+def measure_speed(avatar_dir: Path, size: int, frames: int, precision: str) -> PlaybackSpeed:
     """Playback speed of an exported avatar in a torch-free child process.
 
     int8 uses the playback benchmark's own measurement; fp32 the same loop with the fp32 renderer.
-    Returns fps (end to end, sequential), frame_ms and renderer_ms.
     """
     from morf.bench.render import measure_in_child, run_torch_free
+    from morf.bench.render_results import PlaybackMeasurement
 
     if precision == "int8":
-        m = measure_in_child(Path(avatar_dir), size, frames)
-        return {"fps": m["fps_end_to_end"], "frame_ms": m["frame_ms"], "renderer_ms": m["renderer_only_ms"],
-                "int8_psnr_vs_fp32_image_db": m.get("int8_psnr_vs_fp32_image_db")}
-    return run_torch_free("morf.bench.train_eval", "_fp32_child",
-                          {"avatar": str(avatar_dir), "size": size, "frames": frames},
-                          f"fp32 measurement of {avatar_dir}")
+        m = PlaybackMeasurement.from_dict(measure_in_child(Path(avatar_dir), size, frames))
+        return PlaybackSpeed(m.fps_end_to_end, m.frame_ms, m.renderer_only_ms, m.int8_psnr_vs_fp32_image_db)
+    return PlaybackSpeed.from_dict(run_torch_free("morf.bench.train_eval", "_fp32_child",
+                                                  {"avatar": str(avatar_dir), "size": size, "frames": frames},
+                                                  f"fp32 measurement of {avatar_dir}"))
 
 
 def _fp32_child() -> None:
@@ -103,16 +130,16 @@ def _fp32_child() -> None:
         for i in list(range(5)) * 3:  # warm-up, as morf.bench.render.measure
             p.render(rot[i], tr[i], cams[i])
         seq, renderer_ms = time_player(p, rot, tr, cams, frames)
-    print(json.dumps({"fps": 1.0 / seq, "frame_ms": seq * 1e3, "renderer_ms": renderer_ms}))
+    print(json.dumps(PlaybackSpeed(1.0 / seq, seq * 1e3, renderer_ms).to_dict()))
 
 
 def speed_of_run(run_dir, work: Path, size: int, frames: int, precision: str, body_model) -> dict:
-    """Playback speed of one run at ``precision``. The export is made once per run in ``work``
-    (reused by the run's other precision; the caller removes ``work`` when done)."""
+    """Playback speed of one run at ``precision``: :meth:`PlaybackSpeed.to_dict` plus the export's
+    ``int8_psnr_vs_fp32_db``, as the sweep's point rows hold it. The export is made once per run in
+    ``work`` (reused by the run's other precision; the caller removes ``work`` when done)."""
     avatar = Path(work) / f"avatar-{Path(run_dir).name}-{size}"
     if not (avatar / "manifest.json").is_file():
         export_for_speed(run_dir, avatar, size, body_model)
     man = json.loads((avatar / "manifest.json").read_text())
-    out = measure_speed(avatar, size, frames, precision)
-    out["int8_psnr_vs_fp32_db"] = man["int8_quality"]["psnr_db"]
-    return out
+    return {**measure_speed(avatar, size, frames, precision).to_dict(),
+            "int8_psnr_vs_fp32_db": man["int8_quality"]["psnr_db"]}

@@ -9,7 +9,6 @@ or training run resumes, so running it again continues where it stopped.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 from morf.errors import MorfError
@@ -19,32 +18,14 @@ CMU_BVH = REPO.parent / "shared" / "data" / "motion" / "cmu" / "01_01.bvh"
 SAMPLE_MOTIONS = REPO / "resources" / "motions"
 
 
-@dataclass(frozen=True)
-class DemoPreset:
-    synth: str  # morf synth preset
-    fit: str  # morf fit preset
-    train: str  # morf train preset
-    train_steps: int | None  # override of the preset's steps (None: the preset's own)
-    size: int  # output video size in pixels
-    max_frames: int  # frames of the motion to render (0: all)
-
-
-PRESETS = {
-    # Seconds: what CI runs.
-    "tiny": DemoPreset("tiny", "fast", "tiny", None, 128, 8),
-    # Under ten minutes on 2 CPU cores: a default-size capture, a shortened cpu-preset training (the
-    # colour starts from the projected frames, so a few hundred steps already look like the person;
-    # the stem x4 renderer affords 1000 of the preset's 1500 in about the time 600 took at stem x2).
-    "quick": DemoPreset("default", "default", "cpu", 1000, 640, 240),
-    # The cpu preset trained to its plateau (tens of minutes).
-    "full": DemoPreset("default", "default", "cpu", None, 640, 0),
-}
-
-
 def add_parser(sub):
+    from morf.presets import default_preset, presets_of
+
     p = sub.add_parser("demo", help="run the whole pipeline on a built-in synthetic capture")
     p.add_argument("dir", nargs="?", default="demo", help="demo folder (created; default ./demo)")
-    p.add_argument("--preset", choices=sorted(PRESETS), default="quick", help="how big a run (default quick)")
+    default = default_preset("demo")  # the presets: morf/presets/demo.py
+    p.add_argument("--preset", choices=sorted(presets_of("demo")), default=default,
+                   help=f"how big a run (default {default})")
     p.add_argument("--motion", default=None, help="motion to animate (default: CMU 01_01.bvh if present, else a "
                                                    "motion shipped in resources/motions)")
     return p
@@ -64,8 +45,9 @@ def run(args) -> int:
     from morf.cli.main import main
     from morf.cli.project_steps import export_plan, fit_plan, train_plan
     from morf.pipeline.chain import Plan, Step, run_steps
+    from morf.presets import preset as named_preset
 
-    preset = PRESETS[args.preset]
+    preset = named_preset("demo", args.preset)
     root = Path(args.dir)
     project = root / "capture"
     motion = Path(args.motion) if args.motion else default_motion()

@@ -1,9 +1,11 @@
-"""The speed-against-accuracy sweep: which knobs are turned, by how much, per sweep preset.
+"""The speed-against-accuracy sweep: the knobs it turns and the training config of each point.
 
-Each :class:`SweepPoint` changes one knob of the preset's base training config (one-at-a-time
-around the base, so every point's change is readable on its own); ``resolve`` turns a point into
-the TrainConfig that is trained. Points that train the same config (int8 and fp32 of one model)
-share one training run, named by :func:`train_key`.
+The sweep presets (which knobs are turned, by how much) are stage ``sweep`` of :mod:`morf.presets`,
+defined with :class:`SweepPoint` and :class:`SweepPreset` in ``morf/presets/sweep.py``. Each point
+changes one knob of the preset's base training config (one-at-a-time around the base, so every
+point's change is readable on its own); ``resolve`` turns a point into the TrainConfig that is
+trained. Points that train the same config (int8 and fp32 of one model) share one training run,
+named by :func:`train_key`.
 """
 
 from __future__ import annotations
@@ -11,9 +13,9 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-from dataclasses import dataclass, field
 
 from morf.errors import InputError
+from morf.presets.sweep import SweepPoint, SweepPreset
 from morf.train.config import TrainConfig, preset
 
 # Renderer architectures (RendererConfig fields except in_channels, which follows the texture).
@@ -39,86 +41,6 @@ AXES = ("base", "renderer", "texture_size", "texture_channels", "resolution", "s
 # training per point carries. Those points measure the base again, so they stay off the fronts.
 NOISE_AXES = ("seed",)
 
-
-@dataclass(frozen=True)
-class SweepPoint:
-    """One configuration of the sweep.
-
-    Fields:
-        name: unique file-safe name; axis: the knob it changes (one of :data:`AXES`);
-        change: TrainConfig overrides; ``renderer`` may name an entry of :data:`RENDERERS`
-            (or be a dict of RendererConfig fields); method: morf | stylepeople | anr;
-        precision: int8 | fp32, the renderer the fps is measured with.
-    """
-
-    name: str
-    axis: str
-    change: dict = field(default_factory=dict)
-    method: str = "morf"
-    precision: str = "int8"
-
-
-@dataclass(frozen=True)
-class SweepPreset:
-    """A sweep: the capture to make, the base training config and the points.
-
-    Fields:
-        synth: (synth preset name, overrides) of the capture made when none is given;
-        train: (training preset name, overrides) of the base config;
-        fps_size / fps_frames: playback speed is measured at fps_size^2 over that many frames;
-        points: the configurations, base first.
-    """
-
-    name: str
-    synth: tuple[str, dict]
-    train: tuple[str, dict]
-    fps_size: int
-    fps_frames: int
-    points: tuple[SweepPoint, ...]
-
-
-def _axis_points(renderers, tex_sizes, channels, resolutions, steps, seeds=(1, 2)) -> tuple[SweepPoint, ...]:
-    pts = [SweepPoint("base", "base")]
-    pts += [SweepPoint(f"renderer-{r}", "renderer", {"renderer": r}) for r in renderers]
-    pts += [SweepPoint(f"texture-{s}", "texture_size", {"texture_size": s}) for s in tex_sizes]
-    pts += [SweepPoint(f"channels-{c}", "texture_channels", {"texture_channels": c}) for c in channels]
-    pts += [SweepPoint(f"resolution-{r}", "resolution", {"resolution": r}) for r in resolutions]
-    pts += [SweepPoint(f"steps-{s}", "steps", {"steps": s}) for s in steps]
-    # Both sides of each schedule choice: a point equal to the base config trains once (same run).
-    pts += [SweepPoint("lr-constant", "schedule", {"lr_decay_start": 1.0}),  # constant learning rates
-            SweepPoint("lr-decay-half", "schedule", {"lr_decay_start": 0.5}),  # cosine decay over the second half
-            SweepPoint("lr-cosine-all", "schedule", {"lr_decay_start": 0.0}),  # ... over the whole run
-            SweepPoint("no-ema", "schedule", {"ema_decay": 0.0}),  # the avatar from the last step's weights
-            SweepPoint("ema", "schedule", {"ema_decay": 0.998})]  # the avatar from averaged weights
-    pts += [SweepPoint("stylepeople", "method", method="stylepeople"),
-            SweepPoint("fp32", "precision", precision="fp32")]
-    pts += [SweepPoint(f"seed-{s}", "seed", {"seed": s}) for s in seeds]
-    return tuple(pts)
-
-
-PRESETS: dict[str, SweepPreset] = {
-    # CI: seconds. Five tiny trainings; fps measured at 128 px.
-    "tiny": SweepPreset(
-        "tiny", ("tiny", {"frames": 8, "holdout_frames": 3}),
-        ("tiny", {"steps": 6, "inpaint_steps": 2, "inpaint_views": 2}), 128, 8,
-        (SweepPoint("base", "base"), SweepPoint("renderer-tiny_b16", "renderer", {"renderer": "tiny_b16"}),
-         SweepPoint("texture-32", "texture_size", {"texture_size": 32}),
-         SweepPoint("stylepeople", "method", method="stylepeople"), SweepPoint("fp32", "precision", precision="fp32"),
-         SweepPoint("seed-1", "seed", {"seed": 1}))),
-    # By hand, about a minute a point on 2 quiet cores: a 32-frame capture at 192 px, 600 steps at
-    # 128 px (100 steps gave person PSNRs of 9 dB: no quality signal).
-    "quick": SweepPreset(
-        "quick", ("default", {"frames": 32, "size": 192, "holdout_frames": 8, "detector": "none"}),
-        ("cpu", {"resolution": 128, "batch_size": 2, "steps": 600, "inpaint_steps": 20, "inpaint_views": 4}), 640, 60,
-        _axis_points(("stem2_b8", "stem2_b24", "stem4_b24"), (128, 512), (4, 8), (64, 192), (200, 1500),
-                     seeds=(1, 2, 3, 4))),
-    # By hand, many hours on 2 cores: the full synthetic capture and the "cpu" training preset.
-    "default": SweepPreset(
-        "default", ("default", {"detector": "none"}), ("cpu", {}), 640, 60,
-        _axis_points(("stem2_b8", "stem2_b24", "stem4_b16", "stem4_b24", "stem4_b32", "stem4_b48", "plain_b16"),
-                     (64, 128, 512, 1024), (4, 8),
-                     (128, 384), (1000, 6000))),
-}
 
 # Synthetic scenes: SynthConfig overrides.
 SCENES: dict[str, dict] = {

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import copy
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Callable
 
@@ -60,6 +60,10 @@ class TrainResult:
     losses: dict[str, float]
     train_minutes: float
     resumed_from: int
+
+    def to_dict(self) -> dict:
+        """JSON-ready: ``run_dir`` as a string, ``losses`` copied."""
+        return {**asdict(self), "run_dir": str(self.run_dir)}
 
 
 def _preview(out, batch, texture: torch.Tensor | None = None) -> dict[str, np.ndarray]:

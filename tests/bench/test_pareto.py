@@ -55,7 +55,8 @@ def test_tiny_sweep_writes_results_and_resumes(tmp_path, body_model, gl):
 def test_a_resolution_point_is_scored_at_the_base_resolution(tmp_path, body_model, gl):
     from morf.bench.train_eval import holdout_quality
     from morf.capture.project import CaptureProject
-    from morf.sizing.sweep import PRESETS, SweepPoint, resolve
+    from morf.presets.sweep import PRESETS
+    from morf.sizing.sweep import SweepPoint, resolve
 
     sweep = PRESETS["tiny"]
     point = SweepPoint("resolution-32", "resolution", {"resolution": 32})
@@ -110,7 +111,8 @@ def test_no_seed_spread_without_seed_points():
 
 
 def test_schedule_points_and_run_names_of_constant_rate_configs():
-    from morf.sizing.sweep import PRESETS, SweepPoint, resolve, train_key
+    from morf.presets.sweep import PRESETS
+    from morf.sizing.sweep import SweepPoint, resolve, train_key
 
     sweep = PRESETS["default"]
     base = resolve(sweep, SweepPoint("base", "base"))
@@ -161,7 +163,8 @@ def test_bad_seed_count_is_one_line_error(tmp_path, capsys):
 
 def test_a_renderer_name_gives_its_whole_architecture_and_its_own_run_name(monkeypatch):
     from morf.sizing import sweep
-    from morf.sizing.sweep import PRESETS, SweepPoint, resolve, train_key
+    from morf.presets.sweep import PRESETS
+    from morf.sizing.sweep import SweepPoint, resolve, train_key
 
     cfg = resolve(PRESETS["default"], SweepPoint("r", "renderer", {"renderer": "stem2_b16"}))
     half = resolve(PRESETS["default"], SweepPoint("r", "renderer", {"renderer": "stem4_b16"}))

@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import json
+from dataclasses import replace
+
 import pytest
 
 from morf.bench.render import cpu_report, graph_profile, kernel_summary, op_kind
+from morf.bench.render_results import GraphProfile, MeasuredAvatar, OpTime, PlaybackMeasurement, RenderResult
 
 
 def test_op_kinds_split_int8_kernels_conversions_float_and_8_bit_data():
@@ -45,9 +49,54 @@ def test_the_profile_finds_the_int8_convolution_and_the_float_compositing(tiny_p
     raster = tiny_player.rasterize(np.zeros((tiny_player.avatar.skeleton.num_bones, 3), np.float32),
                                    np.zeros(3, np.float32), front_camera(64))
     prof = graph_profile(tiny_player, raster, runs=3)
-    assert prof["ops"]["QLinearConv"] == {**prof["ops"]["QLinearConv"], "kind": "int8", "nodes": 1}
-    assert sum(prof["kind_share"].values()) == pytest.approx(1.0)
-    assert list(prof["ops"].values())[0]["ms"] >= list(prof["ops"].values())[-1]["ms"]  # costliest first
+    conv = prof.ops["QLinearConv"]
+    assert conv.kind == "int8" and conv.nodes == 1
+    assert sum(prof.kind_share.values()) == pytest.approx(1.0)
+    assert list(prof.ops.values())[0].ms >= list(prof.ops.values())[-1].ms  # costliest first
     if tiny_player.renderer.composites:
-        assert 0.0 < prof["composite_share"] < 1.0
+        assert 0.0 < prof.composite_share < 1.0
     assert "int8: " in kernel_summary(prof) and "QLinearConv x1" in kernel_summary(prof)
+    assert GraphProfile.from_dict(json.loads(json.dumps(prof.to_dict()))) == prof  # as the measuring child sends it
+
+
+def _measurement(composite_share: float | None) -> dict:
+    """A measurement as the measuring child writes it (the keys in its order)."""
+    kernels = {"ops": {"QLinearConv": {"kind": "int8", "nodes": 3, "ms": 2.5},
+                       "Mul": {"kind": "float", "nodes": 1, "ms": 0.5}},
+               "kind_share": {"int8": 2.5 / 3, "float": 0.5 / 3}, "composite_share": composite_share}
+    d = {"breakdown_ms": {"raster_ms": 1.0, "renderer_ms": 4.0}, "renderer_only_ms": 5.0, "peak_rss_mb": 300.0,
+         "kernels": kernels}
+    if composite_share is not None:
+        d["composite_share_of_graph"] = composite_share
+    d.update(threads=2, frame_ms=10.0, fps_end_to_end=100.0, frame_ms_pipelined=8.0, fps_pipelined=125.0,
+             int8_psnr_vs_fp32_image_db=41.5)
+    return d
+
+
+@pytest.mark.parametrize("share", [None, 0.25])
+def test_a_measurement_reads_back_as_the_child_wrote_it(share):
+    d = _measurement(share)
+    m = PlaybackMeasurement.from_dict(json.loads(json.dumps(d)))
+    assert json.dumps(m.to_dict()) == json.dumps(d)  # same keys, same order
+    assert m.composite_share_of_graph == share and m.kernels.ops["QLinearConv"] == OpTime("int8", 3, 2.5)
+    assert m.kernels.composite_share == share
+
+
+def test_the_render_result_keeps_its_keys_and_takes_the_headline_from_the_main_avatar():
+    manifest = {"int8_quality": {"psnr_db": 38.0, "ssim": 0.97}, "renderer": {"config": None, "input_layout": "nhwc"}}
+    fast = MeasuredAvatar.from_manifest(PlaybackMeasurement.from_dict(_measurement(0.25)), manifest)
+    assert list(fast.to_dict())[-4:] == ["int8_psnr_vs_fp32_db", "int8_ssim_vs_fp32", "renderer_config", "input_layout"]
+    assert fast.table_row("a") == {"avatar": "a", "renderer ms": 5.0, "frame ms": 10.0, "fps": 100.0,
+                                   "fps pipelined": 125.0, "int8 PSNR dB": 38.0, "peak RSS MB": 300.0}
+    r = RenderResult(size=640, threads=2, frames=60, machine={"cpu": "x"}, cpu_features={}, command="morf bench render",
+                     avatar="given", main="given", avatars={"given": fast}, seconds=1.5)
+    d = r.to_dict()
+    assert list(d) == ["benchmark", "size", "precision", "threads", "frames", "machine", "cpu_features", "command",
+                       "avatar", "fps", "fps_pipelined", "pipeline_gain_ms", "breakdown_ms", "peak_rss_mb",
+                       "int8_psnr_vs_fp32", "int8_ssim_vs_fp32", "int8_psnr_vs_fp32_image", "kernels", "avatars",
+                       "seconds"]  # no compute_limit without a renderer config
+    assert d["fps"] == 100.0 and d["pipeline_gain_ms"] == 2.0 and d["int8_psnr_vs_fp32"] == 38.0
+    assert d["avatars"]["given"] == fast.to_dict() and d["kernels"] == _measurement(0.25)["kernels"]
+    limited = replace(r, compute_limit={"fps_at_limit": 90.0}).to_dict()
+    assert list(limited)[-1] == "compute_limit"
+    assert isinstance(GraphProfile.from_dict(d["kernels"]).ops["Mul"], OpTime)

@@ -108,6 +108,16 @@ def test_full_run_with_progress_writes_avatar(frames_factory, tmp_path):
     assert train_avatar(frames, run.root, cfg, texture_init(cfg)).resumed_from == 10
 
 
+def test_a_train_result_is_json_ready(tmp_path):
+    from morf.train.loop import TrainResult
+
+    res = TrainResult(tmp_path / "run", 10, {"l1": 0.25}, 1.5, 4)
+    d = res.to_dict()
+    assert d == {"run_dir": str(tmp_path / "run"), "step": 10, "losses": {"l1": 0.25}, "train_minutes": 1.5,
+                 "resumed_from": 4}
+    assert json.loads(json.dumps(d)) == d and d["losses"] is not res.losses
+
+
 def test_stop_then_resume_continues_from_step_k(frames_factory, tmp_path):
     frames = frames_factory()
     cfg = tiny("morf", steps=12, checkpoint_minutes=1e6)

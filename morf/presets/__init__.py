@@ -1,8 +1,13 @@
 """The named presets of every stage in one registry: ``PRESETS[stage][name]`` is that stage's config.
 
-Each stage defines its presets beside its config dataclass (``morf/synth/config.py``,
-``morf/fitting/config.py``, ``morf/train/config.py``); this module puts those tables side by side,
-so that the CLI and the studio look a preset up the same way and pick the same one when none is
+Each pipeline stage defines its presets beside its config dataclass (``morf/synth/config.py``,
+``morf/fitting/config.py``, ``morf/train/config.py``). Whole commands have presets of their own,
+made of the stages' presets plus overrides; since the registry sits below the commands that run
+them (docs/architecture.md), their tables and dataclasses are plain data in this package:
+``morf/presets/demo.py`` (``morf demo``), ``morf/presets/stability.py`` (``morf bench stability``)
+and ``morf/presets/sweep.py`` (``morf bench pareto`` and its ``--auto-check``). This module puts all
+those tables side by side, so that the CLI, the benchmarks and the studio look a preset up the same
+way (an unknown name is an InputError listing the known ones) and pick the same one when none is
 named. The tables are the stages' own dicts, not copies.
 """
 
@@ -12,15 +17,23 @@ from typing import Any, Mapping
 
 from morf.errors import InputError
 from morf.fitting.config import PRESETS as FIT_PRESETS
+from morf.presets.demo import PRESETS as DEMO_PRESETS
+from morf.presets.stability import PRESETS as STABILITY_PRESETS
+from morf.presets.sweep import PRESETS as SWEEP_PRESETS
 from morf.synth.config import PRESETS as SYNTH_PRESETS
 from morf.train.config import PRESETS as TRAIN_PRESETS
 
-# stage -> {preset name -> config}: SynthConfig, FitConfig, TrainConfig
+# stage -> {preset name -> config}: SynthConfig, FitConfig, TrainConfig, DemoPreset, StabilityPreset, SweepPreset
 PRESETS: Mapping[str, Mapping[str, Any]] = {
     "synth": SYNTH_PRESETS,  # morf synth
     "fit": FIT_PRESETS,  # morf fit
     "train": TRAIN_PRESETS,  # morf train (besides "auto", which is chosen from the capture: morf.sizing)
+    "demo": DEMO_PRESETS,  # morf demo
+    "stability": STABILITY_PRESETS,  # morf bench stability
+    "sweep": SWEEP_PRESETS,  # morf bench pareto (and its --auto-check)
 }
+# stage -> the preset it runs with when none is named, where that is not "default" (training: by device)
+DEFAULTS: Mapping[str, str] = {"demo": "quick"}
 
 
 def presets_of(stage: str) -> Mapping[str, Any]:
@@ -40,10 +53,10 @@ def preset(stage: str, name: str) -> Any:
 
 def default_preset(stage: str) -> str:
     """The preset ``stage`` runs with when none is named: "gpu" for training when CUDA is present,
-    "cpu" for training without it, "default" for the other stages."""
+    "cpu" for training without it, "quick" for the demo, "default" for the other stages."""
     presets_of(stage)
     if stage == "train":
         import torch
 
         return "gpu" if torch.cuda.is_available() else "cpu"
-    return "default"
+    return DEFAULTS.get(stage, "default")
