@@ -29,6 +29,7 @@ import glfw  # noqa: E402  (import order above is required)
 import moderngl  # noqa: E402
 
 from morf.errors import MorfError  # noqa: E402
+from morf.raster.gl_context import GLUnavailable  # noqa: E402
 from studio.actions import advance_playback, make_actions  # noqa: E402
 from studio.commands import Command, OpenProject, StartStage  # noqa: E402
 from studio.context import UiContext  # noqa: E402
@@ -39,6 +40,7 @@ from studio.loader import ImageLoader  # noqa: E402
 from studio.pacing import IDLE_FPS, MAX_FPS, SNAPSHOT_FPS, FramePacer, Wakeup  # noqa: E402
 from studio.player import PoseRenderer, open_player, shutdown_motion_loader  # noqa: E402
 from studio.project_view import ProjectView  # noqa: E402
+from studio.sizes import parse_window_size  # noqa: E402
 from studio.stages import LIBRARY_STAGES, LoadedStages, cpu_load_stage, load_library_stages  # noqa: E402
 from studio.state import PANELS, AppState, LivePanelState  # noqa: E402
 from studio.textures import TextureCache  # noqa: E402
@@ -120,7 +122,7 @@ class StudioApp:
         if headless:
             glfw.init_hint(glfw.PLATFORM, glfw.PLATFORM_NULL)
         if not glfw.init():
-            raise MorfError("cannot start GLFW (no display? try --headless-frames N --screenshot PNG)")
+            raise GLUnavailable("cannot start GLFW (no display? try --headless-frames N --screenshot PNG)")
         if headless:
             glfw.window_hint(glfw.CONTEXT_CREATION_API, glfw.EGL_CONTEXT_API)
             glfw.window_hint(glfw.VISIBLE, glfw.FALSE)
@@ -131,7 +133,7 @@ class StudioApp:
         self.window = glfw.create_window(int(size[0]), int(size[1]), "MoRF Studio", None, None)
         if not self.window:
             glfw.terminate()
-            raise MorfError("cannot open an OpenGL 3.3 window (is libEGL / a GL driver installed?)")
+            raise GLUnavailable("cannot open an OpenGL 3.3 window (is libEGL / a GL driver installed?)")
         glfw.make_context_current(self.window)
         if not headless:
             glfw.swap_interval(1)
@@ -141,7 +143,7 @@ class StudioApp:
         moderngl.init_context()
         self.ctx = moderngl.get_context()
         if self.ctx.version_code < 330:
-            raise MorfError(f"OpenGL 3.3 is needed, the window got {self.ctx.version_code}")
+            raise GLUnavailable(f"OpenGL 3.3 is needed, the window got {self.ctx.version_code}")
         self._window_addr = ctypes.cast(self.window, ctypes.c_void_p).value
 
     def _init_imgui(self) -> None:
@@ -473,18 +475,8 @@ def live_render_report(stats: list[tuple[float, float]]) -> str:
     return f"live render: {len(ms)} frames, {rate}median {np.median(ms):.1f} ms a frame on its own thread"
 
 
-def _parse_size(text: str) -> tuple[int, int]:
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-        if w < 320 or h < 240:
-            raise ValueError
-        return w, h
-    except ValueError:
-        raise MorfError(f"--size wants WxH of at least 320x240, got {text!r}") from None
-
-
 def run_cli(args: argparse.Namespace) -> int:
-    size = _parse_size(args.size)
+    size = parse_window_size(args.size)
     if args.screenshot and not args.headless_frames:
         raise MorfError("--screenshot needs --headless-frames N")
     headless = bool(args.headless_frames) or not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))

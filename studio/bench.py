@@ -149,8 +149,9 @@ def _step(app) -> int | None:
 
 def run_studio(args, avatar: Path, tmp: Path) -> tuple[Window, dict]:
     """Open the studio, play the motion in the live panel, time ``args.seconds`` of it."""
-    from studio.app import StudioApp, _parse_size
+    from studio.app import StudioApp
     from studio.commands import StartStage
+    from studio.sizes import parse_window_size
 
     project = _prepare_project(tmp, avatar, args.with_training)
     motion = Path(args.motion).resolve()
@@ -164,7 +165,7 @@ def run_studio(args, avatar: Path, tmp: Path) -> tuple[Window, dict]:
 
     info: dict = {"window": "headless EGL" if headless else f"X display {os.environ.get('DISPLAY', '')}",
                   "live_threads": args.live_threads or LIVE_RENDER_THREADS}
-    with StudioApp(project, size=_parse_size(args.size), headless=headless, deterministic=False,
+    with StudioApp(project, size=parse_window_size(args.size), headless=headless, deterministic=False,
                    motion_dir=motion.parent, **kw) as app:
         info["max_fps"], info["idle_fps"] = app.pacer.max_fps, app.pacer.idle_fps
         app.state.select_panel(LIVE_PANEL)

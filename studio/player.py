@@ -10,18 +10,18 @@ when it is missing or the avatar cannot be opened the panel says why.
 from __future__ import annotations
 
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
 from morf.camera import PinholeCamera
 from morf.errors import MorfError
-
-if TYPE_CHECKING:
-    from morf.motion.clip import MotionClip
-
+from morf.motion.clip import MotionClip
+# Imported with the studio, on its main thread: the live panel lists motions on the UI thread while
+# the motion loader's thread imports the motion package too, and a first import of a package racing
+# on two threads can meet it half-initialized ("cannot import name ... partially initialized module").
+from morf.motion.library import motion_library
 
 
 class PoseRenderer(Protocol):
@@ -99,41 +99,15 @@ def open_player(avatar_dir: Path, size: int = LIVE_RENDER_SIZE,
         return None, f"{type(e).__name__}: {e}"
 
 
-@dataclass(frozen=True)
-class MotionFrames:
-    """A motion clip seen as a sequence of poses for :meth:`PlaybackPlayer.render`: frame ``t`` is
-    (rotvecs (J, 3), transl (3,)).
-
-    Fields:
-        clip: the :class:`~morf.motion.clip.MotionClip` it shows.
-    """
-
-    clip: MotionClip
-
-    @property
-    def fps(self) -> float:
-        return self.clip.fps
-
-    @property
-    def transl(self) -> np.ndarray:
-        """(T, 3) root translation of every frame."""
-        return self.clip.transl
-
-    def __len__(self) -> int:
-        return self.clip.num_frames
-
-    def __getitem__(self, t: int) -> tuple[np.ndarray, np.ndarray]:
-        return self.clip.rotvecs[t], self.clip.transl[t]
-
-
-def load_motion(path: Path, num_bones: int) -> tuple[MotionFrames | None, str | None]:
-    """A motion clip for the player, or (None, why not in words)."""
+def load_motion(path: Path, num_bones: int) -> tuple[MotionClip | None, str | None]:
+    """A motion clip for the player, or (None, why not in words). Frame ``t`` is the player's pose
+    ``(clip.rotvecs[t], clip.transl[t])`` (indexing the clip itself gives a torch ``BodyPose``)."""
     try:
         from morf.playback.motion_input import load_playback_motion
     except ImportError as e:
         return None, f"motions need the avatar player (morf.playback): {e}"
     try:
-        return MotionFrames(load_playback_motion(path, num_bones)), None
+        return load_playback_motion(path, num_bones), None
     except MorfError as e:
         return None, str(e)
     except Exception as e:
@@ -143,7 +117,7 @@ def load_motion(path: Path, num_bones: int) -> tuple[MotionFrames | None, str | 
 _MOTION_POOL: ThreadPoolExecutor | None = None
 
 
-def load_motion_async(path: Path, num_bones: int) -> "Future[tuple[MotionFrames | None, str | None]]":
+def load_motion_async(path: Path, num_bones: int) -> "Future[tuple[MotionClip | None, str | None]]":
     """:func:`load_motion` on a background thread (reading and retargeting a BVH takes seconds)."""
     global _MOTION_POOL
     if _MOTION_POOL is None:
@@ -162,8 +136,6 @@ def shutdown_motion_loader() -> None:
 def list_motions(folder: str | Path) -> list[Path]:
     """.bvh and .npz files under ``folder`` (recursively, sorted by name), empty when it is not a
     folder: the library's motion listing (:func:`morf.motion.library.motion_library`)."""
-    from morf.motion.library import motion_library
-
     return [path for _, path in motion_library(folder)]
 
 

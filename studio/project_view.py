@@ -12,7 +12,6 @@ import numpy as np
 
 from morf.capture.project import CaptureProject, FrameDecision, Keypoints2D
 from morf.errors import ProjectError
-from morf.io import load_npz
 from studio.run_list import RunSummary, read_runs
 
 
@@ -98,11 +97,14 @@ class ProjectView:
 
 
 def _load_residuals(project: CaptureProject) -> dict[int, float]:
-    """Per-frame mean keypoint residual of the body fit (fits/fits.npz), empty before fitting."""
-    p = project.fits_path
-    if not p.is_file():
+    """Per-frame mean keypoint residual of the body fit (``project.fits_path``), empty before fitting."""
+    if not project.fits_path.is_file():
         return {}
-    r = load_npz(p).get("keypoint_residual_px")
-    if r is None or r.ndim != 1:
-        raise ProjectError(f"damaged fits file {p}: no per-frame keypoint_residual_px")
+    # imported here: morf.fitting brings torch, which the app does not need before a project has fits
+    from morf.fitting.fits_io import load_fits
+
+    fits = load_fits(project)
+    r = fits.keypoint_residual_px
+    if r.shape != (fits.num_frames,):
+        raise ProjectError(f"damaged fits file {project.fits_path}: keypoint_residual_px is not per frame")
     return {i: float(v) for i, v in enumerate(r) if np.isfinite(v)}

@@ -13,7 +13,7 @@ from studio.orbit import OrbitCamera
 if TYPE_CHECKING:
     import numpy as np
 
-    from studio.player import MotionFrames
+    from morf.motion.clip import MotionClip
 
 PANELS = ("Frames", "Filtered frames", "Warp field", "Training", "Live render")
 
@@ -58,7 +58,7 @@ class LivePanelState:
     motion_dir: str | None = None  # the folder ``motions`` lists (None: not listed yet)
     motions: list[Path] = field(default_factory=list)  # .bvh / .npz files under it
     clip_path: str | None = None  # the motion file ``clip`` is (being) loaded from
-    clip: MotionFrames | None = None  # the loaded motion, None while loading or when it failed
+    clip: MotionClip | None = None  # the loaded motion, None while loading or when it failed
     clip_note: str | None = None  # why the motion could not be loaded
     clip_loading: Future | None = None  # the background load, until the panel picks its result up
     clip_centre: np.ndarray | None = None  # (3,) mean root position of the clip: the orbit's centre

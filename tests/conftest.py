@@ -31,12 +31,15 @@ def shared_data() -> Path:
 
 @pytest.fixture(scope="module")
 def gl():
-    """A headless OpenGL (EGL) context; tests that need one skip cleanly where EGL is missing."""
+    """A headless OpenGL (EGL) context; tests that need one skip cleanly where EGL is missing, and
+    fail there under ``MORF_REQUIRE_GL=1`` (CI on a machine with EGL: they must run, not skip)."""
     from morf.raster import GLUnavailable, gl_state
 
     try:
         return gl_state()
     except GLUnavailable as e:
+        if os.environ.get("MORF_REQUIRE_GL") == "1":
+            pytest.fail(f"MORF_REQUIRE_GL=1 but there is no headless OpenGL here: {e}")
         pytest.skip(str(e))
 
 

@@ -75,7 +75,7 @@ def _request(state: AppState, ui: UiContext, side: int) -> int | None:
         if state.playing:
             state.motion_time += io.delta_time
         index = int(state.motion_time * clip.fps) % len(clip)
-        pose = clip[index]
+        pose = (clip.rotvecs[index], clip.transl[index])  # the player takes numpy; clip[index] is a torch BodyPose
     o = state.orbit
     if clip is not None and len(clip):  # orbit around where the motion happens, not the origin
         o = dataclasses.replace(o, target=tuple(float(a + b) for a, b in zip(o.target, live.clip_centre)))

@@ -113,7 +113,7 @@ def test_fit_train_export_and_live_render_from_the_ui(make_app, project_copy, tm
     app.click_item("stage:fit")
     fit_snaps = wait_stage(app, "fit", 60)
     assert len(fit_snaps) >= 3 and any(s.curves for s in fit_snaps)
-    assert (project.fits_dir / "fits.npz").is_file()
+    assert project.fits_path.is_file()
     assert app.view.has_fit_overlays()  # the frames panel now shows the real fit
 
     # Train with the tiny preset, chosen in the preset picker; watch the warp panel meanwhile.

@@ -259,7 +259,7 @@ def test_fit_residuals_are_read_and_damage_is_an_error(tiny_project):
     view = ProjectView(tiny_project)
     assert view.residuals[3] == 6.0 and 4 not in view.residuals
     assert view.has_fit_overlays() and view.fit_overlay_path(2).name == "000002.jpg"
-    save_npz(tiny_project.fits_dir / "fits.npz", other=np.zeros(3))
+    save_npz(tiny_project.fits_path, other=np.zeros(3))  # damaged: not through save_fits
     with pytest.raises(MorfError):
         ProjectView(tiny_project)
 
