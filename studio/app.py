@@ -45,8 +45,9 @@ from studio.stages import LIBRARY_STAGES, LoadedStages, cpu_load_stage, load_lib
 from studio.state import PANELS, AppState, LivePanelState  # noqa: E402
 from studio.textures import TextureCache  # noqa: E402
 from studio.worker import StageFn, Worker  # noqa: E402
+from morf.resources import FONT
 
-FONT_PATH = Path(__file__).resolve().parents[1] / "resources" / "fonts" / "DejaVuSans.ttf"
+FONT_PATH = FONT
 FONT_SIZE = 15.0
 FIXED_DT = 1.0 / 60.0
 CLEAR_RGB = (0.06, 0.06, 0.07)

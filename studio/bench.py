@@ -21,8 +21,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from morf.resources import MOTIONS
 
-DEFAULT_MOTION = Path(__file__).resolve().parents[1] / "resources" / "motions" / "walk_forward.npz"
+DEFAULT_MOTION = MOTIONS / "walk_forward.npz"
 LIVE_PANEL = 4  # index of "Live render" in studio.state.PANELS
 TARGET_LIVE_RATIO = 0.85  # live panel fps / bench render fps
 TARGET_UI_P95_MS = 33.0

@@ -13,9 +13,7 @@ from pathlib import Path
 
 from morf.errors import MorfError
 
-REPO = Path(__file__).resolve().parents[2]
-CMU_BVH = REPO.parent / "shared" / "data" / "motion" / "cmu" / "01_01.bvh"
-SAMPLE_MOTIONS = REPO / "resources" / "motions"
+DEMO_MOTION = "walk_forward.npz"  # of the motions shipped in the package (morf.resources.MOTIONS)
 
 
 def add_parser(sub):
@@ -26,18 +24,19 @@ def add_parser(sub):
     default = default_preset("demo")  # the presets: morf/presets/demo.py
     p.add_argument("--preset", choices=sorted(presets_of("demo")), default=default,
                    help=f"how big a run (default {default})")
-    p.add_argument("--motion", default=None, help="motion to animate (default: CMU 01_01.bvh if present, else a "
-                                                   "motion shipped in resources/motions)")
+    p.add_argument("--motion", default=None, help=f"motion to animate, .bvh or AMASS .npz (default: {DEMO_MOTION}, "
+                                                   "shipped with morf)")
     return p
 
 
 def default_motion() -> Path:
-    if CMU_BVH.is_file():
-        return CMU_BVH
-    shipped = sorted(SAMPLE_MOTIONS.glob("*.npz")) + sorted(SAMPLE_MOTIONS.glob("*.bvh"))
-    if not shipped:
-        raise MorfError("no motion to animate: pass --motion FILE (.bvh or AMASS .npz)")
-    return shipped[0]
+    from morf.resources import MOTIONS
+
+    path = MOTIONS / DEMO_MOTION
+    if not path.is_file():
+        raise MorfError(f"the shipped motion {path} is missing (a broken install?): pass --motion FILE (.bvh or "
+                        "AMASS .npz)")
+    return path
 
 
 def run(args) -> int:

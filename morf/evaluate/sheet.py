@@ -17,10 +17,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import cv2
 import numpy as np
+from morf.resources import FONT
 
 CELL_MIN, CELL_MAX = 160, 384
 LABEL_H = 40  # header band: two lines of text
@@ -30,7 +30,7 @@ PANEL_MIN_W = 180  # narrowest y-t panel (room for its label)
 GAP = 6
 BACKGROUND = (32, 32, 32)
 TEXT = (235, 235, 235)
-FONT_PATH = Path(__file__).resolve().parents[2] / "resources" / "fonts" / "DejaVuSans.ttf"
+FONT_PATH = FONT
 
 
 @dataclass(frozen=True)

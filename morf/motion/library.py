@@ -10,9 +10,10 @@ from morf.errors import InputError
 from morf.io import load_npz
 from morf.motion.clip import MotionClip, clip_from_arrays
 from morf.motion.formats import not_a_motion, npz_motion_kind, player_clip
+from morf.resources import MOTIONS
 
 MOTION_SUFFIXES = (".bvh", ".npz")
-BUILTIN_MOTIONS = Path(__file__).resolve().parents[2] / "resources" / "motions"
+BUILTIN_MOTIONS = MOTIONS
 
 _MODEL_LOCK = threading.Lock()
 _MODEL = None

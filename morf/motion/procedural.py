@@ -1,7 +1,7 @@
 """Small sample motions made here from a few sinusoids, directly in Anny's pose parameters:
-an idle sway and a walk cycle (in place, and walking forward). Written to resources/motions by
+an idle sway and a walk cycle (in place, and walking forward). Written to morf/resources/motions by
 
-    python -m morf.motion.procedural --out resources/motions
+    python -m morf.motion.procedural --out morf/resources/motions
 
 Angles are in degrees about Anny's world-aligned axes (X to the person's left, Y backwards,
 Z up), applied in each bone's parent frame: about X, a negative angle swings a hanging limb
@@ -154,7 +154,7 @@ def build_samples(model, fps: float = 30.0) -> list[MotionClip]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description="Write the procedural sample motions as .npz clips.")
-    ap.add_argument("--out", default="resources/motions", help="output folder")
+    ap.add_argument("--out", default="morf/resources/motions", help="output folder")
     ap.add_argument("--fps", type=float, default=30.0)
     args = ap.parse_args(argv)
     from morf.body import load_body_model

@@ -16,13 +16,13 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from morf.raster.texture_quant import ZERO_POINT, QuantizedTexture
+from morf.resources import SHADERS
 
-SHADER_DIR = Path(__file__).resolve().parents[2] / "resources" / "shaders"
+SHADER_DIR = SHADERS
 NEAR, FAR = 0.05, 100.0  # the same clip planes as the training rasterizer (morf.raster.gl_buffers)
 NUM_CHANNELS = 16
 # Renderer input layouts: "nhwc" (1, H, W, 16) is the read-back as it is (onnxruntime's int8

@@ -11,7 +11,7 @@ import pytest
 from studio.pacing import FramePacer, Wakeup
 from studio.snapshot import Mailbox, Snapshot
 
-MOTION = "resources/motions/walk_forward.npz"
+MOTION = "morf/resources/motions/walk_forward.npz"
 
 
 class Clock:
