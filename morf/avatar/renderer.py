@@ -134,6 +134,8 @@ class TextureColour(nn.Module):
 class UNetRenderer(nn.Module):
     """(B, C, H, W) neural rasterization -> (B, 4, H, W) linear premultiplied RGB + mask logit."""
 
+    pointwise_matmul = False  # see :meth:`pointwise` (set on the exporter's copy only)
+
     def __init__(self, cfg: RendererConfig = RendererConfig()):
         super().__init__()
         if cfg.stem not in (1, 2, 4):
@@ -195,7 +197,7 @@ class UNetRenderer(nn.Module):
         if self.cfg.stem == 1:
             return h
         if self.cfg.head_stride > 1:
-            h = self.head[0](self.head_low(h))
+            h = self.pointwise(self.head[0], self.head_low(h))
             up = self.cfg.stem // self.cfg.head_stride
             if up > 1:
                 h = F.interpolate(h, scale_factor=float(up), mode="bilinear", align_corners=False)
@@ -208,6 +210,23 @@ class UNetRenderer(nn.Module):
         h = F.conv2d(self.head_low(h), conv.weight[:, :c], conv.bias)
         h = F.interpolate(h, scale_factor=float(self.cfg.stem), mode="bilinear", align_corners=False)
         return self.head[1](h + F.conv2d(x, conv.weight[:, c:]))
+
+    def pointwise(self, conv: nn.Conv2d, h: torch.Tensor, weight: torch.Tensor | None = None,
+                  bias: torch.Tensor | None = None) -> torch.Tensor:
+        """The 1x1 convolution ``conv`` (or ``weight``/``bias`` in its place) applied to ``h``; with
+        :attr:`pointwise_matmul` written as a matrix product over the channels, the same numbers.
+        The int8 exporter keeps the half-resolution head in float and sets it: onnxruntime moves
+        float Convs into its blocked channel layout, and the reorders in and out of it cost more
+        than the convolutions themselves; a MatMul stays in the plain layout."""
+        w = conv.weight if weight is None else weight
+        b = conv.bias if bias is None and weight is None else bias
+        if not self.pointwise_matmul:
+            return F.conv2d(h, w, b)
+        n, c, height, width = h.shape
+        y = torch.matmul(w.reshape(w.shape[0], w.shape[1]), h.reshape(n, c, height * width))
+        if b is not None:
+            y = y + b.reshape(1, -1, 1)
+        return y.reshape(n, w.shape[0], height, width)
 
     def to_full(self, out: torch.Tensor) -> torch.Tensor:
         """:attr:`last`'s output at the input's resolution (upsampled with ``head_stride`` 2)."""

@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 import torch
+import torch.nn.functional as F
 
 from morf.avatar.model import AvatarModel
 from morf.avatar.renderer import RendererConfig, UNetRenderer, count_parameters
@@ -163,3 +164,19 @@ def test_forward_parts_residual_is_what_the_network_adds_over_the_colour():
     torch.testing.assert_close(r(x), out)
     plain = UNetRenderer(RendererConfig(in_channels=8, width=8, depth=2, stem=2, skip_hidden=8))
     assert plain.forward_parts(x)[1] is None
+
+
+def test_pointwise_matmul_is_the_same_function():
+    """The exporter writes the half-resolution head's 1x1 convolutions as matrix products (so
+    onnxruntime keeps them in the plain layout): the renderer's output does not change."""
+    torch.manual_seed(0)
+    r = UNetRenderer(RendererConfig(in_channels=6, width=8, depth=2, stem=4, skip_hidden=5, head_stride=2,
+                                    rgb_skip=True)).eval()
+    x = torch.rand(2, 6, 32, 32)
+    with torch.no_grad():
+        r.last.weight.normal_(0, 0.1)
+        ref = r(x)
+        r.pointwise_matmul = True
+        torch.testing.assert_close(r(x), ref, atol=1e-5, rtol=1e-5)
+        torch.testing.assert_close(r.pointwise(r.last, r.features(x)), F.conv2d(r.features(x), r.last.weight, r.last.bias),
+                                   atol=1e-5, rtol=1e-5)
