@@ -64,8 +64,8 @@ def test_a_killed_training_resumes_from_its_checkpoint(tmp_path, body_model, loc
     assert a.ok and b.ok, (a.error, b.error)
     assert f"resumed at step {kill['step']}" in killed_run.log_path.read_text()
     assert "resumed" not in RunDir(project.runs_dir / "straight").log_path.read_text()
-    assert a.value["steps"] == b.value["steps"] == cfg.steps
+    assert a.value.steps == b.value.steps == cfg.steps
     ta = load_trained_avatar(killed_run.root).texture
     tb = load_trained_avatar(project.runs_dir / "straight").texture
     assert torch.allclose(ta, tb, atol=1e-5)
-    assert a.value["psnr_person"] == pytest.approx(b.value["psnr_person"], abs=1e-4)
+    assert a.value.psnr_person == pytest.approx(b.value.psnr_person, abs=1e-4)

@@ -18,10 +18,46 @@ margin slower, with its standard error over the seeds (:func:`morf.bench.front.q
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+
+from morf.bench.pareto_results import QUALITY
 
 SIZING_AXES = ["renderer", "texture_size", "texture_channels"]
 SCENE_ORDER = ("plain", "print", "loose")
+
+
+@dataclass(frozen=True)
+class SceneVerdict:
+    """One scene's row of ``auto_check.json``'s "table".
+
+    Fields:
+        scene; texture_size, texture_channels, renderer_width, params_M: the automatic choice;
+        quality: its :data:`QUALITY` (mean over the seeds); best_quality: the best point's;
+        fps: its playback speed; near_front: the verdict (:func:`morf.bench.front.near_front`);
+        gap_db, gap_se_db: the best point at most the fps margin slower minus the choice, and its
+            standard error over the seeds (:func:`morf.bench.front.quality_gap`; None where it has none);
+        beyond_noise: the gap is more than two standard errors from the quality margin (None with one seed).
+    """
+
+    scene: str
+    texture_size: int
+    texture_channels: int
+    renderer_width: int
+    params_M: float
+    quality: float | None
+    best_quality: float | None
+    fps: float | None
+    near_front: bool
+    gap_db: float | None
+    gap_se_db: float | None
+    beyond_noise: bool | None
+
+    def to_dict(self) -> dict:
+        return {"scene": self.scene, "texture_size": self.texture_size, "texture_channels": self.texture_channels,
+                "renderer_width": self.renderer_width, "params_M": self.params_M, QUALITY: self.quality,
+                "best_" + QUALITY: self.best_quality, "fps": self.fps, "near_front": self.near_front,
+                "gap_db": self.gap_db, "gap_se_db": self.gap_se_db, "beyond_noise": self.beyond_noise}
 
 
 def scene_projects(scenes, project_path: str | dict | None) -> dict[str, str | None]:
@@ -64,7 +100,7 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
     """
     from morf.bench.common import machine_info, markdown_table, write_results
     from morf.bench.front import near_front, quality_gap
-    from morf.bench.pareto import QUALITY, make_capture, run_sweep
+    from morf.bench.pareto import make_capture, run_sweep
     from morf.errors import InputError
     from morf.sizing.choose import SizingRule, choose_train_config
     from morf.presets import preset as named_preset
@@ -94,30 +130,32 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
         auto = SweepPoint("auto", "auto")
         res = run_sweep(out / scene, preset, scene, axes=SIZING_AXES, model=model, extra=[(auto, cfg)],
                         points=points, project=project, seeds=seeds)
-        rows_by_name = {r["name"]: r for r in res["points"]}
-        means = {n: [r.get("seed_means", r).get(k) for k in (QUALITY, "fps")] for n, r in rows_by_name.items()}
+        rows_by_name = {r.name: r for r in res.points}
+        means = {n: [r.mean(QUALITY), r.mean("fps")] for n, r in rows_by_name.items()}
         q_auto, fps_auto = means["auto"]
         vals = [[float("nan") if v is None else v for v in m] for m in means.values()]
         fps_margin = rule.fps_margin_frac * fps_auto if fps_auto is not None else 0.0
         ok = near_front(vals, list(means).index("auto"), (rule.quality_margin_db, fps_margin))
         best = max((q for q, _ in means.values() if q is not None), default=None)
-        runs = {n: r["seed_runs"][QUALITY] if "seed_runs" in r else [r.get(QUALITY)] for n, r in rows_by_name.items()}
+        runs = {n: r.seed_runs[QUALITY] if r.seed_runs is not None else [r.metric(QUALITY)]
+                for n, r in rows_by_name.items()}
         gap, se, rival = quality_gap(runs, {n: f for n, (_, f) in means.items()}, "auto", fps_margin)
         a = rows_by_name["auto"]
-        rows.append({"scene": scene, "texture_size": cfg.texture_size, "texture_channels": cfg.texture_channels,
-                     "renderer_width": cfg.renderer.width, "params_M": a["params"] / 1e6, QUALITY: q_auto,
-                     "best_" + QUALITY: best, "fps": fps_auto, "near_front": ok, "gap_db": gap, "gap_se_db": se,
-                     "beyond_noise": None if se is None else abs(gap - rule.quality_margin_db) > 2 * se})
-        details[scene] = {"reasons": reasons, "config": a["config"], "point": a, "near_front": ok, "rival": rival}
+        rows.append(SceneVerdict(scene, cfg.texture_size, cfg.texture_channels, cfg.renderer.width,
+                                 a.evaluation.params / 1e6, q_auto, best, fps_auto, ok, gap, se,
+                                 None if se is None else abs(gap - rule.quality_margin_db) > 2 * se))
+        details[scene] = {"reasons": reasons, "config": a.config, "point": a.to_dict(), "near_front": ok,
+                          "rival": rival}
         if seeds > 1:
             details[scene]["means"] = {n: {QUALITY: q, "fps": f, QUALITY + "_runs": runs[n]}
                                        for n, (q, f) in means.items()}
         print(f"{scene}: texture {cfg.texture_size}, channels {cfg.texture_channels}, renderer width "
               f"{cfg.renderer.width}; near the front: {ok}")
-    distinct = len({(r["texture_size"], r["texture_channels"], r["renderer_width"]) for r in rows})
+    distinct = len({(r.texture_size, r.texture_channels, r.renderer_width) for r in rows})
+    table = [r.to_dict() for r in rows]
     summary = {"benchmark": "auto_check", "preset": preset, "seeds": seeds, "margin_db": rule.quality_margin_db,
-               "rule": rule.__dict__, "scenes": details, "table": rows, "distinct_choices": distinct,
-               "all_near_front": all(r["near_front"] for r in rows), "machine": machine_info()}
+               "rule": rule.__dict__, "scenes": details, "table": table, "distinct_choices": distinct,
+               "all_near_front": all(r.near_front for r in rows), "machine": machine_info()}
     over = f"; means over {seeds} seeds per point" if seeds > 1 else ""
     md = ("# Automatic size choice against the sweep\n\n"
           f"near_front: no sweep point is more than {rule.quality_margin_db} dB better at most "
@@ -126,7 +164,7 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
           f"{rule.fps_margin_frac:.0%} slower minus the automatic choice; gap_se_db: its standard error over "
           f"the seeds; beyond_noise: the gap is more than two standard errors from the {rule.quality_margin_db} dB "
           "margin (the verdict would survive more seeds; empty with one seed).\n\n")
-    md += markdown_table(rows, list(rows[0])) if rows else ""
+    md += markdown_table(table, list(table[0])) if table else ""
     for scene, d in details.items():
         md += f"\n## {scene}\n\n" + "\n".join(f"- {r}" for r in d["reasons"]) + "\n"
         if "means" in d:

@@ -28,6 +28,7 @@ training running beside it.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import shutil
@@ -37,10 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-QUALITY = "psnr_person"  # the fronts' quality axis: what the renderer gets right on the person
-PAPER_NOTE = ("Paper (MoRF, WACV 2024): 640x640 at 30 fps on a Snapdragon 888 phone GPU, ~14.4M-parameter U-Net; "
-              "SSIM 0.899 / LPIPS 0.0623 / tLPIPS 0.00466 on their real captures. Only the fps target is comparable: "
-              "quality here is measured on a synthetic capture, and fps on this machine's CPU.")
+from morf.bench.pareto_results import PAPER_NOTE, QUALITY, PointRow, SweepResult
+from morf.bench.train_eval import TrainEvaluation
 
 
 def add_arguments(p) -> None:
@@ -95,8 +94,6 @@ def make_capture(out: Path, sweep, scene: str, model, project_path: str | None =
 
 
 def _summary(cfg) -> dict:
-    import dataclasses
-
     return {"renderer": dataclasses.asdict(cfg.renderer), "texture_size": cfg.texture_size,
             "texture_channels": cfg.texture_channels, "resolution": cfg.resolution, "steps": cfg.steps,
             "method": cfg.method}
@@ -119,7 +116,7 @@ class Training:
     eval_resolution: int | None = None
 
 
-def train_point_task(root: str, cfg, run: str, fits_source: str, eval_resolution: int | None) -> dict:
+def train_point_task(root: str, cfg, run: str, fits_source: str, eval_resolution: int | None) -> TrainEvaluation:
     """On a Ray worker: train (or resume, or reuse) ``ROOT/runs/<run>`` and score it on the hold-out
     (:func:`morf.bench.train_eval.train_and_evaluate`); the body model is loaded once per worker."""
     from morf.bench.train_eval import train_and_evaluate
@@ -176,7 +173,7 @@ def seed_repeats(pairs, seeds: int) -> dict[str, list]:
 
 
 def measure_points(project, sweep, pairs, model, out: Path, ray=None, workers: int | None = None,
-                   cpus_per_task: int | None = None) -> dict[str, tuple[dict, bool]]:
+                   cpus_per_task: int | None = None) -> dict[str, tuple[PointRow, bool]]:
     """Train, evaluate and time the (SweepPoint, TrainConfig) ``pairs``; {name: (result, reused)}
     where reused means loaded from ``OUT/points/<name>.json`` (same config, same fps size) without
     any work. The trainings run on Ray (:func:`train_all`); then each point's playback speed is
@@ -186,7 +183,7 @@ def measure_points(project, sweep, pairs, model, out: Path, ray=None, workers: i
     from morf.scale.tasks import Outcome, TasksFailed
     from morf.sizing.sweep import train_key
 
-    results: dict[str, tuple[dict, bool]] = {}
+    results: dict[str, tuple[PointRow, bool]] = {}
     need = []
     for point, cfg in pairs:
         old = saved_point(out, sweep, point, project, cfg)
@@ -204,50 +201,57 @@ def measure_points(project, sweep, pairs, model, out: Path, ray=None, workers: i
             failed.append(Outcome(point.name, error=o.error))
             continue
         t0 = time.time()
-        row = {"name": point.name, "axis": point.axis, "method": cfg.method, "precision": point.precision,
-               "key": key, "config": _summary(cfg), **o.value}
-        row.update(fps=None, frame_ms=None, renderer_ms=None, int8_psnr_vs_fp32_db=None)
-        if not row["diverged"]:
-            row.update(speed_of_run(row["run"], out / "work", sweep.fps_size, sweep.fps_frames, point.precision, model))
-        row["seconds"] = o.seconds + time.time() - t0
-        atomic_write_json(out / "points" / f"{point.name}.json", row)
+        ev: TrainEvaluation = o.value
+        speed = None if ev.diverged else speed_of_run(ev.run, out / "work", sweep.fps_size, sweep.fps_frames,
+                                                      point.precision, model)
+        row = PointRow(point.name, point.axis, cfg.method, point.precision, key, _summary(cfg), ev, speed,
+                       o.seconds + time.time() - t0)
+        atomic_write_json(out / "points" / f"{point.name}.json", row.to_dict())
         results[point.name] = (row, False)
     if failed:
         raise TasksFailed("sweep points", failed)
     return results
 
 
-def mean_of_runs(runs: list[dict], key: str) -> float | None:
-    """Mean of ``key`` over the runs that have it (None when none has)."""
-    vals = [r[key] for r in runs if r.get(key) is not None]
+def mean_of_runs(runs: list[PointRow], key: str) -> float | None:
+    """Mean of :meth:`PointRow.metric` ``key`` over the runs that have it (None when none has)."""
+    vals = [v for v in (r.metric(key) for r in runs) if v is not None]
     return sum(vals) / len(vals) if vals else None
 
 
 SEED_KEYS = (QUALITY, "ssim_person", "psnr", "temporal", "fps", "train_minutes")  # averaged over seeds
 
 
-def fronts(rows: list[dict]) -> dict[str, np.ndarray]:
-    """Pareto fronts of quality against fps (both up) and against training minutes (down)."""
+def with_seeds(row: PointRow, again: list[PointRow]) -> PointRow:
+    """``row`` with the values of :data:`SEED_KEYS` over its trainings (``row`` and ``again``) and their means."""
+    runs = [row] + again
+    return dataclasses.replace(row, seed_runs={k: [r.metric(k) for r in runs] for k in SEED_KEYS},
+                               seed_means={k: mean_of_runs(runs, k) for k in SEED_KEYS})
+
+
+def fronts(rows: list[PointRow]) -> dict[str, np.ndarray]:
+    """Pareto fronts of quality against fps (both up) and against training minutes (down), on the
+    means over the seeds where a point has several."""
     from morf.bench.front import pareto_front
 
-    q = [r.get(QUALITY) for r in rows]
-    fps = [[a, r.get("fps")] for a, r in zip(q, rows)]
-    train = [[a, r.get("train_minutes")] for a, r in zip(q, rows)]
+    q = [r.mean(QUALITY) for r in rows]
+    fps = [[a, r.mean("fps")] for a, r in zip(q, rows)]
+    train = [[a, r.mean("train_minutes")] for a, r in zip(q, rows)]
     none = lambda v: [[np.nan if x is None else x for x in p] for p in v]  # noqa: E731
     return {"fps": pareto_front(none(fps), (True, True)), "train": pareto_front(none(train), (True, False))}
 
 
-def seed_spread(rows: list[dict]) -> dict | None:
+def seed_spread(rows: list[PointRow]) -> dict | None:
     """The base point's quality over the seeds the sweep trained it with (the base and the seed
     axis's points that did not diverge): {"points", QUALITY, "range_db", "std_db"}; None without
     seed points."""
     from morf.sizing.sweep import NOISE_AXES
 
-    runs = [r for r in rows if (r["axis"] == "base" or r["axis"] in NOISE_AXES) and r.get(QUALITY) is not None]
-    if not any(r["axis"] in NOISE_AXES for r in runs) or len(runs) < 2:
+    runs = [r for r in rows if (r.axis == "base" or r.axis in NOISE_AXES) and r.metric(QUALITY) is not None]
+    if not any(r.axis in NOISE_AXES for r in runs) or len(runs) < 2:
         return None
-    q = np.array([r[QUALITY] for r in runs], float)
-    return {"points": [r["name"] for r in runs], QUALITY: q.tolist(), "range_db": float(np.ptp(q)),
+    q = np.array([r.metric(QUALITY) for r in runs], float)
+    return {"points": [r.name for r in runs], QUALITY: q.tolist(), "range_db": float(np.ptp(q)),
             "std_db": float(q.std(ddof=1))}
 
 
@@ -297,7 +301,7 @@ def _identity(sweep, point, cfg) -> tuple[str, int]:
             resolve(sweep, SweepPoint("base", "base")).resolution)
 
 
-def saved_point(out: Path, sweep, point, project, cfg=None) -> dict | None:
+def saved_point(out: Path, sweep, point, project, cfg=None) -> PointRow | None:
     """``OUT/points/<name>.json`` when it holds this point's config (same training, fps size and
     scoring resolution) trained on ``project``; else None."""
     from morf.sizing.sweep import resolve
@@ -310,13 +314,13 @@ def saved_point(out: Path, sweep, point, project, cfg=None) -> dict | None:
     same_capture = Path(old.get("run", "")).resolve().is_relative_to(Path(project.root).resolve())
     # results saved before eval_resolution was kept were scored at their own resolution
     scored_at = old.get("eval_resolution", old["config"]["resolution"])
-    return old if old.get("key") == key and scored_at == eval_res and same_capture else None
+    return PointRow.from_dict(old) if old.get("key") == key and scored_at == eval_res and same_capture else None
 
 
 def run_sweep(out, preset: str = "default", scene: str = "print", project_path: str | None = None,
               axes: list[str] | None = None, model=None, extra: list | None = None,
               points: list[str] | None = None, project=None, seeds: int = 1, ray=None,
-              workers: int | None = None, cpus_per_task: int | None = None) -> dict:
+              workers: int | None = None, cpus_per_task: int | None = None) -> SweepResult:
     """Run (or resume) one sweep and write its JSON, Markdown and charts; returns the result.
 
     ``points`` names the points to measure (all of ``axes`` when None); the other points of
@@ -325,7 +329,7 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
     own points (the automatic choice in ``--auto-check``). ``project``: the opened capture, when
     the caller has it (else made or opened from ``project_path``). ``seeds`` > 1: every point
     (seed-axis points aside) is trained that many times (:func:`seed_repeats`); each row then
-    carries ``seed_runs`` and ``seed_means`` of :data:`SEED_KEYS`, and fronts, charts and table
+    carries ``seed_runs`` and ``seed_means`` of :data:`SEED_KEYS` (:func:`with_seeds`), and fronts, charts and table
     use the means. ``ray`` (RayOptions), ``workers``, ``cpus_per_task``: where and how the
     trainings run (:func:`train_all`).
     """
@@ -355,36 +359,27 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
     rows = [measured[p.name][0] for p, _ in todo]
     reused = [p.name for p, _ in todo if measured[p.name][1]]
     for i, row in enumerate(rows):
-        print(f"[{i + 1}/{len(rows)}] {row['name']}: {QUALITY} {row.get(QUALITY)}, fps {row.get('fps')}, "
-              f"train {row.get('train_minutes')} min" + (" (saved result)" if row["name"] in reused else ""))
+        print(f"[{i + 1}/{len(rows)}] {row.name}: {QUALITY} {row.metric(QUALITY)}, fps {row.fps}, "
+              f"train {row.evaluation.train_minutes} min" + (" (saved result)" if row.name in reused else ""))
     shutil.rmtree(out / "work", ignore_errors=True)  # exports made only to time playback
-    sized = [r for r in rows if r["axis"] not in NOISE_AXES]  # the seed points re-measure the base
-    for r in sized if seeds > 1 else ():
-        runs = [r] + [measured[again.name][0] for again, _ in repeats[r["name"]]]
-        r["seed_runs"] = {k: [x.get(k) for x in runs] for k in SEED_KEYS}
-        r["seed_means"] = {k: mean_of_runs(runs, k) for k in SEED_KEYS}
-    view = [{**r, **r["seed_means"]} if "seed_means" in r else r for r in sized]
-    front = fronts(view)
-    for r in rows:
-        r["on_front_fps"] = r["on_front_train"] = False
-    for r, v, f1, f2 in zip(sized, view, front["fps"], front["train"]):
-        r["on_front_fps"] = v["on_front_fps"] = bool(f1)
-        r["on_front_train"] = v["on_front_train"] = bool(f2)
+    if seeds > 1:  # the seed points re-measure the base: they stay single trainings
+        rows = [r if r.axis in NOISE_AXES else with_seeds(r, [measured[p.name][0] for p, _ in repeats[r.name]])
+                for r in rows]
+    sized = [i for i, r in enumerate(rows) if r.axis not in NOISE_AXES]
+    front = fronts([rows[i] for i in sized])
+    on = dict(zip(sized, zip(front["fps"], front["train"])))
+    for i, r in enumerate(rows):
+        f1, f2 = on.get(i, (False, False))
+        rows[i] = dataclasses.replace(r, on_front_fps=bool(f1), on_front_train=bool(f2))
+    view = [{**r.to_dict(), **(r.seed_means or {})} for r in (rows[i] for i in sized)]  # what charts and table show
     noise = seed_spread(rows)
     floor = floor_point(project, sweep, model)
-    result = {"benchmark": "pareto", "preset": preset, "scene": scene, "project": str(project.root),
-              "quality_metric": QUALITY, "fps_size": sweep.fps_size, "fps_precision_default": "int8",
-              "points": rows, "front_fps": [r["name"] for r in rows if r["on_front_fps"]],
-              "front_train": [r["name"] for r in rows if r["on_front_train"]], "seed_spread": noise, "reused": reused,
-              "seeds": seeds, "floor": floor, "ray": {"address": (ray or RayOptions()).cluster_address or "local",
-                                                         "cpus_per_task": cpus_per_task or os.cpu_count()},
-              "paper_reference": {"fps": 30, "size": 640, "device": "Snapdragon 888", "params_m": 14.4, "ssim": 0.899,
-                                  "lpips": 0.0623, "tlpips": 0.00466, "comparable": ["fps"], "note": PAPER_NOTE},
-              "machine": machine_info()}
     over = f", means over {seeds} seeds" if seeds > 1 else ""
-    result["charts"] = charts(view, front, out, sweep.fps_size, f"{preset} sweep, {scene} scene{over}", noise,
-                              floor)
-    shown = view + [r for r in rows if r["axis"] in NOISE_AXES]
+    drawn = charts(view, front, out, sweep.fps_size, f"{preset} sweep, {scene} scene{over}", noise, floor)
+    result = SweepResult(preset, scene, str(project.root), sweep.fps_size, tuple(rows), noise, tuple(reused), seeds,
+                         floor, {"address": (ray or RayOptions()).cluster_address or "local",
+                                 "cpus_per_task": cpus_per_task or os.cpu_count()}, machine_info(), tuple(drawn))
+    shown = view + [r.to_dict() for r in rows if r.axis in NOISE_AXES]
     table = [{**r, "params_M": r["params"] / 1e6, "front": ("fps " if r["on_front_fps"] else "")
               + ("train" if r["on_front_train"] else "")} for r in shown]
     cols = ["name", "params_M", "psnr_person", "ssim_person", "psnr", "temporal", "fps", "renderer_ms",
@@ -406,7 +401,7 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
           + f"RGB floor (no learning, `{Path(floor['run']).name}`): {floor[QUALITY]:.2f} dB {QUALITY} on the same "
             "hold-out; its speed is not measured, so the charts draw it as a horizontal line.\n\n"
           + f"{PAPER_NOTE}\n")
-    path = write_results(out, "pareto", result, md)
+    path = write_results(out, "pareto", result.to_dict(), md)
     print(f"wrote {path}")
     return result
 

@@ -42,6 +42,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from morf.bench.stability_rows import LevelRepeats, StabilityPoint
+
 if TYPE_CHECKING:
     from morf.presets.stability import StabilityPreset  # the presets: stage "stability" of morf.presets
 
@@ -214,36 +216,39 @@ def sp_frames(sp: StabilityPreset) -> int:
 METRICS = ("psnr", "ssim", "psnr_person", "ssim_person", "temporal", "train_minutes")
 
 
-def combine_repeats(runs: list[dict]) -> dict:
+def combine_repeats(runs: list[StabilityPoint]) -> LevelRepeats:
     """One level's row from its repeats: metric means over the runs that did not diverge, the
     person-PSNR's min / max / sample standard deviation, ``diverged`` when any run diverged."""
-    ok = [r for r in runs if not r.get("diverged") and r.get("psnr_person") is not None]
-    row = {k: v for k, v in runs[0].items() if k not in METRICS and k not in ("run", "error", "steps")}
+    ok = [r.evaluation for r in runs if not r.diverged and r.psnr_person is not None]
+    means = {}
     for k in METRICS:
-        vals = [r[k] for r in ok if r.get(k) is not None]
-        row[k] = float(np.mean(vals)) if vals else None
-    person = [r["psnr_person"] for r in ok]
-    row.update(repeats=len(runs), diverged_runs=len(runs) - len(ok), diverged=len(ok) < len(runs),
-               psnr_person_min=min(person) if person else None, psnr_person_max=max(person) if person else None,
-               psnr_person_std=float(np.std(person, ddof=1)) if len(person) > 1 else None,
-               runs=[r.get("run") for r in runs])
-    return row
+        vals = [getattr(e, k) for e in ok if getattr(e, k) is not None]
+        means[k] = float(np.mean(vals)) if vals else None
+    person = [e.psnr_person for e in ok]
+    first = runs[0]
+    return LevelRepeats(first.series, first.level, first.method, first.seed, first.evaluation.params,
+                        len(ok) < len(runs), **means, repeats=len(runs), diverged_runs=len(runs) - len(ok),
+                        psnr_person_min=min(person) if person else None,
+                        psnr_person_max=max(person) if person else None,
+                        psnr_person_std=float(np.std(person, ddof=1)) if len(person) > 1 else None,
+                        runs=tuple(r.evaluation.run for r in runs), background=first.evaluation.background,
+                        frames=first.evaluation.frames, eval_resolution=first.evaluation.eval_resolution)
 
 
-def breakdown_threshold(rows: list[dict]) -> float:
+def breakdown_threshold(rows: list[StabilityPoint | LevelRepeats]) -> float:
     """BREAKDOWN_DB, or twice the pooled run-to-run standard deviation of the person-PSNR over the
     levels that were repeated, whichever is larger."""
-    var = [r["psnr_person_std"] ** 2 for r in rows if r.get("psnr_person_std") is not None]
+    var = [r.psnr_person_std ** 2 for r in rows if isinstance(r, LevelRepeats) and r.psnr_person_std is not None]
     return max(BREAKDOWN_DB, 2.0 * float(np.sqrt(np.mean(var)))) if var else BREAKDOWN_DB
 
 
-def breaks_down_at(levels: list, rows: list[dict], threshold: float = BREAKDOWN_DB) -> object:
+def breaks_down_at(levels: list, rows: list[StabilityPoint | LevelRepeats], threshold: float = BREAKDOWN_DB) -> object:
     """First level whose person-PSNR is more than ``threshold`` dB below level 0's, or that diverged."""
-    ref = rows[0].get("psnr_person") if rows else None
+    ref = rows[0].psnr_person if rows else None
     for lv, r in zip(levels, rows):
-        if r.get("diverged") or r.get("psnr_person") is None:
+        if r.diverged or r.psnr_person is None:
             return lv
-        if ref is not None and r["psnr_person"] < ref - threshold:
+        if ref is not None and r.psnr_person < ref - threshold:
             return lv
     return None
 
@@ -262,7 +267,7 @@ def _train_missing(out: Path, sp: StabilityPreset, series, methods, repeats: int
     from morf.scale.tasks import Outcome, TasksFailed
     from morf.train.config import preset as train_preset
 
-    jobs = []  # (result path, result header, Training, Setting)
+    jobs = []  # (result path, (series, level, method, seed), Training, Setting)
     for s in series:
         for i, level in enumerate(sp.levels[s]):
             missing = [(m, r, _point_path(out, s, i, m, r)) for m in methods for r in range(repeats)]
@@ -273,7 +278,7 @@ def _train_missing(out: Path, sp: StabilityPreset, series, methods, repeats: int
             for m, r, path in missing:
                 cfg = train_preset(sp.train[0], m, **sp.train[1]).replace(seed=r)
                 tag = f"-seed{r}" if r else ""
-                jobs.append((path, {"series": s, "level": level, "method": m, "seed": r},
+                jobs.append((path, (s, level, m, r),
                              Training(str(Path(st.project).resolve()), cfg, f"{st.stem}-{m}{tag}",
                                       st.fits_source), st))
     failed = []
@@ -289,7 +294,7 @@ def _train_missing(out: Path, sp: StabilityPreset, series, methods, repeats: int
             path, head, t, _ = jobs[k]
             o = trained[(t.root, t.run)]
             if o.ok:
-                atomic_write_json(path, {**head, **o.value})
+                atomic_write_json(path, StabilityPoint(*head, o.value).to_dict())
             else:
                 failed.append(Outcome(path.stem, error=o.error))
     if (Path(clean) / "review.json").is_file():
@@ -330,12 +335,15 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
         per_method = {m: [] for m in methods}
         for i, level in enumerate(levels):
             for m in methods:
-                runs = [json.loads(_point_path(out, s, i, m, r).read_text()) for r in range(repeats)]
+                runs = [StabilityPoint.from_dict(json.loads(_point_path(out, s, i, m, r).read_text()))
+                        for r in range(repeats)]
                 row = combine_repeats(runs) if repeats > 1 else runs[0]
                 per_method[m].append(row)
-                md_rows.append({"series": s, "level": level, "method": m, **row})
+                md_rows.append({"series": s, "level": level, "method": m, **row.to_dict()})
         thresholds = {m: breakdown_threshold(per_method[m]) for m in methods}
-        result_series[s] = {"label": LABELS[s], "levels": levels, "methods": per_method, "threshold_db": thresholds,
+        result_series[s] = {"label": LABELS[s], "levels": levels,
+                            "methods": {m: [r.to_dict() for r in rows] for m, rows in per_method.items()},
+                            "threshold_db": thresholds,
                             "breaks_down_at": {m: breaks_down_at(levels, per_method[m], thresholds[m])
                                                for m in methods}}
     rule = (f"person-PSNR more than {BREAKDOWN_DB} dB below the method's level-0 value, "

@@ -45,6 +45,85 @@ class PlaybackSpeed:
         return PlaybackSpeed(d["fps"], d["frame_ms"], d["renderer_ms"], d.get("int8_psnr_vs_fp32_image_db"))
 
 
+@dataclass(frozen=True)
+class RunSpeed:
+    """Playback speed of one run at one precision (:func:`speed_of_run`).
+
+    Fields:
+        playback: the measurement; int8_psnr_vs_fp32_db: the export's int8 renderer against its fp32
+        one (its manifest's check, whatever precision was timed).
+    """
+
+    playback: PlaybackSpeed
+    int8_psnr_vs_fp32_db: float
+
+    def to_dict(self) -> dict:
+        return {**self.playback.to_dict(), "int8_psnr_vs_fp32_db": self.int8_psnr_vs_fp32_db}
+
+    @staticmethod
+    def from_dict(d: dict) -> RunSpeed:
+        return RunSpeed(PlaybackSpeed.from_dict(d), d["int8_psnr_vs_fp32_db"])
+
+
+HOLDOUT_METRICS = ("psnr", "ssim", "psnr_person", "ssim_person", "temporal")
+
+
+@dataclass(frozen=True)
+class TrainEvaluation:
+    """One training scored on the hold-out (:func:`train_and_evaluate`): what a training task sends
+    back from its Ray worker, and the scores in the sweep's and the stress series' point files.
+
+    Fields:
+        params: the renderer's parameters; diverged: training raised TrainingDiverged, or a metric
+            came out NaN; psnr, ssim, psnr_person, ssim_person, temporal: the hold-out metrics
+            (:func:`holdout_quality`); train_minutes: the training loop's wall time, all sessions;
+            steps: steps trained.
+        error: the TrainingDiverged message when training raised (then there is no run: the metrics,
+            minutes and steps are None, and the fields below are left out of :meth:`to_dict`);
+            None when training ended.
+        background, frames: the hold-out's flat backdrop colour and frame count; run: the run
+            folder; eval_resolution: the scoring size in px (None in results saved before it was
+            kept; then left out of :meth:`to_dict`).
+    """
+
+    params: int
+    diverged: bool
+    psnr: float | None = None
+    ssim: float | None = None
+    psnr_person: float | None = None
+    ssim_person: float | None = None
+    temporal: float | None = None
+    train_minutes: float | None = None
+    steps: int | None = None
+    error: str | None = None
+    background: tuple[float, ...] | None = None
+    frames: int | None = None
+    run: str | None = None
+    eval_resolution: int | None = None
+
+    def to_dict(self) -> dict:
+        metrics = {k: getattr(self, k) for k in HOLDOUT_METRICS}
+        if self.error is not None:
+            return {"diverged": self.diverged, "error": self.error, "params": self.params, **metrics,
+                    "train_minutes": self.train_minutes, "steps": self.steps}
+        d = dict(metrics)
+        if self.background is not None:
+            d.update(background=list(self.background), frames=self.frames)
+        d.update(diverged=self.diverged, params=self.params, train_minutes=self.train_minutes, steps=self.steps,
+                 run=self.run)
+        if self.eval_resolution is not None:
+            d["eval_resolution"] = self.eval_resolution
+        return d
+
+    @staticmethod
+    def from_dict(d: dict) -> TrainEvaluation:
+        """From :meth:`to_dict`'s keys (a point file holds them among its own)."""
+        background = d.get("background")
+        return TrainEvaluation(d["params"], d["diverged"], *(d[k] for k in HOLDOUT_METRICS), d["train_minutes"],
+                               d["steps"], d.get("error"), None if background is None else tuple(background),
+                               d.get("frames"), d.get("run"), d.get("eval_resolution"))
+
+
 def holdout_quality(project, run_dir, model, resolution: int | None = None) -> dict:
     """PSNR / SSIM (image and person) and temporal flicker of a finished run on the project's
     synthetic hold-out sequence (the same evaluation as ``morf bench quality``), rendered and
@@ -65,12 +144,12 @@ def holdout_quality(project, run_dir, model, resolution: int | None = None) -> d
 
 
 def train_and_evaluate(project, cfg, run_name: str, model, fits_source: str = "ground-truth",
-                       eval_resolution: int | None = None) -> dict:
+                       eval_resolution: int | None = None) -> TrainEvaluation:
     """Train (or resume, or reuse) ``PROJECT/runs/<run_name>`` and evaluate it (at
     ``eval_resolution`` px, default the training resolution; see :func:`holdout_quality`).
 
-    Returns the hold-out metrics plus ``train_minutes``, ``steps``, ``params`` and ``diverged``
-    (True when training raised TrainingDiverged or a metric came out NaN; metrics are then None).
+    ``diverged`` is True when training raised TrainingDiverged (then the metrics are None) or a
+    metric came out NaN.
     """
     from morf.avatar.renderer import UNetRenderer, count_parameters
     from morf.train.project_run import train_project
@@ -79,14 +158,13 @@ def train_and_evaluate(project, cfg, run_name: str, model, fits_source: str = "g
     try:
         res = train_project(project, cfg, run_name, fits_source=fits_source, model=model)
     except TrainingDiverged as e:
-        return {"diverged": True, "error": str(e), "params": params, "psnr": None, "ssim": None,
-                "psnr_person": None, "ssim_person": None, "temporal": None, "train_minutes": None, "steps": None}
+        return TrainEvaluation(params, True, error=str(e))
     m = holdout_quality(project, res.run_dir, model, eval_resolution)
     bad = any(v is None or (isinstance(v, float) and not math.isfinite(v))
               for k, v in m.items() if k in ("psnr", "psnr_person", "ssim"))
-    m.update(diverged=bool(bad), params=params, train_minutes=res.train_minutes, steps=res.step,
-             run=str(res.run_dir), eval_resolution=eval_resolution or cfg.resolution)
-    return m
+    return TrainEvaluation(params, bool(bad), *(m[k] for k in HOLDOUT_METRICS), res.train_minutes, res.step,
+                           background=tuple(m["background"]), frames=m["frames"], run=str(res.run_dir),
+                           eval_resolution=eval_resolution or cfg.resolution)
 
 
 def export_for_speed(run_dir, out_dir: Path, size: int, body_model) -> dict:
@@ -133,13 +211,12 @@ def _fp32_child() -> None:
     print(json.dumps(PlaybackSpeed(1.0 / seq, seq * 1e3, renderer_ms).to_dict()))
 
 
-def speed_of_run(run_dir, work: Path, size: int, frames: int, precision: str, body_model) -> dict:
-    """Playback speed of one run at ``precision``: :meth:`PlaybackSpeed.to_dict` plus the export's
-    ``int8_psnr_vs_fp32_db``, as the sweep's point rows hold it. The export is made once per run in
-    ``work`` (reused by the run's other precision; the caller removes ``work`` when done)."""
+def speed_of_run(run_dir, work: Path, size: int, frames: int, precision: str, body_model) -> RunSpeed:
+    """Playback speed of one run at ``precision``, with its export's int8 check. The export is made
+    once per run in ``work`` (reused by the run's other precision; the caller removes ``work`` when
+    done)."""
     avatar = Path(work) / f"avatar-{Path(run_dir).name}-{size}"
     if not (avatar / "manifest.json").is_file():
         export_for_speed(run_dir, avatar, size, body_model)
     man = json.loads((avatar / "manifest.json").read_text())
-    return {**measure_speed(avatar, size, frames, precision).to_dict(),
-            "int8_psnr_vs_fp32_db": man["int8_quality"]["psnr_db"]}
+    return RunSpeed(measure_speed(avatar, size, frames, precision), man["int8_quality"]["psnr_db"])

@@ -34,21 +34,22 @@ def test_tiny_sweep_writes_results_and_resumes(tmp_path, body_model, gl):
     assert "RGB floor" in (out / "pareto.md").read_text()
     for png in ("pareto_fps.png", "pareto_train.png"):
         assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert res["reused"] == []
+    assert res.reused == ()
+    assert res.to_dict() == data
 
     stamps = {p.name: p.stat().st_mtime_ns for p in (out / "points").iterdir()}
     again = run_sweep(out, "tiny", axes=["texture_size", "precision"], model=body_model)
-    assert again["reused"] == names
+    assert list(again.reused) == names
     assert {p.name: p.stat().st_mtime_ns for p in (out / "points").iterdir()} == stamps
 
     # naming one point keeps the others measured on this capture, and only those
     grown = run_sweep(out, "tiny", axes=["texture_size", "precision"], points=["fp32"], model=body_model)
-    assert [p["name"] for p in grown["points"]] == names and grown["reused"] == names
+    assert [p.name for p in grown.points] == names and list(grown.reused) == names
     moved = json.loads((out / "points" / "texture-32.json").read_text())
     moved["run"] = str(tmp_path / "another-capture" / "runs" / "x")
     (out / "points" / "texture-32.json").write_text(json.dumps(moved))
     alone = run_sweep(out, "tiny", axes=["texture_size", "precision"], points=["fp32"], model=body_model)
-    assert [p["name"] for p in alone["points"]] == ["base", "fp32"]
+    assert [p.name for p in alone.points] == ["base", "fp32"]
 
 
 @pytest.mark.gl
@@ -62,14 +63,14 @@ def test_a_resolution_point_is_scored_at_the_base_resolution(tmp_path, body_mode
     point = SweepPoint("resolution-32", "resolution", {"resolution": 32})
     out = tmp_path / "pareto"
     data = run_sweep(out, "tiny", axes=["resolution"], model=body_model, extra=[(point, resolve(sweep, point))])
-    rows = {p["name"]: p for p in data["points"]}
+    rows = {p.name: p for p in data.points}
     base_res = resolve(sweep, SweepPoint("base", "base")).resolution
-    assert rows["resolution-32"]["config"]["resolution"] == 32 != base_res
-    assert rows["resolution-32"]["eval_resolution"] == rows["base"]["eval_resolution"] == base_res
-    project = CaptureProject.open(data["project"])
-    at_base = holdout_quality(project, rows["resolution-32"]["run"], body_model, base_res)
-    at_own = holdout_quality(project, rows["resolution-32"]["run"], body_model)
-    assert at_base["psnr"] == pytest.approx(rows["resolution-32"]["psnr"])
+    assert rows["resolution-32"].config["resolution"] == 32 != base_res
+    assert rows["resolution-32"].evaluation.eval_resolution == rows["base"].evaluation.eval_resolution == base_res
+    project = CaptureProject.open(data.project)
+    at_base = holdout_quality(project, rows["resolution-32"].evaluation.run, body_model, base_res)
+    at_own = holdout_quality(project, rows["resolution-32"].evaluation.run, body_model)
+    assert at_base["psnr"] == pytest.approx(rows["resolution-32"].evaluation.psnr)
     assert at_base["psnr"] != pytest.approx(at_own["psnr"])
 
 
@@ -85,7 +86,7 @@ def test_crowded_chart_labels_move_apart():
 @pytest.mark.gl
 def test_seed_points_measure_the_noise_and_stay_off_the_fronts(tmp_path, body_model, gl):
     out = tmp_path / "pareto"
-    data = run_sweep(out, "tiny", axes=["seed"], model=body_model)
+    data = run_sweep(out, "tiny", axes=["seed"], model=body_model).to_dict()
     rows = {p["name"]: p for p in data["points"]}
     assert list(rows) == ["base", "seed-1"]
     assert rows["seed-1"]["run"] != rows["base"]["run"]
@@ -98,16 +99,54 @@ def test_seed_points_measure_the_noise_and_stay_off_the_fronts(tmp_path, body_mo
     assert "seeds spans" in (out / "pareto.md").read_text()
 
 
+def sweep_row(name: str, axis: str, psnr_person: float | None, fps: float | None = 30.0):
+    from morf.bench.pareto_results import PointRow
+    from morf.bench.train_eval import PlaybackSpeed, RunSpeed, TrainEvaluation
+
+    if psnr_person is None:  # training raised
+        return PointRow(name, axis, "morf", "int8", "k", {}, TrainEvaluation(1000, True, error="NaN"), None, 1.0)
+    ev = TrainEvaluation(1000, False, 25.0, 0.9, psnr_person, 0.8, 0.01, 1.0, 6, background=(0.5, 0.5, 0.5),
+                         frames=3, run=f"/p/runs/{name}", eval_resolution=64)
+    return PointRow(name, axis, "morf", "int8", "k", {"resolution": 64}, ev,
+                    None if fps is None else RunSpeed(PlaybackSpeed(fps, 1000 / fps, 5.0, 40.0), 38.0), 1.0)
+
+
 def test_no_seed_spread_without_seed_points():
     from morf.bench.pareto import seed_spread
 
-    rows = [{"name": "base", "axis": "base", "psnr_person": 20.0},
-            {"name": "texture-32", "axis": "texture_size", "psnr_person": 19.0}]
+    rows = [sweep_row("base", "base", 20.0), sweep_row("texture-32", "texture_size", 19.0)]
     assert seed_spread(rows) is None
-    rows.append({"name": "seed-1", "axis": "seed", "psnr_person": 21.0})
-    rows.append({"name": "seed-2", "axis": "seed", "psnr_person": None})  # diverged: left out
+    rows.append(sweep_row("seed-1", "seed", 21.0))
+    rows.append(sweep_row("seed-2", "seed", None))  # diverged: left out
     s = seed_spread(rows)
     assert s["points"] == ["base", "seed-1"] and s["range_db"] == pytest.approx(1.0)
+
+
+def test_a_point_row_keeps_its_keys_and_order():
+    import dataclasses
+
+    from morf.bench.pareto import with_seeds
+    from morf.bench.pareto_results import PointRow
+
+    row = sweep_row("base", "base", 20.0)
+    saved = row.to_dict()
+    assert list(saved) == ["name", "axis", "method", "precision", "key", "config", "psnr", "ssim", "psnr_person",
+                           "ssim_person", "temporal", "background", "frames", "diverged", "params", "train_minutes",
+                           "steps", "run", "eval_resolution", "fps", "frame_ms", "renderer_ms",
+                           "int8_psnr_vs_fp32_db", "int8_psnr_vs_fp32_image_db", "seconds"]
+    assert PointRow.from_dict(json.loads(json.dumps(saved))) == row
+    fp32 = dataclasses.replace(row, precision="fp32", speed=dataclasses.replace(
+        row.speed, playback=dataclasses.replace(row.speed.playback, int8_psnr_vs_fp32_image_db=None)))
+    assert "int8_psnr_vs_fp32_image_db" not in fp32.to_dict()
+    raised = sweep_row("r", "renderer", None).to_dict()
+    assert list(raised)[6:9] == ["diverged", "error", "params"] and raised["fps"] is None and "run" not in raised
+    # the sweep adds the seeds and the fronts after the point file's keys
+    seeded = dataclasses.replace(with_seeds(row, [sweep_row("base-seed1", "base", 22.0, fps=None)]),
+                                 on_front_fps=True, on_front_train=False)
+    assert list(seeded.to_dict())[-4:] == ["seed_runs", "seed_means", "on_front_fps", "on_front_train"]
+    assert seeded.seed_runs["psnr_person"] == [20.0, 22.0] and seeded.seed_runs["fps"] == [30.0, None]
+    assert seeded.mean("psnr_person") == pytest.approx(21.0) and seeded.mean("fps") == 30.0
+    assert row.mean("psnr_person") == 20.0
 
 
 def test_schedule_points_and_run_names_of_constant_rate_configs():
@@ -138,7 +177,7 @@ def test_schedule_points_and_run_names_of_constant_rate_configs():
 @pytest.mark.gl
 def test_sweep_with_seeds_charts_the_means(tmp_path, body_model, gl):
     out = tmp_path / "pareto"
-    res = run_sweep(out, "tiny", axes=["texture_size"], model=body_model, seeds=2)
+    res = run_sweep(out, "tiny", axes=["texture_size"], model=body_model, seeds=2).to_dict()
     assert res["seeds"] == 2 and [p["name"] for p in res["points"]] == ["base", "texture-32"]
     saved = {p.stem for p in (out / "points").glob("*.json")}
     assert saved == {"base", "texture-32", "base-seed1", "texture-32-seed1"}

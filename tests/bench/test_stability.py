@@ -5,15 +5,24 @@ import json
 import pytest
 
 from morf.bench.stability import BREAKDOWN_DB, breaks_down_at, run_stability
+from morf.bench.stability_rows import StabilityPoint
+from morf.bench.train_eval import TrainEvaluation
+
+
+def point(psnr_person, seed=0, diverged=False, **scores) -> StabilityPoint:
+    if diverged and psnr_person is None:  # training raised
+        return StabilityPoint("slide", 0, "morf", seed, TrainEvaluation(1000, True, error="loss went NaN"))
+    ev = TrainEvaluation(1000, diverged, psnr_person=psnr_person, background=(0.5, 0.5, 0.5), frames=3,
+                         run=f"r{seed}", eval_resolution=64, **scores)
+    return StabilityPoint("slide", 0, "morf", seed, ev)
 
 
 def test_breakdown_rule():
     levels = [0, 1, 2, 3]
-    rows = [{"psnr_person": 20.0}, {"psnr_person": 19.5}, {"psnr_person": 20 - BREAKDOWN_DB - 0.1},
-            {"psnr_person": 10.0}]
+    rows = [point(20.0), point(19.5), point(20 - BREAKDOWN_DB - 0.1), point(10.0)]
     assert breaks_down_at(levels, rows) == 2
     assert breaks_down_at(levels, rows[:2]) is None
-    assert breaks_down_at(levels, [rows[0], {"diverged": True, "psnr_person": None}]) == 1
+    assert breaks_down_at(levels, [rows[0], point(None, diverged=True)]) == 1
 
 
 @pytest.mark.gl
@@ -44,24 +53,41 @@ def test_tiny_stability_series(tmp_path, body_model, gl):
 
 
 def test_repeats_are_combined_and_their_spread_widens_the_breakdown_threshold():
+    import dataclasses
+
     from morf.bench.stability import breakdown_threshold, combine_repeats
 
-    runs = [{"series": "slide", "level": 0, "method": "morf", "seed": s, "run": f"r{s}", "diverged": False,
-             "psnr": p + 5, "ssim": 0.9, "psnr_person": p, "ssim_person": 0.8, "temporal": 0.05, "train_minutes": 1}
-            for s, p in enumerate([18.0, 20.0, 22.0])]
+    scores = dict(ssim=0.9, ssim_person=0.8, temporal=0.05, train_minutes=1)
+    runs = [point(p, s, psnr=p + 5, **scores) for s, p in enumerate([18.0, 20.0, 22.0])]
     row = combine_repeats(runs)
-    assert row["psnr_person"] == pytest.approx(20.0) and row["psnr"] == pytest.approx(25.0)
-    assert (row["psnr_person_min"], row["psnr_person_max"]) == (18.0, 22.0)
-    assert row["psnr_person_std"] == pytest.approx(2.0) and row["repeats"] == 3 and not row["diverged"]
-    assert row["runs"] == ["r0", "r1", "r2"] and "run" not in row
-    failed = combine_repeats(runs[:2] + [{**runs[2], "diverged": True, "psnr_person": None}])
-    assert failed["diverged"] and failed["diverged_runs"] == 1 and failed["psnr_person"] == pytest.approx(19.0)
+    assert row.psnr_person == pytest.approx(20.0) and row.psnr == pytest.approx(25.0)
+    assert (row.psnr_person_min, row.psnr_person_max) == (18.0, 22.0)
+    assert row.psnr_person_std == pytest.approx(2.0) and row.repeats == 3 and not row.diverged
+    saved = row.to_dict()
+    assert saved["runs"] == ["r0", "r1", "r2"] and "run" not in saved and "steps" not in saved
+    assert list(saved) == ["series", "level", "method", "seed", "background", "frames", "diverged", "params",
+                           "eval_resolution", "psnr", "ssim", "psnr_person", "ssim_person", "temporal",
+                           "train_minutes", "repeats", "diverged_runs", "psnr_person_min", "psnr_person_max",
+                           "psnr_person_std", "runs"]
+    failed = combine_repeats(runs[:2] + [point(None, 2, diverged=True)])
+    assert failed.diverged and failed.diverged_runs == 1 and failed.psnr_person == pytest.approx(19.0)
+    assert failed.runs == ("r0", "r1", None)
+    first_raised = combine_repeats([point(None, 0, diverged=True)] + runs[1:]).to_dict()
+    assert "background" not in first_raised and "eval_resolution" not in first_raised and first_raised["diverged"]
     # a spread of 2 dB: a 3 dB drop is within the noise, a 5 dB drop is not
     assert breakdown_threshold([row]) == pytest.approx(4.0)
     levels = [0, 1]
-    assert breaks_down_at(levels, [row, {**row, "psnr_person": 17.0}], breakdown_threshold([row])) is None
-    assert breaks_down_at(levels, [row, {**row, "psnr_person": 15.0}], breakdown_threshold([row])) == 1
-    assert breakdown_threshold([{"psnr_person_std": None}]) == BREAKDOWN_DB
+    lower = lambda p: dataclasses.replace(row, psnr_person=p)  # noqa: E731
+    assert breaks_down_at(levels, [row, lower(17.0)], breakdown_threshold([row])) is None
+    assert breaks_down_at(levels, [row, lower(15.0)], breakdown_threshold([row])) == 1
+    assert breakdown_threshold([dataclasses.replace(row, psnr_person_std=None)]) == BREAKDOWN_DB
+    assert breakdown_threshold(runs) == BREAKDOWN_DB  # single trainings: no spread measured
+
+
+def test_a_point_file_is_read_and_written_back_as_it_was():
+    saved = point(18.0, 1, psnr=23.0).to_dict()
+    assert list(saved)[:4] == ["series", "level", "method", "seed"]
+    assert StabilityPoint.from_dict(json.loads(json.dumps(saved))).to_dict() == saved
 
 
 @pytest.mark.gl

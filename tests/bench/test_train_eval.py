@@ -1,4 +1,5 @@
-"""The playback speed a sweep point's row gets from ``morf.bench.train_eval``."""
+"""What a sweep point's row gets from ``morf.bench.train_eval``: the training's hold-out scores and
+the playback speed."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import json
 import pytest
 
 from morf.bench import train_eval
-from morf.bench.train_eval import PlaybackSpeed, measure_speed, speed_of_run
+from morf.bench.train_eval import PlaybackSpeed, RunSpeed, TrainEvaluation, measure_speed, speed_of_run
 
 
 def test_fp32_speed_has_no_int8_comparison():
@@ -40,6 +41,31 @@ def test_a_runs_speed_row_keeps_its_keys(measured, tmp_path, monkeypatch):
     avatar.mkdir(parents=True)
     (avatar / "manifest.json").write_text(json.dumps({"int8_quality": {"psnr_db": 38.0}}))
     monkeypatch.setattr(train_eval, "export_for_speed", lambda *a: pytest.fail("the export exists"))
-    row = speed_of_run(tmp_path / "runs" / "run", tmp_path / "work", 64, 10, "int8", None)
-    assert json.dumps(row) == json.dumps({"fps": 100.0, "frame_ms": 10.0, "renderer_ms": 5.0,
-                                          "int8_psnr_vs_fp32_image_db": 41.5, "int8_psnr_vs_fp32_db": 38.0})
+    speed = speed_of_run(tmp_path / "runs" / "run", tmp_path / "work", 64, 10, "int8", None)
+    assert speed == RunSpeed(PlaybackSpeed(100.0, 10.0, 5.0, 41.5), 38.0)
+    assert json.dumps(speed.to_dict()) == json.dumps({"fps": 100.0, "frame_ms": 10.0, "renderer_ms": 5.0,
+                                                      "int8_psnr_vs_fp32_image_db": 41.5, "int8_psnr_vs_fp32_db": 38.0})
+    assert RunSpeed.from_dict(speed.to_dict()) == speed
+
+
+METRICS = {"psnr": 22.0, "ssim": 0.9, "psnr_person": 18.0, "ssim_person": 0.8, "temporal": 0.01}
+
+
+def test_a_training_that_raised_keeps_its_keys():
+    ev = TrainEvaluation(1234, True, error="loss went NaN at step 3")
+    want = {"diverged": True, "error": "loss went NaN at step 3", "params": 1234, "psnr": None, "ssim": None,
+            "psnr_person": None, "ssim_person": None, "temporal": None, "train_minutes": None, "steps": None}
+    assert json.dumps(ev.to_dict()) == json.dumps(want)
+    assert TrainEvaluation.from_dict(json.loads(json.dumps(ev.to_dict()))) == ev
+
+
+def test_a_scored_training_keeps_its_keys():
+    ev = TrainEvaluation(1234, False, *METRICS.values(), 1.5, 60, background=(0.5, 0.25, 1.0), frames=3,
+                         run="/p/runs/r", eval_resolution=64)
+    want = {**METRICS, "background": [0.5, 0.25, 1.0], "frames": 3, "diverged": False, "params": 1234,
+            "train_minutes": 1.5, "steps": 60, "run": "/p/runs/r", "eval_resolution": 64}
+    assert json.dumps(ev.to_dict()) == json.dumps(want)
+    assert TrainEvaluation.from_dict(json.loads(json.dumps(ev.to_dict()))) == ev
+    # saved before the scoring size was kept: read and written back as it was
+    older = {k: v for k, v in want.items() if k != "eval_resolution"}
+    assert json.dumps(TrainEvaluation.from_dict(older).to_dict()) == json.dumps(older)
