@@ -173,3 +173,14 @@ def test_command_functions_refuse_unknown_presets_with_input_errors(tmp_path):
         demo.run(SimpleNamespace(dir=str(tmp_path / "d"), preset="nope", motion=None))
     assert not any(tmp_path.iterdir())
 
+
+
+def test_a_method_without_warp_gets_the_same_config_from_the_registry_and_the_train_preset():
+    from morf.train.config import preset as train_preset
+
+    for name in presets.presets_of("train"):
+        for method in ("stylepeople", "anr", "morf"):
+            via_registry = presets.preset("train", name).replace(method=method)
+            assert via_registry == train_preset(name, method), (name, method)
+    assert train_preset("cpu", "stylepeople").warp_fade_end == 1.0
+    assert train_preset("cpu", "stylepeople", warp_fade_end=0.5, warp_fade_start=0.2).warp_fade_end == 0.5

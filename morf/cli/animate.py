@@ -19,11 +19,12 @@ def add_parser(sub):
 def run(args) -> int:
     from morf.capture.project import CaptureProject
     from morf.errors import ProjectError
+    from morf.export.avatar_folder import is_avatar_folder
     from morf.motion.capture_fits import project_shape
 
     project = CaptureProject.open(args.project)
     avatar = args.avatar or project.avatar_dir
-    if not (project.avatar_dir / "manifest.json").is_file() and args.avatar is None:
+    if not is_avatar_folder(project.avatar_dir) and args.avatar is None:
         raise ProjectError(f"{project.root} has no exported avatar yet; run 'morf export {project.root}' first")
     args.avatar = str(avatar)
     return play(args, project_shape(project))

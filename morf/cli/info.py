@@ -14,6 +14,7 @@ def add_parser(sub):
 
 def run(args) -> int:
     from morf.capture.project import CaptureProject
+    from morf.export.avatar_folder import is_avatar_folder
 
     project = CaptureProject.open(args.project)
     decisions = project.frame_decisions()
@@ -27,7 +28,7 @@ def run(args) -> int:
         "synthetic": project.is_synthetic,
         "has_fits": project.fits_path.is_file(),
         "runs": sorted(p.name for p in project.runs_dir.iterdir()) if project.runs_dir.is_dir() else [],
-        "has_avatar": (project.avatar_dir / "manifest.json").is_file(),
+        "has_avatar": is_avatar_folder(project.avatar_dir),
         "training_frames": len(decisions) - len(dropped),
         "excluded": dropped,
     }

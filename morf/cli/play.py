@@ -3,10 +3,8 @@ exported avatar."""
 
 from __future__ import annotations
 
-import json
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -16,10 +14,13 @@ INT8_MIN_PSNR_DB = 30.0
 
 
 def _int8_psnr(avatar: str) -> float | None:
+    """The export's int8 check (the lower of image and person PSNR), None when it cannot be read."""
+    from morf.errors import InputError
+    from morf.export.avatar_folder import int8_check_db, read_manifest
+
     try:
-        manifest = json.loads((Path(avatar) / "manifest.json").read_text())
-        return float(manifest["int8_quality"]["psnr_db"])
-    except (OSError, ValueError, KeyError, TypeError):
+        return int8_check_db(read_manifest(avatar))
+    except (InputError, OSError, ValueError, TypeError):
         return None  # the player reports a missing or damaged folder itself
 
 
@@ -75,8 +76,9 @@ def run(args, shape=None) -> int:
     precision = args.precision
     quality = _int8_psnr(args.avatar)
     if precision == "int8" and not args.force_int8 and quality is not None and quality < INT8_MIN_PSNR_DB:
-        print(f"morf play: this avatar's int8 renderer is only {quality:.1f} dB from fp32 (below "
-              f"{INT8_MIN_PSNR_DB:.0f} dB); playing fp32 instead (--force-int8 to override)", file=sys.stderr)
+        print(f"morf play: this avatar's int8 renderer is only {quality:.1f} dB from fp32 over the image or the "
+              f"person (below {INT8_MIN_PSNR_DB:.0f} dB); playing fp32 instead (--force-int8 to override)",
+              file=sys.stderr)
         precision = "fp32"
     with open_player(args.avatar, size=args.size, precision=precision, background=bg) as player:
         clip = load_playback_motion(args.motion, player.avatar.skeleton.num_bones, shape, args.motion_fps)

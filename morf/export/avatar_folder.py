@@ -106,11 +106,14 @@ def replace_folder(tmp: Path, target: Path) -> None:
         shutil.rmtree(old)
 
 
-def load_exported_avatar(root: str | Path, verify: bool = False) -> ExportedAvatar:
-    """Open an avatar folder written by ``morf export``.
+def is_avatar_folder(root: str | Path) -> bool:
+    """Whether ``root`` holds an avatar folder's manifest (nothing is read or checked)."""
+    return (Path(root) / MANIFEST).is_file()
 
-    ``verify=True`` also checks every file's sha256 against the manifest.
-    """
+
+def read_manifest(root: str | Path) -> dict:
+    """The manifest of the avatar folder ``root``; an InputError when it is missing, damaged, of
+    another format or of a newer version."""
     root = Path(root)
     mpath = root / MANIFEST
     if not mpath.is_file():
@@ -119,10 +122,31 @@ def load_exported_avatar(root: str | Path, verify: bool = False) -> ExportedAvat
         manifest = json.loads(mpath.read_text())
     except json.JSONDecodeError as e:
         raise InputError(f"damaged {mpath}: {e}") from None
-    if manifest.get("format") != FORMAT:
+    if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
         raise InputError(f"{mpath} is not a {FORMAT} manifest")
     if int(manifest.get("version", 0)) > VERSION:
         raise InputError(f"avatar format version {manifest.get('version')} is newer than this morf ({VERSION})")
+    return manifest
+
+
+def int8_check_db(manifest: dict) -> float | None:
+    """The export's int8-against-fp32 PSNR on held-out views, the lower of the whole image's and
+    the person's (folders exported before the person's was measured: the whole image's); None
+    when the manifest has no int8 check."""
+    q = manifest.get("int8_quality")
+    if not isinstance(q, dict) or q.get("psnr_db") is None:
+        return None
+    values = [float(q["psnr_db"])] + ([float(q["psnr_person_db"])] if q.get("psnr_person_db") is not None else [])
+    return min(values)
+
+
+def load_exported_avatar(root: str | Path, verify: bool = False) -> ExportedAvatar:
+    """Open an avatar folder written by ``morf export``.
+
+    ``verify=True`` also checks every file's sha256 against the manifest.
+    """
+    root = Path(root)
+    manifest = read_manifest(root)
     for name, info in manifest.get("files", {}).items():
         p = root / name
         if not p.is_file():

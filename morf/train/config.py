@@ -140,7 +140,12 @@ class TrainConfig:
         return TrainConfig.from_dict(d)
 
     def replace(self, **changes) -> "TrainConfig":
+        """A copy with ``changes``; a method without a warp (anything but morf) gets the neutral
+        warp fade (1.0, 1.0) unless the same call sets it, so a config reads the same whichever
+        way it was made (the preset function, the registry and ``replace(method=...)``)."""
         check_keys(TrainConfig, changes, "training config")
+        if changes.get("method", self.method) != "morf":
+            changes = {"warp_fade_start": 1.0, "warp_fade_end": 1.0, **changes}
         cfg = dataclasses.replace(self, **changes)
         cfg.validate()
         return cfg
@@ -251,7 +256,4 @@ def preset(name: str, method: str = "morf", **overrides) -> TrainConfig:
     """A named preset for ``method`` with field overrides applied."""
     if name not in PRESETS:
         raise InputError(f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}")
-    cfg = PRESETS[name]
-    if method != "morf":  # no warp to fade: the fields keep their neutral values, so configs compare equal
-        cfg = cfg.replace(warp_fade_start=1.0, warp_fade_end=1.0)
-    return cfg.replace(method=method, **overrides)
+    return PRESETS[name].replace(method=method, **overrides)  # no warp to fade for other methods: see replace

@@ -37,3 +37,24 @@ def test_play_bad_motion(tiny_avatar, tmp_path, capsys):
     assert main(["play", str(tiny_avatar), "--motion", str(tmp_path / "bad.npz"), "--out", str(tmp_path / "v.mp4"),
                  "--size", "64"]) == 2
     assert "motion must be" in capsys.readouterr().err
+
+
+def test_play_falls_back_to_fp32_when_int8_is_off_over_the_person(tiny_avatar, tmp_path, capsys):
+    """The export's int8 check counts over the person too: a good whole-image PSNR with a bad one
+    over the person (blotches on the body, the background exact) plays fp32 and says why."""
+    import json
+    import shutil
+
+    avatar = tmp_path / "avatar"
+    shutil.copytree(tiny_avatar, avatar)
+    manifest = json.loads((avatar / "manifest.json").read_text())
+    manifest["int8_quality"].update(psnr_db=36.0, psnr_person_db=26.2)
+    (avatar / "manifest.json").write_text(json.dumps(manifest))
+    motion = _motion(tmp_path / "m.npz", frames=2)
+    assert main(["play", str(avatar), "--motion", str(motion), "--out", str(tmp_path / "f"), "--size", "64"]) == 0
+    err = capsys.readouterr().err
+    assert "only 26.2 dB from fp32 over the image or the person" in err and "playing fp32 instead" in err
+    manifest["int8_quality"].update(psnr_db=36.0, psnr_person_db=34.0)
+    (avatar / "manifest.json").write_text(json.dumps(manifest))
+    assert main(["play", str(avatar), "--motion", str(motion), "--out", str(tmp_path / "g"), "--size", "64"]) == 0
+    assert "playing fp32" not in capsys.readouterr().err

@@ -20,14 +20,9 @@ pytestmark = pytest.mark.gl
 
 
 @pytest.fixture(scope="module")
-def tiny(tmp_path_factory, body_model):
-    from morf.raster import GLUnavailable
-
+def tiny(tmp_path_factory, body_model, gl):
     root = tmp_path_factory.mktemp("synth") / "tiny"
-    try:
-        return make_synthetic_capture(root, synth_config("tiny", corrupt=0.25), model=body_model)
-    except GLUnavailable as e:
-        pytest.skip(str(e))
+    return make_synthetic_capture(root, synth_config("tiny", corrupt=0.25), model=body_model)
 
 
 def test_tiny_preset_builds_a_valid_project(tiny):

@@ -8,13 +8,7 @@ pytestmark = [pytest.mark.slow, pytest.mark.gl]
 
 
 @pytest.fixture(scope="module")
-def tiny_capture(tmp_path_factory, body_model):
-    from morf.raster import GLUnavailable, gl_state
-
-    try:
-        gl_state()
-    except GLUnavailable as e:
-        pytest.skip(str(e))
+def tiny_capture(tmp_path_factory, body_model, gl):
     from morf.synth.capture import make_synthetic_capture
     from morf.synth.config import synth_config
 
