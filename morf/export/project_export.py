@@ -121,6 +121,19 @@ def project_views(project, camera, num_bones: int, fits_source: str = "auto", he
     return calib, held
 
 
+def trained_scale(camera, views, config) -> dict:
+    """The largest scale the renderer was trained at: pixels per metre at the body's root over the
+    training views, times the zoom of the ``zoom_resolution`` crops. The player draws closer
+    views through this scale (:mod:`morf.raster.view_scale`)."""
+    from morf.raster.view_scale import pixels_per_metre
+
+    zoom = config.zoom_resolution / config.resolution if config.zoom_resolution else 1.0
+    scale = max(pixels_per_metre(camera, v.transl) for v in views) * zoom
+    return {"max_pixels_per_metre": round(float(scale), 3),
+            "meaning": "pixels per metre at the body's root in the largest training frames (the zoomed crops); "
+                       "the player draws closer views at this scale and enlarges them"}
+
+
 def export_project(project, cfg: ProjectExportConfig = ProjectExportConfig(), control: StageControl | None = None,
                    body_model=None) -> dict:
     """Export the project's trained avatar to ``cfg.out`` (default PROJECT/avatar); returns its manifest.
@@ -153,7 +166,8 @@ def export_project(project, cfg: ProjectExportConfig = ProjectExportConfig(), co
     out = Path(cfg.out) if cfg.out else Path(project.avatar_dir)
     ecfg = ExportConfig(input_layout=cfg.input_layout, max_calibration_views=cfg.calibration_views,
                         extra={"source": {"project": str(Path(project.root).resolve()), "run": run_dir.name,
-                                          "method": trained.method}})
+                                          "method": trained.method},
+                               "trained_scale": trained_scale(camera, calib + held, trained.config)})
     manifest = export_avatar(out, texture=trained.texture, renderer=trained.renderer, body_model=body_model,
                              shape=trained.shape, calibration=calib[::stride], heldout=held, cfg=ecfg,
                              control=control)

@@ -49,6 +49,8 @@ class Player:
         self.precision = precision
         self.renderer = OnnxRenderer(self.avatar.renderer_path(precision), threads=threads, spinning=spinning)
         self.background = background
+        # the largest scale the renderer was trained at; closer views are drawn through it (None: no limit)
+        self.max_pixels_per_metre = (self.avatar.manifest.get("trained_scale") or {}).get("max_pixels_per_metre")
         self._hwc = np.empty((size, size, NUM_CHANNELS), np.uint8)
         self._input = self._new_input()
         self.output_texture = None
@@ -66,6 +68,7 @@ class Player:
         except ValueError as e:
             raise InputError(str(e)) from None
         self._background_value = value
+        self._flat_background = np.ndim(value) == 1  # a colour: enlarging a close-up leaves it as it is
 
     @property
     def background_planes(self) -> np.ndarray:
@@ -113,10 +116,34 @@ class Player:
         self.last_timings.update(renderer_ms=(t1 - t0) * 1e3)  # the composite runs inside the renderer's graph
         return img
 
+    def view(self, transl: np.ndarray, camera) -> tuple[object, tuple[float, float, float, float] | None]:
+        """(the camera to draw, the box of its image to enlarge or None) for a body at ``transl``.
+
+        A camera closer than the scale the renderer was trained at (the avatar folder's
+        ``trained_scale``) is drawn as a wider view at that scale, and the part it shows enlarged
+        (:mod:`morf.raster.view_scale`): the renderer's mask breaks into holes at scales it never
+        saw. Only over a flat background colour (an image background would be enlarged too)."""
+        from morf.raster.view_scale import close_up
+
+        camera = self._camera(camera)
+        near = close_up(camera, transl, self.max_pixels_per_metre) if self._flat_background else None
+        return (camera, None) if near is None else (near.camera, near.box)
+
+    def _finish(self, image: np.ndarray, box) -> np.ndarray:
+        if box is None:
+            return image
+        from morf.raster.view_scale import enlarge
+
+        t0 = time.perf_counter()
+        out = enlarge(image, box)
+        self.last_timings.update(enlarge_ms=(time.perf_counter() - t0) * 1e3)
+        return out
+
     # ---- public entry points -----------------------------------------------------------------
     def render(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera) -> np.ndarray:
         """One frame: (J, 3) axis-angle pose, (3,) translation, a PinholeCamera -> (size, size, 3) uint8."""
-        return self.shade(self.rasterize(pose_rotvecs, transl, camera))
+        camera, box = self.view(transl, camera)
+        return self._finish(self.shade(self.rasterize(pose_rotvecs, transl, camera)), box)
 
     def render_texture(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera):
         """Like :meth:`render` but leaves the image in a moderngl RGB8 texture (for the studio).
@@ -145,10 +172,11 @@ class Player:
         with ThreadPoolExecutor(max_workers=1) as pool:
             pending = None
             for i, (rot, tr, cam) in enumerate(frames):
+                cam, box = self.view(tr, cam)
                 x = self.rasterize(rot, tr, cam, out=buffers[i % 2])
                 if pending is not None:
                     yield pending.result()
-                pending = pool.submit(self.shade, x)
+                pending = pool.submit(lambda x, box: self._finish(self.shade(x), box), x, box)
             if pending is not None:
                 yield pending.result()
 

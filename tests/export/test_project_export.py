@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from morf.errors import ProjectError
 from morf.export.project_export import ProjectExportConfig, export_project, pick_run, project_views
 from morf.pipeline.control import StageControl
+from morf.synth.ground_truth import load_ground_truth
 
 
 @pytest.fixture(scope="module")
@@ -33,6 +35,17 @@ def test_export_project_writes_the_avatar_folder_and_reports_progress(trained_ca
     assert on_disk["source"]["run"] == "morf-tiny" == manifest["source"]["run"]
     assert manifest["renderer"]["int8"]["calibration_views"] <= 4
     assert manifest["int8_quality"]["on"] == "heldout"  # 12 frames: every 8th is held out
+    # the largest training scale: the working camera at the body's root, times the zoomed crops' factor
+    from morf.raster.view_scale import pixels_per_metre
+    from morf.train.trained_avatar import load_trained_avatar
+
+    trained = load_trained_avatar(trained_capture.runs_dir / "morf-tiny")
+    cfg = trained.config
+    zoom = cfg.zoom_resolution / cfg.resolution if cfg.zoom_resolution else 1.0
+    gt_root = np.asarray(load_ground_truth(trained_capture).transl[0], float)
+    scale = manifest["trained_scale"]["max_pixels_per_metre"]
+    assert scale >= pixels_per_metre(trained.camera, gt_root) * zoom * 0.99
+    assert scale < pixels_per_metre(trained.camera, gt_root) * zoom * 1.5  # the person turns in place
     assert [p.stage for p in seen] == ["export"] * len(seen) and seen[-1].message == "done"
     assert not any(p.name.startswith(".") for p in tmp_path.iterdir())  # no temporary folder left
 

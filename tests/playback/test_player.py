@@ -70,3 +70,24 @@ def test_other_input_layouts_and_image_backgrounds_play_the_same(tiny_avatar, st
         np.testing.assert_array_equal(img_a, a.render(rot, tr, cam))
         with pytest.raises(InputError, match="background"):
             a.background = np.zeros((SIZE // 2, SIZE, 3), np.uint8)
+
+
+def test_views_closer_than_the_trained_scale_are_drawn_through_it(tiny_avatar, still_pose):
+    """The avatar folder records its largest training scale; a closer camera is drawn as a wider
+    view at that scale and the asked part enlarged (the renderer's mask breaks up beyond it)."""
+    from morf.raster.view_scale import MARGIN, enlarge, pixels_per_metre
+
+    rot, tr = still_pose
+    close = front_camera(SIZE, distance=1.2)
+    with Player(tiny_avatar, size=SIZE, background=(0, 0, 255)) as p:
+        p.max_pixels_per_metre = None  # no recorded scale: drawn as asked
+        assert p.view(tr, close) == (close, None)
+        direct = p.render(rot, tr, close)
+        p.max_pixels_per_metre = pixels_per_metre(close, tr) / (2.0 * MARGIN)
+        cam, box = p.view(tr, close)
+        assert box is not None and abs(cam.fy * 2.0 - close.fy) < 1e-6
+        img = p.render(rot, tr, close)
+        np.testing.assert_array_equal(img, enlarge(p.shade(p.rasterize(rot, tr, cam)), box))
+        assert not np.array_equal(img, direct)
+        p.background = np.zeros((SIZE, SIZE, 3), np.uint8)  # an image background is not enlarged
+        assert p.view(tr, close)[1] is None
