@@ -73,15 +73,16 @@ def run(args, shape=None) -> int:
         raise InputError("--fps must be positive")
     if args.motion_fps is not None and args.motion_fps <= 0:
         raise InputError("--motion-fps must be positive")
-    precision = args.precision
+    precision, notice = args.precision, None
     quality = _int8_psnr(args.avatar)
     if precision == "int8" and not args.force_int8 and quality is not None and quality < INT8_MIN_PSNR_DB:
-        print(f"morf play: this avatar's int8 renderer is only {quality:.1f} dB from fp32 over the image or the "
-              f"person (below {INT8_MIN_PSNR_DB:.0f} dB); playing fp32 instead (--force-int8 to override)",
-              file=sys.stderr)
+        notice = (f"morf play: this avatar's int8 renderer is only {quality:.1f} dB from fp32 over the image or the "
+                  f"person (below {INT8_MIN_PSNR_DB:.0f} dB); playing fp32 instead (--force-int8 to override)")
         precision = "fp32"
     with open_player(args.avatar, size=args.size, precision=precision, background=bg) as player:
         clip = load_playback_motion(args.motion, player.avatar.skeleton.num_bones, shape, args.motion_fps)
+        if notice:  # said once the input is known to be good: a bad motion stays a one-line error
+            print(notice, file=sys.stderr)
         clip = resample(clip, args.fps)
         rotvecs, transl = clip.rotvecs, clip.transl
         if args.max_frames > 0:
