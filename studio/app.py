@@ -38,7 +38,7 @@ from studio.layout import draw_ui  # noqa: E402
 from studio.live_render import LiveRenderer  # noqa: E402
 from studio.loader import ImageLoader  # noqa: E402
 from studio.pacing import IDLE_FPS, MAX_FPS, SNAPSHOT_FPS, FramePacer, Wakeup  # noqa: E402
-from studio.player import PoseRenderer, open_player, shutdown_motion_loader  # noqa: E402
+from studio.player import PoseRenderer, open_live_player, shutdown_motion_loader  # noqa: E402
 from studio.project_view import ProjectView  # noqa: E402
 from studio.sizes import parse_window_size  # noqa: E402
 from studio.stages import LIBRARY_STAGES, LoadedStages, cpu_load_stage, load_library_stages  # noqa: E402
@@ -64,7 +64,7 @@ class StudioApp:
         stages: stage name -> function for the worker; None: the library's stages
             (:data:`studio.stages.LIBRARY_STAGES`, with their presets; one that fails to load shows its error).
         unavailable: stage name -> why it is missing (with ``stages``).
-        player_opener: avatar folder -> (player, note); None: :func:`studio.player.open_player`.
+        player_opener: avatar folder -> (player, note); None: :func:`studio.player.open_live_player`.
             It is called on the live render's own thread (see :mod:`studio.live_render`).
         motion_dir: the folder the live render's motion picker lists first; None: the motions
             shipped with the project (``morf.motion.library.BUILTIN_MOTIONS``).
@@ -106,7 +106,7 @@ class StudioApp:
         self.loader: ImageLoader | None = None
         self.textures = TextureCache(self.ctx, None)
         self.live: LiveRenderer | None = None  # the live render's thread, once an avatar is exported
-        self._player_opener = player_opener or open_player
+        self._player_opener = player_opener or open_live_player
         self.live_panel = LivePanelState()  # the live render panel's motion list and loaded clip
         self._review_rev = 0
         self._was_busy = False

@@ -159,9 +159,9 @@ def run_studio(args, avatar: Path, tmp: Path) -> tuple[Window, dict]:
     headless = args.headless or not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
     kw = {} if args.max_fps is None else {"max_fps": args.max_fps}
     if args.live_threads is not None:
-        from studio.player import open_player
+        from studio.player import open_live_player
 
-        kw["player_opener"] = lambda d: open_player(d, threads=args.live_threads)
+        kw["player_opener"] = lambda d: open_live_player(d, threads=args.live_threads)
     from studio.player import LIVE_RENDER_THREADS
 
     info: dict = {"window": "headless EGL" if headless else f"X display {os.environ.get('DISPLAY', '')}",

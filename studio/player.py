@@ -76,8 +76,8 @@ class PlaybackPlayer:
         release_gl_context()
 
 
-def open_player(avatar_dir: Path, size: int = LIVE_RENDER_SIZE,
-                threads: int = LIVE_RENDER_THREADS) -> tuple[PoseRenderer | None, str | None]:
+def open_live_player(avatar_dir: Path, size: int = LIVE_RENDER_SIZE,
+                     threads: int = LIVE_RENDER_THREADS) -> tuple[PoseRenderer | None, str | None]:
     """(player, None) for an exported avatar, or (None, why not in words).
 
     Call it on the thread that will render: the player draws in that thread's own headless GL
@@ -99,7 +99,7 @@ def open_player(avatar_dir: Path, size: int = LIVE_RENDER_SIZE,
         return None, f"{type(e).__name__}: {e}"
 
 
-def load_motion(path: Path, num_bones: int) -> tuple[MotionClip | None, str | None]:
+def load_live_motion(path: Path, num_bones: int) -> tuple[MotionClip | None, str | None]:
     """A motion clip for the player, or (None, why not in words). Frame ``t`` is the player's pose
     ``(clip.rotvecs[t], clip.transl[t])`` (indexing the clip itself gives a torch ``BodyPose``)."""
     try:
@@ -117,12 +117,12 @@ def load_motion(path: Path, num_bones: int) -> tuple[MotionClip | None, str | No
 _MOTION_POOL: ThreadPoolExecutor | None = None
 
 
-def load_motion_async(path: Path, num_bones: int) -> "Future[tuple[MotionClip | None, str | None]]":
-    """:func:`load_motion` on a background thread (reading and retargeting a BVH takes seconds)."""
+def load_live_motion_async(path: Path, num_bones: int) -> "Future[tuple[MotionClip | None, str | None]]":
+    """:func:`load_live_motion` on a background thread (reading and retargeting a BVH takes seconds)."""
     global _MOTION_POOL
     if _MOTION_POOL is None:
         _MOTION_POOL = ThreadPoolExecutor(max_workers=1, thread_name_prefix="morf-motion")
-    return _MOTION_POOL.submit(load_motion, path, num_bones)
+    return _MOTION_POOL.submit(load_live_motion, path, num_bones)
 
 
 def shutdown_motion_loader() -> None:

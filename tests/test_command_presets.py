@@ -18,7 +18,7 @@ def _demo_rows():
 
 
 def _stability_rows():
-    return [(f"stability {name}", p.synth[0], p.synth[1], "fast", p.train[0], p.train[1])
+    return [(f"stability {name}", p.synth[0], p.synth[1], p.fit, p.train[0], p.train[1])
             for name, p in presets.presets_of("stability").items()]
 
 

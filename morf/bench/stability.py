@@ -9,7 +9,7 @@ a clean capture (no sliding, tight clothes, exact keypoints):
 * loose: garments standing off the body (metres at the hem and cuffs);
 * fast: the same turn in fewer frames (speed-up factor);
 * keypoints: keypoint noise (pixels at 512 px) and corrupted frames together; these captures are
-  fitted (``morf fit``'s code, "fast" preset) and trained on the fits;
+  fitted (``morf fit``'s code, the stability preset's fit preset) and trained on the fits;
 * coverage: degrees of the turn never shown (frames facing further than 180 - x/2 degrees from
   the camera are dropped; 180 = the back is never seen).
 
@@ -34,7 +34,6 @@ capture at a time (:func:`plan_waves`).
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -113,14 +112,12 @@ def _set_hidden_turn(root: Path, hidden_deg: float) -> None:
 
 
 def _fit(project, sp: StabilityPreset, model) -> None:
-    from morf.fitting import preset as fit_preset
     from morf.fitting.project_fit import fit_project
+    from morf.presets import preset as named_preset
 
     if project.fits_path.is_file() and (project.fits_dir / "filter.json").is_file():
         return
-    cfg = fit_preset("fast").replace(overlays=False)
-    stages = tuple(dataclasses.replace(s, iterations=max(5, int(round(s.iterations * sp.fit_scale)))) for s in cfg.stages)
-    fit_project(project, cfg.replace(stages=stages), model=model)
+    fit_project(project, named_preset("fit", sp.fit).replace(overlays=False), model=model)
 
 
 @dataclass(frozen=True)

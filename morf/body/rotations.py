@@ -27,7 +27,7 @@ def matrix_to_axis_angle(R: torch.Tensor) -> torch.Tensor:
     return roma.rotmat_to_rotvec(R)
 
 
-def euler_to_matrix(angles_deg: torch.Tensor, order: str) -> torch.Tensor:
+def euler_to_matrix_torch(angles_deg: torch.Tensor, order: str) -> torch.Tensor:
     """Intrinsic Euler angles (..., 3) in degrees applied in ``order`` (e.g. "ZYX", as in BVH).
 
     R = R_order[0] @ R_order[1] @ R_order[2].

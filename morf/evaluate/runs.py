@@ -9,7 +9,7 @@ from pathlib import Path
 from morf.errors import MorfError, ProjectError
 from morf.train.config import TrainConfig
 from morf.train.run_dir import RunDir
-from morf.train.run_files import AVATAR_FILE, RunFiles
+from morf.train.run_files import AVATAR_FILE, RunFiles, finished_run_dirs
 
 
 @dataclass(frozen=True)
@@ -48,12 +48,7 @@ def read_run(run_dir: Path) -> RunInfo:
 
 def finished_runs(project) -> list[RunInfo]:
     """Every run of the project with an ``avatar.pt``, oldest avatar first."""
-    root = Path(project.runs_dir)
-    if not root.is_dir():
-        return []
-    done = sorted((RunFiles(d) for d in root.iterdir() if RunFiles(d).is_done),
-                  key=lambda run: run.avatar_path.stat().st_mtime)
-    return [read_run(run.root) for run in done]
+    return [read_run(d) for d in finished_run_dirs(project)]
 
 
 def select_runs(project, names: tuple[str, ...] | list[str] = ()) -> list[RunInfo]:

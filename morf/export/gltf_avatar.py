@@ -57,17 +57,6 @@ class GltfMesh:
         return int(self.positions.shape[0])
 
 
-def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(V, 3) unit area-weighted vertex normals of a triangle mesh (V, 3) + (F, 3)."""
-    v = np.asarray(vertices, np.float64)
-    tri = v[np.asarray(faces, np.int64)]
-    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # length = twice the area
-    out = np.zeros_like(v)
-    for k in range(3):
-        np.add.at(out, faces[:, k], n)
-    return out / np.clip(np.linalg.norm(out, axis=1, keepdims=True), 1e-12, None)
-
-
 def gltf_mesh(model, shape, influences: int = 4) -> GltfMesh:
     """The shaped rest body of ``model`` as a glTF mesh (needs torch).
 
@@ -77,6 +66,7 @@ def gltf_mesh(model, shape, influences: int = 4) -> GltfMesh:
     """
     import torch
 
+    from morf.body.normals import vertex_normals
     from morf.body.render_mesh import render_mesh_for
 
     rm = render_mesh_for(model)

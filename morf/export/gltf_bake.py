@@ -94,7 +94,7 @@ def framed_camera(vertices: np.ndarray, azimuth: float, elevation: float, resolu
 
 
 @torch.no_grad()
-def render_views(trained, mesh, vertices: np.ndarray, cameras: list) -> FrameSet:
+def render_bake_views(trained, mesh, vertices: np.ndarray, cameras: list) -> FrameSet:
     """Render the trained avatar on a posed render mesh from each camera.
 
     Args:
@@ -151,7 +151,7 @@ def bake_base_colour(trained, model, cfg: BakeConfig = BakeConfig()) -> BakedCol
     res = cfg.resolution or int(trained.config.resolution)
     res = -(-res // multiple) * multiple
     cameras = [framed_camera(verts, a, e, res, cfg) for a, e in view_directions(cfg)]
-    views = render_views(trained, mesh, verts, cameras)
+    views = render_bake_views(trained, mesh, verts, cameras)
     size = cfg.texture_size or choose_floor_size(views, cfg.min_facing).size
     covered = body_uv_atlas(model, size, size).covered
     texture, seen = floor_texture(views, covered, cfg.dilate, cfg.min_facing)

@@ -65,7 +65,7 @@ def rest_frames(skeleton: SkinningSkeleton) -> np.ndarray:
     return P
 
 
-def posed_frames(skeleton: SkinningSkeleton, rotvecs: np.ndarray, transl: np.ndarray) -> np.ndarray:
+def posed_bone_frames(skeleton: SkinningSkeleton, rotvecs: np.ndarray, transl: np.ndarray) -> np.ndarray:
     """(J, 4, 4) float64 global posed bone frames ``W_c = T_c P_c`` (Anny axes) of one pose.
 
     Args:
@@ -122,7 +122,7 @@ def pose_nodes(skeleton: SkinningSkeleton, rotvecs: np.ndarray, transl: np.ndarr
         rotations (J, 4) xyzw quaternions, translations (J, 3) (all but the root's are the same in
         every pose).
     """
-    local = local_transforms(to_gltf_axes(posed_frames(skeleton, rotvecs, transl)), skeleton.parents)
+    local = local_transforms(to_gltf_axes(posed_bone_frames(skeleton, rotvecs, transl)), skeleton.parents)
     return trs_of(local)
 
 

@@ -320,3 +320,44 @@ def uint8_colour_head(model: onnx.ModelProto, layout: str, raster: str = "raster
     for t in [t for t in g.initializer if t.name not in used]:
         g.initializer.remove(t)
     return done
+
+
+OPAQUE_PREFIX = "opaque_"
+OPAQUE_MARGIN_PX = 4  # how far inside the body mesh's outline the mask is held at 1
+
+
+def opaque_body(model: onnx.ModelProto, margin: int = OPAQUE_MARGIN_PX) -> bool:
+    """Hold the mask at 1 inside the body mesh, in place: ``mask = max(sigmoid(logit), inside)``
+    where ``inside`` is the rasterizer's coverage shrunk by ``margin`` pixels (a separable
+    MaxPool of the uncovered pixels). The fitted body is opaque; the renderer's mask shapes the
+    outline, hair and loose cloth, but a hole well inside the body is never right, and trained
+    avatars had a few (a light speck at the throat, dots at a shoulder) where the texture was rarely
+    seen. Playback only: the torch renderer and ``morf eval`` do not do it. Needs the uint8
+    coverage of :func:`uint8_colour_head`; returns False (graph unchanged) without it.
+    """
+    g = model.graph
+    unsq = [n for n in g.node if n.op_type == "Unsqueeze" and n.name.endswith("_uint8_nchw")]
+    casts = [c for u in unsq for c in _consumers(model, u.output[0])
+             if c.op_type == "Cast" and _attr(c, "to") == TensorProto.FLOAT]
+    sigmoids = [n for n in g.node if n.op_type == "Sigmoid"]
+    if not casts or not sigmoids:
+        return False
+    cov, sig = casts[0], sigmoids[-1]
+    readers = _consumers(model, sig.output[0])
+    k, p = 2 * margin + 1, OPAQUE_PREFIX
+    g.initializer.append(numpy_helper.from_array(np.array(1.0, np.float32), f"{p}one"))
+    nodes = [helper.make_node("Sub", [f"{p}one", cov.output[0]], [f"{p}off"], name=f"{p}off"),
+             helper.make_node("MaxPool", [f"{p}off"], [f"{p}grow_x"], kernel_shape=[1, k], pads=[0, margin, 0, margin],
+                              name=f"{p}grow_x"),
+             helper.make_node("MaxPool", [f"{p}grow_x"], [f"{p}grow"], kernel_shape=[k, 1], pads=[margin, 0, margin, 0],
+                              name=f"{p}grow"),
+             helper.make_node("Sub", [f"{p}one", f"{p}grow"], [f"{p}inside"], name=f"{p}inside"),
+             helper.make_node("Max", [sig.output[0], f"{p}inside"], [f"{p}mask"], name=f"{p}mask")]
+    at = max(list(g.node).index(sig), list(g.node).index(cov)) + 1
+    for i, n in enumerate(nodes):
+        g.node.insert(at + i, n)
+    for r in readers:
+        for j, name in enumerate(r.input):
+            if name == sig.output[0]:
+                r.input[j] = f"{p}mask"
+    return True

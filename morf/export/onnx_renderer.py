@@ -28,7 +28,8 @@ from typing import Iterable
 import numpy as np
 import onnx
 
-from morf.export.onnx_graph import append_composite, downstream_nodes, fold_input_scale, uint8_colour_head, uint8_input
+from morf.export.onnx_graph import (OPAQUE_MARGIN_PX, append_composite, downstream_nodes, fold_input_scale, opaque_body,
+                                    uint8_colour_head, uint8_input)
 from morf.raster.texture_quant import ZERO_POINT
 
 FLOAT_INPUT = "x"
@@ -183,10 +184,14 @@ def _head_output(model: onnx.ModelProto) -> str | None:
 
 
 def export_fp32(renderer, scales: np.ndarray, path: str | os.PathLike, layout: str = "nchw",
-                sample_hw: tuple[int, int] = (128, 128)) -> None:
-    """Write the fp32 renderer with a uint8 input (see module docstring)."""
+                sample_hw: tuple[int, int] = (128, 128), opaque: int | None = OPAQUE_MARGIN_PX) -> None:
+    """Write the fp32 renderer with a uint8 input (see module docstring). ``opaque``: hold the
+    mask at 1 this many pixels inside the body mesh (:func:`~morf.export.onnx_graph.opaque_body`;
+    None: the torch renderer's mask as it is)."""
     model = uint8_input(_export_float_graph(widen_input(renderer, len(scales)), scales, sample_hw)[0], FLOAT_INPUT, layout)
     uint8_colour_head(model, layout)
+    if opaque is not None:
+        opaque_body(model, opaque)
     append_composite(model)
     onnx.checker.check_model(model)
     _save(model, path)
@@ -206,7 +211,8 @@ class _Calibration:
 
 
 def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibration: Iterable[np.ndarray],
-                layout: str = "nchw", sample_hw: tuple[int, int] = (128, 128)) -> None:
+                layout: str = "nchw", sample_hw: tuple[int, int] = (128, 128),
+                opaque: int | None = OPAQUE_MARGIN_PX) -> None:
     """Write the int8 renderer: static QDQ, per-channel int8 weights, uint8 activations.
 
     The renderer is first equalised (``equalize.py``: same function, activation ranges that suit
@@ -216,6 +222,7 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
 
     Args:
         calibration: uint8 (1, 16, H, W) neural rasterizations (the capture's own training views).
+        opaque: as in :func:`export_fp32`.
     """
     from onnxruntime.quantization import CalibrationMethod, QuantFormat, QuantType, quantize_static
     from onnxruntime.quantization.shape_inference import quant_pre_process
@@ -251,6 +258,8 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
         q = onnx.load(q8)
     q = uint8_input(q, FLOAT_INPUT, layout, quantized=True)
     uint8_colour_head(q, layout)
+    if opaque is not None:
+        opaque_body(q, opaque)
     append_composite(q)
     onnx.checker.check_model(q)
     _save(q, path)

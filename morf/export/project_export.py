@@ -18,7 +18,7 @@ import numpy as np
 from morf.errors import ProjectError
 from morf.pipeline.control import Progress, StageControl
 from morf.raster.neural_raster import LAYOUTS
-from morf.train.run_files import AVATAR_FILE, CONFIG_FILE
+from morf.train.run_files import AVATAR_FILE, CONFIG_FILE, finished_run_dirs
 
 
 
@@ -40,15 +40,6 @@ class ProjectExportConfig:
             raise ProjectError(f"calibration views must be >= 1, got {self.calibration_views}")
         if self.heldout_every < 2:
             raise ProjectError(f"heldout_every must be >= 2 (1 would hold out every view), got {self.heldout_every}")
-
-
-def finished_runs(project) -> list[Path]:
-    """Run folders holding a trained avatar (``avatar.pt``), oldest first."""
-    runs = Path(project.runs_dir)
-    if not runs.is_dir():
-        return []
-    done = [d for d in runs.iterdir() if (d / AVATAR_FILE).is_file()]
-    return sorted(done, key=lambda d: (d / AVATAR_FILE).stat().st_mtime)
 
 
 def is_floor_run(run_dir: Path) -> bool:
@@ -76,7 +67,7 @@ def pick_run(project, name: str | None) -> Path:
         if is_floor_run(d):
             raise floor_error(d)
         return d
-    done = [d for d in finished_runs(project) if not is_floor_run(d)]
+    done = [d for d in finished_run_dirs(project) if not is_floor_run(d)]
     if not done:
         raise ProjectError(f"no finished training run in {runs}; run 'morf train {project.root}' first")
     return done[-1]

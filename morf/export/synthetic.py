@@ -12,7 +12,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from morf.export.export_avatar import ExportConfig, View, export_avatar
-from morf.raster.texture_quant import spectral_texture
+from morf.raster.texture_quant import sinusoid_texture
 
 
 def turntable_views(num: int, size: int, seed: int = 0, num_bones: int = 104, pose_scale: float = 0.15) -> list[View]:
@@ -51,7 +51,7 @@ def build_synthetic_avatar(out_dir: str | Path, body_model=None, renderer_cfg=No
         body_model = load_body_model("anny")
     torch.manual_seed(seed)
     renderer = UNetRenderer(renderer_cfg).eval() if renderer is None else renderer
-    texture = spectral_texture(renderer_cfg.in_channels, texture_size, seed) if texture is None else texture
+    texture = sinusoid_texture(renderer_cfg.in_channels, texture_size, seed) if texture is None else texture
     views = turntable_views(calibration_views + heldout_views, image_size, seed, len(body_model.bone_names))
     cfg = ExportConfig(input_layout=input_layout, extra={"synthetic": True})
     return export_avatar(out_dir, texture=texture, renderer=renderer, body_model=body_model,
@@ -89,6 +89,6 @@ def coverage_renderer():
 
 def coverage_texture(size: int = 64, seed: int = 4):
     """(16, size, size) spectral texture with channel 0 = 1 (the coverage channel)."""
-    tex = spectral_texture(16, size, seed=seed) * 0.5
+    tex = sinusoid_texture(16, size, seed=seed) * 0.5
     tex[0] = 1.0
     return tex

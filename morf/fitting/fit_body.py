@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import torch
 
 from morf.body.model import BodyPose
-from morf.fitting.offsets import vertex_normals
+from morf.fitting.offsets import vertex_normals_torch
 from morf.fitting.proxy_mesh import ProxyMesh
 
 
@@ -94,7 +94,7 @@ class FitBody(torch.nn.Module):
             rows = slice(None) if proxy_rows is None else proxy_rows
             pv = rest_v[:, self.proxy_ids]
             if proxy_offsets is not None:
-                normals = vertex_normals(rest_v.detach(), model.faces)[:, self.proxy_ids]
+                normals = vertex_normals_torch(rest_v.detach(), model.faces)[:, self.proxy_ids]
                 pv = pv + proxy_offsets[None, :, None] * normals
             proxy = _skin(T34[rows], self.proxy_weights, pv if pv.shape[0] == 1 else pv[rows])
         return FitBodyOutput(keypoints3d=kp, proxy_vertices=proxy)

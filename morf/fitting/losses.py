@@ -55,7 +55,7 @@ def worst_keypoint_residual_px(projected: torch.Tensor, detected: torch.Tensor, 
     return d.topk(k, dim=-1).values.mean(-1)
 
 
-def dice_loss(pred: torch.Tensor, target: torch.Tensor, eps: float = 1.0) -> torch.Tensor:
+def dice_loss_per_frame(pred: torch.Tensor, target: torch.Tensor, eps: float = 1.0) -> torch.Tensor:
     """(N,) Dice loss 1 - 2|P.T| / (|P| + |T|) of soft masks (N, H, W) in [0, 1].
 
     0 for identical masks, 1 for disjoint ones (``eps`` smooths empty masks: both empty -> 0).

@@ -17,10 +17,11 @@ import numpy as np
 import torch
 
 
-def vertex_normals(vertices: torch.Tensor, faces: torch.Tensor) -> torch.Tensor:
+def vertex_normals_torch(vertices: torch.Tensor, faces: torch.Tensor) -> torch.Tensor:
     """(B, V, 3) area-weighted unit vertex normals of (B, V, 3) vertices and (F, 3) faces.
 
     Anny's triangles are counter-clockwise seen from outside, so the normals point outwards.
+    Differentiable; the numpy version is :func:`morf.body.normals.vertex_normals`.
     """
     v = vertices
     fn = torch.linalg.cross(v[:, faces[:, 1]] - v[:, faces[:, 0]], v[:, faces[:, 2]] - v[:, faces[:, 0]])
@@ -33,7 +34,7 @@ def vertex_normals(vertices: torch.Tensor, faces: torch.Tensor) -> torch.Tensor:
 def rest_normals(model, shape: torch.Tensor) -> torch.Tensor:
     """(1 or B, V, 3) outward normals of the shaped rest mesh (no gradient)."""
     with torch.no_grad():
-        return vertex_normals(model.rest(shape)["rest_vertices"], model.faces)
+        return vertex_normals_torch(model.rest(shape)["rest_vertices"], model.faces)
 
 
 def proxy_edges(faces: np.ndarray | torch.Tensor) -> torch.Tensor:

@@ -16,7 +16,7 @@ from morf.camera import PinholeCamera, project_points
 from morf.fitting.config import FitConfig, StageConfig
 from morf.fitting.fit_body import FitBody
 from morf.fitting.inputs import FitInputs
-from morf.fitting.losses import dice_loss, keypoint_loss, rotation_temporal_loss, shape_loss, temporal_loss
+from morf.fitting.losses import dice_loss_per_frame, keypoint_loss, rotation_temporal_loss, shape_loss, temporal_loss
 from morf.fitting.offsets import smoothness_loss
 from morf.fitting.params import FitParameters
 from morf.fitting.pose_prior import JointLimitPrior
@@ -61,7 +61,7 @@ def _data_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, idx:
         h, w = problem.masks.shape[-2:]
         sil = soft_silhouette(pix, faces, h, w, sigma=cfg.silhouette_sigma,
                               face_mask=front_facing(cam_v.detach(), faces))
-        dice = dice_loss(sil, problem.masks[sil_idx]).sum() * sil_factor
+        dice = dice_loss_per_frame(sil, problem.masks[sil_idx]).sum() * sil_factor
         total = total + cfg.silhouette_weight * dice
         logs["silhouette"] = float(dice.detach())
     return total, logs

@@ -54,7 +54,7 @@ def project_shape(project) -> torch.Tensor | None:
     return torch.as_tensor(fits.shape.mean(axis=0, keepdims=True), dtype=torch.float32)
 
 
-def upright(rotvecs: np.ndarray, transl: np.ndarray, face_forward: bool = True,
+def upright_motion(rotvecs: np.ndarray, transl: np.ndarray, face_forward: bool = True,
             center: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Turn a motion so its root's median up axis is +Z; then (if asked) turn it about Z to face
     -Y on frame 0 and shift frame 0 to x = y = 0.
@@ -95,7 +95,7 @@ def clip_from_fits(path: str | Path, model, shape: torch.Tensor | None = None, f
         raise InputError(f"{path}: fits have rotvecs {fits.rotvecs.shape}; expected (N, {J}, 3)")
     project_rate, times = project_timing(path)
     rate = project_rate or fps or FITS_DEFAULT_FPS
-    rotvecs, transl = upright(fits.rotvecs, fits.transl, config.face_forward, config.center_start)
+    rotvecs, transl = upright_motion(fits.rotvecs, fits.transl, config.face_forward, config.center_start)
     if times is not None and len(times) == len(rotvecs) > 1 and (np.diff(times) > 0).all():
         uniform = times[0] + np.arange(len(times)) / rate
         if np.abs(times - uniform).max() > 0.25 / rate:  # a variable frame rate clip: play it at its real pace

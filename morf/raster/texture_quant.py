@@ -62,7 +62,7 @@ def dequantize_texture(data: np.ndarray, scales: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray((d * np.asarray(scales, np.float32)).transpose(2, 0, 1))
 
 
-def spectral_texture(channels: int = 16, size: int = 256, seed: int = 0) -> np.ndarray:
+def sinusoid_texture(channels: int = 16, size: int = 256, seed: int = 0) -> np.ndarray:
     """A smooth random (C, size, size) float32 texture: sums of low-frequency sinusoids per channel.
 
     Used where no trained texture exists (benchmarks, tests): speed does not depend on its values,

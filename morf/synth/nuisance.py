@@ -81,17 +81,6 @@ def loose_offsets(rest_vertices: np.ndarray, vertex_regions: np.ndarray, rest_ke
     return (amount * (shirt + trousers)).astype(np.float32)
 
 
-def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(B, V, 3) vertices, (F, 3) faces -> (B, V, 3) area-weighted unit normals."""
-    v = np.asarray(vertices, np.float64)
-    B, V = v.shape[:2]
-    fn = np.cross(v[:, faces[:, 1]] - v[:, faces[:, 0]], v[:, faces[:, 2]] - v[:, faces[:, 0]])  # (B, F, 3)
-    idx = (np.arange(B)[:, None, None] * V + faces[None]).reshape(-1)  # every corner of every face
-    n = np.stack([np.bincount(idx, np.repeat(fn[..., k].reshape(-1), 3), minlength=B * V) for k in range(3)], -1)
-    n = n.reshape(B, V, 3)
-    return n / np.clip(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12, None)
-
-
 # ---- keypoints from a wrong pose --------------------------------------------------------------
 _ARM_CHAINS = {"left_arm": (5, (7, 9)), "right_arm": (6, (8, 10))}
 _LEG_CHAINS = {"left_leg": (11, (13, 15, 17, 18, 19)), "right_leg": (12, (14, 16, 20, 21, 22))}

@@ -9,10 +9,11 @@ import numpy as np
 import torch
 
 from morf.body import BodyPose, load_body_model
+from morf.body.normals import vertex_normals
 from morf.body.render_mesh import RenderMesh, render_mesh_for
 from morf.camera import PinholeCamera
 from morf.synth.config import SynthConfig
-from morf.synth.nuisance import garment_weight, loose_offsets, vertex_normals
+from morf.synth.nuisance import garment_weight, loose_offsets
 from morf.synth.regions import region_weights
 from morf.synth.texture import ClothingTexture, paint_clothing
 

@@ -112,3 +112,12 @@ class RunFiles:
     def last_step(self) -> int:
         """The last step metrics.jsonl recorded (0: none)."""
         return last_step(self.read_metrics())
+
+
+def finished_run_dirs(project) -> list[Path]:
+    """The run folders of ``project`` holding a trained avatar (``avatar.pt``), oldest avatar first."""
+    root = Path(project.runs_dir)
+    if not root.is_dir():
+        return []
+    done = [RunFiles(d) for d in root.iterdir() if RunFiles(d).is_done]
+    return [run.root for run in sorted(done, key=lambda run: run.avatar_path.stat().st_mtime)]

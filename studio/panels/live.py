@@ -15,7 +15,7 @@ from imgui_bundle import ImVec2, imgui
 
 from studio.context import UiContext
 from studio.live_render import LiveRequest
-from studio.player import list_motions, load_motion_async
+from studio.player import list_motions, load_live_motion_async
 from studio.state import AppState
 from studio.widgets import GREY, RED, empty_state, remember_item, tex_ref
 
@@ -56,7 +56,7 @@ def _sync_motion(state: AppState, ui: UiContext) -> None:
         live.clip, live.clip_note, live.clip_loading = None, None, None
         if state.motion_file is not None:
             bones = (ui.live_render.num_bones if ui.live_render is not None else 0) or ANNY_BONES
-            live.clip_loading = load_motion_async(Path(state.motion_file), bones)
+            live.clip_loading = load_live_motion_async(Path(state.motion_file), bones)
             live.clip_loading.add_done_callback(lambda _: ui.redraw_within(0.0))  # show it as soon as it loads
     loading = live.clip_loading
     if loading is not None and loading.done():

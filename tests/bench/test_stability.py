@@ -84,6 +84,23 @@ def test_repeats_are_combined_and_their_spread_widens_the_breakdown_threshold():
     assert breakdown_threshold(runs) == BREAKDOWN_DB  # single trainings: no spread measured
 
 
+def test_keypoint_captures_are_fitted_with_the_stability_presets_fit_preset(tmp_path, monkeypatch):
+    from types import SimpleNamespace
+
+    import morf.fitting.project_fit as project_fit
+    from morf import presets
+    from morf.bench.stability import _fit
+
+    used = []
+    monkeypatch.setattr(project_fit, "fit_project", lambda project, cfg, model=None: used.append(cfg))
+    project = SimpleNamespace(fits_path=tmp_path / "fits.npz", fits_dir=tmp_path)
+    for name, sp in presets.presets_of("stability").items():
+        _fit(project, sp, model=None)
+        assert used[-1] == presets.preset("fit", sp.fit).replace(overlays=False), name
+    assert presets.preset("stability", "default").fit == "fast"
+    assert presets.preset("stability", "tiny").fit == "tiny"
+
+
 def test_a_point_file_is_read_and_written_back_as_it_was():
     saved = point(18.0, 1, psnr=23.0).to_dict()
     assert list(saved)[:4] == ["series", "level", "method", "seed"]

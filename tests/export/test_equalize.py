@@ -70,10 +70,10 @@ def test_int8_of_an_imbalanced_renderer_stays_close_to_fp32(tmp_path, monkeypatc
 
     import morf.export.equalize as eq
     from morf.export.onnx_renderer import export_fp32, export_int8
-    from morf.raster.texture_quant import quantize_texture, spectral_texture
+    from morf.raster.texture_quant import quantize_texture, sinusoid_texture
 
     r = _imbalanced(2)
-    q = quantize_texture(spectral_texture(16, 32, seed=4))
+    q = quantize_texture(sinusoid_texture(16, 32, seed=4))
     rasters = []
     for k in range(6):
         x = np.roll(q.data, 5 * k, axis=1).transpose(2, 0, 1)[None].copy()

@@ -227,7 +227,7 @@ def test_baked_texture_matches_the_renders_in_colour(exported, body_model):
     from PIL import Image
 
     from morf.body.render_mesh import render_mesh_for
-    from morf.export.gltf_bake import BakeConfig, framed_camera, neutral_vertices, render_views
+    from morf.export.gltf_bake import BakeConfig, framed_camera, neutral_vertices, render_bake_views
     from morf.train.trained_avatar import load_trained_avatar
 
     result, gltf, project, _ = exported
@@ -242,7 +242,7 @@ def test_baked_texture_matches_the_renders_in_colour(exported, body_model):
     verts = neutral_vertices(body_model, trained.shape)
     res = trained.config.resolution
     cams = [framed_camera(verts, a, e, res, BakeConfig()) for a, e in ((20, 10), (200, -10), (110, 20))]
-    views = render_views(trained, render_mesh_for(body_model), verts, cams)
+    views = render_bake_views(trained, render_mesh_for(body_model), verts, cams)
     ok = views.masks & views.uv_mask & (views.facing >= 77)
     uv = views.uv[ok].astype(np.float64) / 65535
     col = np.clip((uv[:, 0] * S).astype(int), 0, S - 1)

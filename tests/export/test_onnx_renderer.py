@@ -12,14 +12,14 @@ from morf.avatar.renderer import RendererConfig, UNetRenderer
 from morf.export.onnx_renderer import export_fp32, export_int8
 from morf.playback.composite import composite
 from morf.raster.neural_raster import to_layout
-from morf.raster.texture_quant import quantize_texture, spectral_texture
+from morf.raster.texture_quant import quantize_texture, sinusoid_texture
 
 H = W = 32
 
 
 def _rasters(n, seed):
     """Smooth uint8 rasterizations with a background band (128)."""
-    q = quantize_texture(spectral_texture(16, H, seed=seed))
+    q = quantize_texture(sinusoid_texture(16, H, seed=seed))
     out = []
     for k in range(n):
         x = np.roll(q.data, 3 * k, axis=1).transpose(2, 0, 1)[None].copy()
@@ -58,7 +58,7 @@ def renderers():
 @pytest.mark.parametrize("layout", ["nhwc", "nchw", "planes"])
 def test_fp32_matches_torch(tmp_path, renderers, name, layout):
     rasters, scales = _rasters(1, seed=1)
-    export_fp32(renderers[name], scales, tmp_path / "r.onnx", layout)
+    export_fp32(renderers[name], scales, tmp_path / "r.onnx", layout, opaque=None)  # the torch mask as it is
     model = onnx.load(tmp_path / "r.onnx")
     assert model.graph.input[0].type.tensor_type.elem_type == onnx.TensorProto.UINT8
     # The per-channel dequantisation was folded into the convolutions: no Mul on the input path.
@@ -158,3 +158,31 @@ def test_graph_composites_like_numpy(tmp_path, renderers, precision):
         ref = composite(rgba, bg)
         assert np.abs(out[0].astype(int) - ref).max() <= 1  # float rounding at .5 only
         assert (out[0] != ref).mean() < 0.01
+
+
+def test_the_mask_is_held_at_one_inside_the_body(tmp_path, renderers):
+    """Playback holds the mask at 1 a few pixels inside the body mesh (a hole there is never
+    right); near the outline and off the body the renderer's own mask stays."""
+    from morf.export.onnx_graph import OPAQUE_MARGIN_PX
+
+    r = renderers["half"]
+    rasters, scales = _rasters(1, seed=3)
+    x = rasters[0]
+    x[:, :, :, :] = 128  # off the body everywhere ...
+    x[:, :, 4:28, 4:28] = np.random.default_rng(0).integers(60, 200, (1, 16, 24, 24), dtype=np.uint8)  # ... but a square
+    bias = float(r.last.bias[3])
+    with torch.no_grad():
+        r.last.bias[3] = -6.0  # a renderer whose mask is off everywhere
+    try:
+        export_fp32(r, scales, tmp_path / "o.onnx", opaque=OPAQUE_MARGIN_PX)
+        export_fp32(r, scales, tmp_path / "p.onnx", opaque=None)
+        held, plain = _run(tmp_path / "o.onnx", x), _run(tmp_path / "p.onnx", x)  # the default layout, nchw
+    finally:
+        with torch.no_grad():
+            r.last.bias[3] = bias
+    m = OPAQUE_MARGIN_PX
+    inside = (slice(None), slice(4 + m, 28 - m), slice(4 + m, 28 - m))
+    assert plain[0, 3].max() < 0.5 and np.all(held[0, 3][inside[1:]] == 1.0)
+    edge = held[0, 3].copy()
+    edge[inside[1:]] = plain[0, 3][inside[1:]]
+    np.testing.assert_allclose(edge, plain[0, 3], atol=1e-6)  # the outline band and the background: unchanged

@@ -4,7 +4,7 @@ import numpy as np
 import torch
 
 from morf.body import BodyPose
-from morf.export.skeleton import rotvec_to_matrix, skeleton_from_body_model
+from morf.export.skeleton import rotvec_to_matrix_rodrigues, skeleton_from_body_model
 
 
 def test_rotvec_to_matrix_matches_torch():
@@ -14,7 +14,7 @@ def test_rotvec_to_matrix_matches_torch():
     r[0] = 0
     r[1] = 1e-9
     ref = axis_angle_to_matrix(torch.from_numpy(r)).numpy()
-    np.testing.assert_allclose(rotvec_to_matrix(r), ref, atol=1e-10)
+    np.testing.assert_allclose(rotvec_to_matrix_rodrigues(r), ref, atol=1e-10)
 
 
 def test_numpy_fk_matches_body_model(body_model):

@@ -2,7 +2,7 @@
 
 import torch
 
-from morf.fitting.losses import (dice_loss, geman_mcclure, keypoint_loss, keypoint_residual_px,
+from morf.fitting.losses import (dice_loss_per_frame, geman_mcclure, keypoint_loss, keypoint_residual_px,
                                  rotation_temporal_loss, temporal_loss, worst_keypoint_residual_px)
 
 
@@ -11,11 +11,11 @@ def test_dice_identical_and_disjoint():
     a[0, 2:5, 2:6] = 1
     b = torch.zeros(1, 8, 8)
     b[0, 6:8, 6:8] = 1
-    assert dice_loss(a, a, eps=0).item() == 0.0
-    assert dice_loss(a, b, eps=0).item() == 1.0
+    assert dice_loss_per_frame(a, a, eps=0).item() == 0.0
+    assert dice_loss_per_frame(a, b, eps=0).item() == 1.0
     half = a.clone()
     half[0, 2:5, 4:6] = 0  # half of a: dice = 2 * 6 / (12 + 6)
-    assert abs(dice_loss(half, a, eps=0).item() - (1 - 12 / 18)) < 1e-6
+    assert abs(dice_loss_per_frame(half, a, eps=0).item() - (1 - 12 / 18)) < 1e-6
 
 
 def test_geman_mcclure_saturates():

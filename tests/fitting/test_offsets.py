@@ -10,7 +10,7 @@ from morf.fitting.fit_body import FitBody
 from morf.fitting.fits_io import BodyFits, read_fits, save_fits
 from morf.fitting.inputs import FitInputs, downsample_mask, raster_size
 from morf.fitting.offsets import (dressed_vertices, proxy_edges, rest_normals, smoothness_loss, spread_to_mesh,
-                                  spread_weights, vertex_normals)
+                                  spread_weights, vertex_normals_torch)
 from morf.fitting.proxy_mesh import body_proxy
 
 from .synthetic import make_inputs, turning_poses
@@ -26,7 +26,7 @@ def _pose(n=2, seed=0):
 def test_vertex_normals_point_outwards_on_a_tetrahedron():
     v = torch.tensor([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]])
     f = torch.tensor([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
-    n = vertex_normals(v, f)[0]
+    n = vertex_normals_torch(v, f)[0]
     centre = v[0].mean(0)
     assert torch.allclose(n.norm(dim=-1), torch.ones(4))
     assert ((n * (v[0] - centre)).sum(-1) > 0).all()

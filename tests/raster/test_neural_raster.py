@@ -13,7 +13,7 @@ from morf.raster import rasterize_uv
 from morf.raster.camera_paths import front_camera
 from morf.raster.gl_context import create_headless_context
 from morf.raster.neural_raster import NeuralRasterizer
-from morf.raster.texture_quant import quantize_texture, spectral_texture
+from morf.raster.texture_quant import quantize_texture, sinusoid_texture
 
 pytestmark = pytest.mark.gl
 
@@ -28,7 +28,7 @@ def still_pose():
 
 def test_gl_matches_torch_sampling(body_model, still_pose):
     shape = body_model.default_shape()
-    q = quantize_texture(spectral_texture(16, 128, seed=2))
+    q = quantize_texture(sinusoid_texture(16, 128, seed=2))
     skel = skeleton_from_body_model(body_model, shape)
     cam = front_camera(128, yaw_deg=30)
     rot, tr = still_pose

@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
+from morf.body.normals import vertex_normals
 from morf.errors import InputError
 from morf.synth import synth_config
-from morf.synth.nuisance import corrupt_keypoints, loose_offsets, make_slide_field, vertex_normals
+from morf.synth.nuisance import corrupt_keypoints, loose_offsets, make_slide_field
 from morf.synth.regions import HAIR, REGIONS, SHIRT, SHOES, SKIN, TROUSERS, region_weights
 
 
