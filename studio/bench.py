@@ -39,8 +39,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="seconds before timing starts (the player opens, the motion loads)")
     p.add_argument("--with-training", metavar="PROJECT", default=None,
                    help="train a copy of this fitted project in the worker meanwhile")
-    p.add_argument("--preset", default="cpu",
-                   help="with --with-training: the training preset (tiny ends within seconds)")
+    p.add_argument("--preset", default=None,
+                   help="with --with-training: the training preset (default: the one morf train picks, gpu "
+                        "with CUDA, else cpu; tiny ends within seconds)")
     p.add_argument("--motion", default=str(DEFAULT_MOTION), help="a .bvh / .npz motion to play")
     p.add_argument("--size", default="1280x800", help="window size WxH")
     p.add_argument("--max-fps", type=float, default=None,
@@ -173,7 +174,10 @@ def run_studio(args, avatar: Path, tmp: Path) -> tuple[Window, dict]:
         app.state.motion_file = str(motion)
         app.state.playing = True
         if args.with_training:
-            app.send(StartStage("train", {"preset": args.preset}))
+            from morf.presets import default_preset  # imports torch: only when training runs beside
+
+            info["train_preset"] = args.preset or default_preset("train")
+            app.send(StartStage("train", {"preset": info["train_preset"]}))
         app.run(seconds=args.warmup)
         end = time.perf_counter() + WARMUP_TIMEOUT_S
         while not _playing(app) and time.perf_counter() < end and (app.live is None or not app.live.note):
@@ -255,7 +259,8 @@ def run(args) -> int:
     from morf.bench.common import machine_info
 
     result: dict = {"benchmark": "studio", "avatar": str(avatar), "motion": str(Path(args.motion).resolve()),
-                    "size": args.size, "with_training": args.with_training, "preset": args.preset,
+                    "size": args.size, "with_training": args.with_training,
+                    "preset": info.pop("train_preset", None),  # before **info: recorded once
                     **info, "studio": summarize(window), "machine": machine_info(),
                     "command": "morf bench studio " + " ".join(sys.argv[1:])}
     if not args.no_compare:

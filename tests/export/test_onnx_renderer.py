@@ -170,7 +170,7 @@ def test_the_mask_is_held_at_one_inside_the_body(tmp_path, renderers):
     x = rasters[0]
     x[:, :, :, :] = 128  # off the body everywhere ...
     x[:, :, 4:28, 4:28] = np.random.default_rng(0).integers(60, 200, (1, 16, 24, 24), dtype=np.uint8)  # ... but a square
-    bias = float(r.last.bias[3])
+    bias = float(r.last.bias[3].detach())
     with torch.no_grad():
         r.last.bias[3] = -6.0  # a renderer whose mask is off everywhere
     try:
