@@ -21,3 +21,76 @@ def raise_first(checks: list[tuple[bool, str]]) -> None:
     for ok, message in checks:
         if not ok:
             raise InputError(message)
+
+
+def apply_settings(d: dict, settings: list[str] | tuple[str, ...]) -> dict:
+    """``d`` (a config's ``to_dict()``) with ``FIELD=VALUE`` settings applied in place and returned.
+
+    FIELD may name a nested field (``renderer.width``) or an item of a list (``stages.0.iterations``).
+    VALUE is read as JSON when it parses (numbers, true/false, lists), else as a string. A malformed
+    setting or an unknown field is an InputError naming the known ones.
+    """
+    import json
+
+    for item in settings:
+        key, sep, text = item.partition("=")
+        if not sep or not key:
+            raise InputError(f"--set wants FIELD=VALUE, got {item!r}")
+        try:
+            value = json.loads(text)
+        except json.JSONDecodeError:
+            value = text
+        node, parts = d, key.split(".")
+        for part in parts[:-1]:
+            child = _child(node, part, key)
+            if isinstance(child, tuple):  # to_dict keeps tuples (fit stages): a list to set an item of
+                child = list(child)
+                node[int(part) if isinstance(node, list) else part] = child
+            if not isinstance(child, (dict, list)):
+                raise InputError(f"unknown config section {part!r} in {key!r}")
+            node = child
+        last = parts[-1]
+        if isinstance(node, list):
+            node[int(last)] = _like(_child(node, last, key), value, key)  # _child: a valid index
+            continue
+        if last not in node:
+            raise InputError(f"unknown config field {key!r}; known here: {', '.join(sorted(node))}")
+        node[last] = _like(node[last], value, key)
+    return d
+
+
+def _like(old, value, key: str):
+    """``value`` when it has the kind of ``old`` (the field's current value; None: any kind), an
+    integer turned float for a float field; else an InputError."""
+    kinds = ((bool, (bool,), "true or false"), (int, (int,), "an integer"), (float, (int, float), "a number"),
+             (str, (str,), "a string"), ((list, tuple), (list, tuple), "a list"), (dict, (dict,), "a section"))
+    for kind, accepted, words in kinds:
+        if isinstance(old, kind):
+            if not isinstance(value, accepted) or (isinstance(value, bool) and kind is not bool):
+                raise InputError(f"config field {key!r} wants {words}, got {value!r}")
+            return float(value) if kind is float else value
+    return value
+
+
+def _child(node, part: str, key: str):
+    """Item ``part`` of a dict, or of a list when ``part`` is an index into it."""
+    if isinstance(node, list):
+        if not part.isdigit() or int(part) >= len(node):
+            raise InputError(f"{part!r} in {key!r} is no index of a list of {len(node)}")
+        return node[int(part)]
+    if not isinstance(node.get(part), (dict, list, tuple)):
+        raise InputError(f"unknown config section {part!r} in {key!r}")
+    return node[part]
+
+
+def read_config_file(path, what: str) -> dict:
+    """The JSON object in file ``path``; an unreadable file or anything but an object is an InputError."""
+    import json
+
+    try:
+        d = json.loads(open(path, encoding="utf-8").read())
+    except (OSError, ValueError) as e:
+        raise InputError(f"cannot read config {path}: {e}") from None
+    if not isinstance(d, dict):
+        raise InputError(f"{path} is not a {what} (a JSON object)")
+    return d

@@ -10,7 +10,8 @@ def add_parser(sub):
 
     p = sub.add_parser("fit", help="fit the body model to every frame (keypoints, silhouettes, temporal smoothing)")
     p.add_argument("project", help="capture project folder")
-    p.add_argument("--preset", default=default_preset("fit"), help=f"fit preset: {' | '.join(PRESETS['fit'])}")
+    p.add_argument("--preset", default=None,
+                   help=f"fit preset: {' | '.join(PRESETS['fit'])} (default: {default_preset('fit')})")
     p.add_argument("--focal", type=float, default=None, help="focal length in pixels (overrides the project's camera)")
     p.add_argument("--restart", action="store_true", help="start over instead of resuming from the last completed stage")
     p.add_argument("--device", default=None, help="torch device (default: cuda when available, else cpu)")
@@ -19,7 +20,34 @@ def add_parser(sub):
         p.add_argument(f"--no-{name}", dest=name.replace("-", "_"), action="store_false", default=None,
                        help=f"switch off the {text}")
     p.add_argument("--no-overlays", dest="overlays", action="store_false", default=None, help="skip overlay images")
+    p.add_argument("--config", default=None, metavar="JSON",
+                   help="start from a config file (a fit's fits/fit_config.json) instead of a preset")
+    p.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                   help="set any config field, e.g. --set temporal_weight=100 --set stages.2.iterations=30 "
+                        "--set filter.iou_drop=0.1 (repeatable; applied last)")
     return p
+
+
+def resolve_config(args):
+    """The fit's FitConfig: the --config file or the --preset, the --no-* switches, then --set."""
+    from morf.errors import InputError
+    from morf.fitting.config import FitConfig
+    from morf.presets import default_preset, preset
+
+    if getattr(args, "config", None):
+        from morf.config_checks import read_config_file
+
+        if args.preset:
+            raise InputError("--config gives the whole config; use --set to change fields, not --preset")
+        cfg = FitConfig.from_dict(read_config_file(args.config, "fit config"))
+    else:
+        cfg = preset("fit", args.preset or default_preset("fit"))
+    changes = {k: getattr(args, k) for k in ("shared_shape", "silhouette", "temporal", "frame_filter", "overlays")
+               if getattr(args, k, None) is not None}
+    cfg = cfg.replace(**changes)
+    if getattr(args, "set", None):
+        cfg = cfg.with_settings(args.set)
+    return cfg
 
 
 def run(args) -> int:
@@ -29,13 +57,9 @@ def run(args) -> int:
     from morf.errors import InputError
     from morf.fitting.project_fit import fit_project
     from morf.pipeline.control import StageControl, StopRequested
-    from morf.presets import preset
 
+    cfg = resolve_config(args)
     project = CaptureProject.open(args.project)
-    cfg = preset("fit", args.preset)
-    changes = {k: getattr(args, k) for k in ("shared_shape", "silhouette", "temporal", "frame_filter", "overlays")
-               if getattr(args, k) is not None}
-    cfg = cfg.replace(**changes)
     try:
         device = torch.device(args.device) if args.device else None
     except RuntimeError as e:

@@ -21,8 +21,8 @@ def add_parser(sub):
                        description="Render a person turning in place (Anny body, procedural clothes) into a "
                                    "capture project, plus ground_truth/ with poses, camera and a hold-out set.")
     p.add_argument("project", help="folder to create (must be new or empty)")
-    p.add_argument("--preset", choices=sorted(PRESETS["synth"]), default=default_preset("synth"),
-                   help="size preset (default: %(default)s)")
+    p.add_argument("--preset", choices=sorted(PRESETS["synth"]), default=None,
+                   help=f"size preset (default: {default_preset('synth')})")
     p.add_argument("--seed", type=int, help="random seed (clothes, shape, motion, nuisances)")
     p.add_argument("--frames", type=int, help="number of capture frames")
     p.add_argument("--holdout-frames", type=int, help="number of novel-pose hold-out frames")
@@ -35,17 +35,48 @@ def add_parser(sub):
     p.add_argument("--shape", type=_shape, help="Anny phenotype: 6 comma-separated values in [0, 1]")
     p.add_argument("--clothing", choices=CLOTHING, help="print (patterned, high-frequency) or plain (flat colours)")
     p.add_argument("--turn-degrees", type=float, help="how far the person turns (default 360; < 150 never shows the back)")
+    p.add_argument("--config", default=None, metavar="JSON",
+                   help="start from a config file (a synthetic project's ground_truth/synth_config.json) "
+                        "instead of a preset")
+    p.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                   help="set any config field, e.g. --set shading=0.3 --set background=[0,0,0] (repeatable; "
+                        "applied last)")
     p.add_argument("--force", action="store_true", help="rebuild an existing synthetic project in place")
     return p
 
 
-def run(args) -> int:
-    from morf.synth import make_synthetic_capture, synth_config
+OPTIONS = ("seed", "frames", "holdout_frames", "size", "slide", "loose", "kp_noise", "corrupt", "detector", "shape",
+           "clothing", "turn_degrees")
 
-    config = synth_config(args.preset, seed=args.seed, frames=args.frames, holdout_frames=args.holdout_frames,
-                          size=args.size, slide=args.slide, loose=args.loose, kp_noise=args.kp_noise,
-                          corrupt=args.corrupt, detector=args.detector, shape=args.shape,
-                          clothing=args.clothing, turn_degrees=args.turn_degrees)
+
+def resolve_config(args):
+    """The capture's SynthConfig: the --config file or the --preset, the options given, then --set."""
+    from morf.errors import InputError
+    from morf.presets import default_preset
+    from morf.synth import synth_config
+    from morf.synth.config import SynthConfig
+
+    options = {k: getattr(args, k, None) for k in OPTIONS}
+    if getattr(args, "config", None):
+        from morf.config_checks import read_config_file
+
+        if args.preset:
+            raise InputError("--config gives the whole config; use --set to change fields, not --preset")
+        d = read_config_file(args.config, "synth config")
+        if set(d) <= {"config", "resolved"} and isinstance(d.get("config"), dict):
+            d = d["config"]  # ground_truth/synth_config.json: the config and what it resolved to
+        config = SynthConfig.from_dict(d).replace(**{k: v for k, v in options.items() if v is not None})
+    else:
+        config = synth_config(args.preset or default_preset("synth"), **options)
+    if getattr(args, "set", None):
+        config = config.with_settings(args.set)
+    return config
+
+
+def run(args) -> int:
+    from morf.synth import make_synthetic_capture
+
+    config = resolve_config(args)
     project = make_synthetic_capture(args.project, config, overwrite=args.force)
     kp = project.load_keypoints()
     n_det = int((kp.source == "mediapipe").sum())

@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
-from morf.config_checks import check_keys, raise_first
+from morf.config_checks import apply_settings, check_keys, raise_first
 from morf.errors import InputError
 
 
@@ -119,6 +119,7 @@ class FitConfig:
     filter: FilterConfig = field(default_factory=FilterConfig)
 
     def replace(self, **changes) -> "FitConfig":
+        """A validated copy with ``changes``; unknown keys are an InputError."""
         check_keys(FitConfig, changes, "fitting config")
         cfg = dataclasses.replace(self, **changes)
         cfg.validate()
@@ -137,6 +138,12 @@ class FitConfig:
         cfg = FitConfig(stages=stages or default_stages(), filter=filt, **d)
         cfg.validate()
         return cfg
+
+    def with_settings(self, settings: list[str] | tuple[str, ...]) -> "FitConfig":
+        """This config with ``FIELD=VALUE`` settings applied (``filter.iou_drop=0.1`` and
+        ``stages.2.iterations=30``: nested fields); VALUE is read as JSON when it parses, else as a
+        string; an unknown field is an InputError naming the known ones."""
+        return FitConfig.from_dict(apply_settings(self.to_dict(), settings))
 
     def validate(self) -> None:
         """Raise :class:`InputError` naming the first setting that makes no sense."""

@@ -80,7 +80,7 @@ def make_synthetic_capture(root, config: SynthConfig, *, model=None, control: St
     Returns:
         the opened :class:`CaptureProject`.
     """
-    config = config.validate()
+    config.validate()
     control = control or StageControl()
     root = Path(root)
     _prepare_folder(root, overwrite)

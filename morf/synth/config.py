@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from morf.config_checks import raise_first
+from morf.config_checks import apply_settings, check_keys, raise_first
 from morf.errors import InputError
 
 DETECTORS = ("auto", "mediapipe", "none")
@@ -40,8 +40,8 @@ class SynthConfig:
     msaa: int = 4  # samples per pixel for the colour frames
     background: tuple[int, int, int] = (118, 124, 130)  # RGB behind the person
 
-    def validate(self) -> "SynthConfig":
-        """Return self, or raise :class:`InputError` naming the first bad setting."""
+    def validate(self) -> None:
+        """Raise :class:`InputError` naming the first bad setting."""
         checks = [
             (self.frames >= 1, f"--frames must be at least 1, got {self.frames}"),
             (self.frames <= 100_000, f"--frames must be at most 100000, got {self.frames}"),
@@ -69,7 +69,6 @@ class SynthConfig:
             checks.append((len(self.shape) == 6 and all(0 <= s <= 1 for s in self.shape),
                            f"shape must be 6 values in [0, 1], got {self.shape}"))
         raise_first(checks)
-        return self
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -78,12 +77,33 @@ class SynthConfig:
     def from_dict(d: dict) -> "SynthConfig":
         """The config of ``to_dict`` (e.g. ground_truth/synth_config.json), validated; unknown keys
         are an InputError."""
-        d = dict(d)
-        _check_keys(d, "synth config keys")
-        for key in ("shape", "background"):  # JSON gives lists
-            if d.get(key) is not None:
-                d[key] = tuple(d[key])
-        return SynthConfig(**d).validate()
+        cfg = SynthConfig(**_tuples(check_keys(SynthConfig, dict(d), "synth config")))
+        cfg.validate()
+        return cfg
+
+    def with_settings(self, settings: list[str] | tuple[str, ...]) -> "SynthConfig":
+        """This config with ``FIELD=VALUE`` settings applied (VALUE read as JSON when it parses, e.g.
+        ``shape=[0.5,0.5,0.5,0.5,0.5,0.5]``, else as a string); an unknown field is an InputError."""
+        return SynthConfig.from_dict(apply_settings(self.to_dict(), settings))
+
+    def replace(self, **changes) -> "SynthConfig":
+        """A validated copy with ``changes``; unknown keys are an InputError."""
+        check_keys(SynthConfig, changes, "synth config")
+        cfg = dataclasses.replace(self, **_tuples(changes))
+        cfg.validate()
+        return cfg
+
+
+def _tuples(d: dict) -> dict:
+    """``d`` with its sequence fields as tuples (JSON and the command line give lists)."""
+    d = dict(d)
+    for key in ("shape", "background"):
+        if d.get(key) is not None:
+            value = d[key]
+            if not isinstance(value, (list, tuple)) or not all(isinstance(v, (int, float)) for v in value):
+                raise InputError(f"{key} must be a list of numbers, got {value!r}")
+            d[key] = tuple(float(v) for v in value) if key == "shape" else tuple(value)
+    return d
 
 
 PRESETS: dict[str, SynthConfig] = {
@@ -99,15 +119,4 @@ def synth_config(preset: str = "default", **overrides) -> SynthConfig:
     """A preset with some fields replaced (``None`` values are ignored), validated."""
     if preset not in PRESETS:
         raise InputError(f"unknown synth preset {preset!r}; choose one of {', '.join(PRESETS)}")
-    fields = {k: v for k, v in overrides.items() if v is not None}
-    _check_keys(fields, "synth settings")
-    if "shape" in fields:
-        fields["shape"] = tuple(float(s) for s in fields["shape"])
-    return dataclasses.replace(PRESETS[preset], **fields).validate()
-
-
-def _check_keys(d: dict, what: str) -> None:
-    """An InputError naming the keys of ``d`` that are no SynthConfig field."""
-    unknown = set(d) - {f.name for f in dataclasses.fields(SynthConfig)}
-    if unknown:
-        raise InputError(f"unknown {what}: {', '.join(sorted(unknown))}")
+    return PRESETS[preset].replace(**{k: v for k, v in overrides.items() if v is not None})

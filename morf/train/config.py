@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 from morf.avatar.renderer import RendererConfig
 from morf.avatar.warp import WarpConfig
-from morf.config_checks import check_keys
+from morf.config_checks import apply_settings, check_keys
 from morf.errors import InputError
 
 METHODS = ("morf", "stylepeople", "anr", "rgb")
@@ -116,27 +116,9 @@ class TrainConfig:
         """This config with ``FIELD=VALUE`` settings applied (``renderer.width=24``: a nested field).
 
         VALUE is read as JSON when it parses (numbers, true/false, lists), else as a string; an
-        unknown field is an InputError naming the known ones.
+        unknown field is an InputError naming the known ones (:func:`morf.config_checks.apply_settings`).
         """
-        import json
-
-        d = self.to_dict()
-        for item in settings:
-            key, sep, text = item.partition("=")
-            if not sep or not key:
-                raise InputError(f"--set wants FIELD=VALUE, got {item!r}")
-            try:
-                value = json.loads(text)
-            except json.JSONDecodeError:
-                value = text
-            node, parts = d, key.split(".")
-            for part in parts[:-1]:
-                if not isinstance(node.get(part), dict):
-                    raise InputError(f"unknown config section {part!r} in {key!r}")
-                node = node[part]
-            if parts[-1] not in node:
-                raise InputError(f"unknown config field {key!r}; known here: {', '.join(sorted(node))}")
-            node[parts[-1]] = value
+        d = apply_settings(self.to_dict(), settings)
         return TrainConfig.from_dict(d)
 
     def replace(self, **changes) -> "TrainConfig":

@@ -20,9 +20,9 @@ def test_every_preset_survives_a_round_trip_through_json(name):
 
 
 def test_unknown_keys_and_presets_are_named():
-    with pytest.raises(InputError, match="unknown synth config keys: fov, framez"):
+    with pytest.raises(InputError, match=r"unknown synth config keys: \[.fov., .framez.\]"):
         SynthConfig.from_dict({**SynthConfig().to_dict(), "framez": 3, "fov": 30})
-    with pytest.raises(InputError, match="unknown synth settings: framez"):
+    with pytest.raises(InputError, match=r"unknown synth config keys: \[.framez.\]"):
         synth_config("tiny", framez=3)
     with pytest.raises(InputError, match="unknown synth preset 'huge'; choose one of tiny, default"):
         synth_config("huge")
