@@ -267,7 +267,7 @@ def floor_point(project, sweep, model) -> dict:
                       "ground-truth", model)
     m = holdout_quality(project, res.run_dir, model, base.resolution)
     return {"name": "rgb floor", "run": str(res.run_dir), "fps": None,
-            **{k: m[k] for k in (QUALITY, "ssim_person", "psnr", "temporal")}}
+            **{k: getattr(m, k) for k in (QUALITY, "ssim_person", "psnr", "temporal")}}
 
 
 def charts(rows: list[dict], front: dict, out: Path, fps_size: int, title: str,

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from morf.errors import InputError, TrainingDiverged
+from morf.train.frame_scores import FrameScores
 
 
 @dataclass(frozen=True)
@@ -124,7 +125,7 @@ class TrainEvaluation:
                                d.get("frames"), d.get("run"), d.get("eval_resolution"))
 
 
-def holdout_quality(project, run_dir, model, resolution: int | None = None) -> dict:
+def holdout_quality(project, run_dir, model, resolution: int | None = None) -> FrameScores:
     """PSNR / SSIM (image and person) and temporal flicker of a finished run on the project's
     synthetic hold-out sequence (the same evaluation as ``morf bench quality``), rendered and
     scored at ``resolution`` px (default: the run's training resolution; runs trained at
@@ -160,10 +161,9 @@ def train_and_evaluate(project, cfg, run_name: str, model, fits_source: str = "g
     except TrainingDiverged as e:
         return TrainEvaluation(params, True, error=str(e))
     m = holdout_quality(project, res.run_dir, model, eval_resolution)
-    bad = any(v is None or (isinstance(v, float) and not math.isfinite(v))
-              for k, v in m.items() if k in ("psnr", "psnr_person", "ssim"))
-    return TrainEvaluation(params, bool(bad), *(m[k] for k in HOLDOUT_METRICS), res.train_minutes, res.step,
-                           background=tuple(m["background"]), frames=m["frames"], run=str(res.run_dir),
+    bad = any(v is None or (isinstance(v, float) and not math.isfinite(v)) for v in (m.psnr, m.psnr_person, m.ssim))
+    return TrainEvaluation(params, bool(bad), *(getattr(m, k) for k in HOLDOUT_METRICS), res.train_minutes, res.step,
+                           background=m.background, frames=m.frames, run=str(res.run_dir),
                            eval_resolution=eval_resolution or cfg.resolution)
 
 

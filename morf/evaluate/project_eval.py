@@ -186,8 +186,9 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
     side = eval_side(avatar.camera, project.camera(), cfg.resolution, avatar.renderer.cfg.multiple)
     frames = target_frames(project, model, target, fits, avatar.shape.numpy(), scaled_camera(avatar.camera, side))
     say(f"{run.name}: {tr.target.key}, {frames.num_frames} frames at {side} px")
-    metrics = _clean(evaluate_frames(avatar, frames))
-    colour = torch.tensor(metrics["background"], dtype=torch.float32)
+    scores = evaluate_frames(avatar, frames)
+    colour = torch.tensor(scores.background, dtype=torch.float32)
+    metrics = _clean(scores.to_dict())
     if tr.column is None:
         tr.column, tr.rows = person_column(frames), sheet_rows(frames.num_frames, cfg.sheet_rows)
     if cfg.on_sheet(run):

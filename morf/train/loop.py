@@ -3,7 +3,8 @@
 Order of work: main optimisation (checkpoint every few minutes, and before honouring a stop) ->
 bake the texture (warp at neutral pose + mean latent) -> inpainting fine-tune of unseen texels
 (when pseudo views are available) -> ``avatar.pt``. A killed or stopped run resumes from its
-last checkpoint; a finished run is not trained again.
+last checkpoint; a finished run is not trained again. Opening the run, recovering from a
+divergence and finishing the avatar are in ``run_session.py``.
 """
 
 from __future__ import annotations
@@ -18,16 +19,12 @@ import numpy as np
 import torch
 
 from morf.avatar.warp import offsets_to_rgb, warp_texture
-from morf.errors import InputError, TrainingDiverged
+from morf.errors import TrainingDiverged
 from morf.pipeline.control import Progress, StageControl
 from morf.train.config import TrainConfig
 from morf.train.frames import FrameSet
 from morf.train.health import CollapseMonitor
-from morf.train.recovery import RecoveryPolicy
-from morf.train.run_dir import RunDir
-from morf.train.start_log import log_start
-from morf.train.trained_avatar import save_trained_avatar
-from morf.train.trainer import Trainer
+from morf.train.run_session import finish_avatar, handle_divergence, open_run, recovery_policy, save_checkpoint
 
 SNAPSHOT_EVERY = 100  # steps between in-memory snapshots of a healthy state (rollback targets)
 
@@ -107,53 +104,18 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         StopRequested: the user stopped; a checkpoint of the current step was written first.
     """
     control = control or StageControl()
-    run = RunDir(run_dir)
-    run.root.mkdir(parents=True, exist_ok=True)
-    if run.config_path.is_file():
-        saved = run.load_config()
-        if saved != cfg:
-            raise InputError(f"run {run.root} was started with a different configuration; "
-                             "resume it with the same options, or use --restart or another --name")
-    else:
-        run.save_config(cfg)
-    if cfg.zoom_resolution and zoom_frames is None:
-        raise InputError(f"the config asks for frames at {cfg.zoom_resolution} px as well; none were given")
-    trainer = Trainer(cfg, frames, texture_init, perceptual=perceptual, zoom_frames=zoom_frames)
-    if run.has_checkpoint:
-        trainer.load_state_dict(run.load_checkpoint(map_location=trainer.device))
-        run.log(f"resumed at step {trainer.step}")
-    else:
-        log_start(run, cfg, frames, trainer.device, trainer.bf16, perceptual is not None, notes)
+    run, trainer = open_run(frames, run_dir, cfg, texture_init, perceptual, notes, zoom_frames)
     resumed_from = trainer.step
     if run.is_done and trainer.step >= cfg.steps:
         return TrainResult(run.root, trainer.step, {}, trainer.elapsed_s / 60, resumed_from)
-
-    def save():
-        trainer.elapsed_s += time.monotonic() - t_session
-        run.save_checkpoint(trainer.state_dict())
-        return time.monotonic()
-
     t_session = time.monotonic()
     last_ckpt = time.monotonic()
     losses: dict[str, float] = {}
     monitor = CollapseMonitor()
-    # A run that starts at step 0 keeps its initial state: a mask that never formed restarts from it
-    # (no earlier state has a mask), and so does a collapse before the first snapshot or checkpoint.
-    initial = copy.deepcopy(trainer.state_dict()) if trainer.step == 0 and not trainer.hold_adversarial else None
-    policy = RecoveryPolicy(cfg.max_recoveries, SNAPSHOT_EVERY, trainer.step if run.has_checkpoint else None,
-                            run.checkpoint_path, initial)
-
-    def restore(state: dict, t_session: float) -> float:
-        """Load an earlier state, keeping the wall time spent (the lost steps took time too);
-        returns the new session start."""
-        spent = trainer.elapsed_s + time.monotonic() - t_session
-        trainer.load_state_dict(state)
-        trainer.elapsed_s = spent
-        return time.monotonic()
-
+    policy = recovery_policy(run, trainer, SNAPSHOT_EVERY)
     while trainer.step < cfg.steps:
         if control.stop_requested:
-            t_session = save()
+            t_session = save_checkpoint(run, trainer, t_session)
             policy.checkpoint_saved(trainer.step)
             run.log(f"stopped at step {trainer.step}")
         control.check()
@@ -163,20 +125,7 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
             if collapse:
                 raise TrainingDiverged(f"training diverged at step {trainer.step}: {collapse}")
         except TrainingDiverged as e:
-            run.log(f"diverged: {e}")
-            recovery = policy.decide(str(e), monitor.kind)
-            if recovery.action == "give_up":
-                raise TrainingDiverged(recovery.note) from None
-            state = recovery.state if recovery.state is not None else run.load_checkpoint(map_location=trainer.device)
-            t_session = restore(state, t_session)
-            if recovery.action == "restart":
-                trainer.hold_adversarial, monitor = True, CollapseMonitor()
-                t_session = save()  # the step-0 restart replaces any checkpoint of the failed attempt
-                policy.checkpoint_saved(trainer.step)
-            else:
-                trainer.scale_learning_rates(recovery.lr_factor)
-                monitor.reset()
-            run.log(recovery.note)
+            monitor, t_session = handle_divergence(str(e), run, trainer, policy, monitor, t_session)
             continue
         s = trainer.step
         if trainer.hold_adversarial and monitor.formed:
@@ -190,49 +139,9 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         if policy.wants_snapshot(s, monitor.healthy):
             policy.keep_snapshot(s, copy.deepcopy(trainer.state_dict()))
         if time.monotonic() - last_ckpt > cfg.checkpoint_minutes * 60 and monitor.healthy:
-            t_session = save()
-            last_ckpt = t_session
+            t_session = last_ckpt = save_checkpoint(run, trainer, t_session)
             policy.checkpoint_saved(trainer.step)
-    t_session = save()
+    save_checkpoint(run, trainer, t_session)
     run.log(f"main stage done at step {trainer.step}: " + ", ".join(f"{k} {v:.4f}" for k, v in losses.items()))
-
-    if trainer.use_averaged_weights():
-        run.log(f"avatar made from the moving average of the weights (decay {cfg.ema_decay})")
-    if cfg.warp_faded:  # the last steps trained the unwarped lookups the player makes: nothing to bake
-        run.log(f"warp faded out from {cfg.warp_fade_start:g} to {cfg.warp_fade_end:g} of the steps: texture not baked")
-        texture = trainer.model.texture.texture.detach().clone()
-    else:
-        texture = trainer.model.bake()
-    if cfg.colour_frozen:  # the projected colours as they were trained: unwarped (the bake's resampling blurred them)
-        texture[:3] = trainer.model.texture.texture.detach()[:3]
-    renderer = trainer.model.renderer
-    extra = {"steps": trainer.step}
-    if inpaint is not None and cfg.inpaint_steps > 0:
-        texture, extra["inpaint"] = _inpaint(trainer, frames, texture, inpaint, run, control)
-    save_trained_avatar(run.avatar_path, texture, renderer, cfg.to_dict(), shape, camera, extra)
-    run.log(f"avatar written: {run.avatar_path}")
-    control.report(Progress("train", trainer.step, cfg.steps, "done", losses))
+    finish_avatar(run, trainer, frames, losses, control, inpaint, shape, camera)
     return TrainResult(run.root, trainer.step, losses, trainer.elapsed_s / 60, resumed_from)
-
-
-def _inpaint(trainer: Trainer, frames: FrameSet, texture: torch.Tensor, inpaint: InpaintViews, run: RunDir,
-             control: StageControl):
-    from morf.train.inpaint import close_seen, fill_unseen, finetune_unseen, project_rgb_texture
-
-    cfg = trainer.cfg
-    size = texture.shape[-1]
-    control.report(Progress("train", trainer.step, cfg.steps, "inpainting unseen body parts"))
-    rgb, hit = project_rgb_texture(frames, size)
-    seen = close_seen(hit)  # pinholes between hit texels count as seen (kept as trained) ...
-    covered = inpaint.covered
-    rgb = fill_unseen(rgb, hit, covered)  # ... but get a filled colour, not black
-    uv, uv_mask = inpaint.make_views()
-    dev = trainer.device
-    new_tex, hist = finetune_unseen(texture.to(dev), trainer.model.renderer, uv.to(dev), uv_mask.to(dev),
-                                    torch.from_numpy(rgb).permute(2, 0, 1).to(dev),
-                                    torch.from_numpy(seen | ~covered).to(dev), cfg.inpaint_steps, cfg.inpaint_lr,
-                                    seed=cfg.seed)
-    info = {"seen_fraction": float((seen & covered).sum() / max(covered.sum(), 1)), "views": int(uv.shape[0]),
-            "loss_first": hist[0] if hist else None, "loss_last": hist[-1] if hist else None}
-    run.log(f"inpainting: {info}")
-    return new_tex, info

@@ -15,6 +15,7 @@ import torch
 from morf.errors import InputError
 from morf.pipeline.control import Progress, StageControl
 from morf.train.config import TrainConfig
+from morf.train.frame_scores import FrameScores
 from morf.train.loop import InpaintViews, TrainResult, train_avatar
 from morf.train.run_dir import RunDir
 
@@ -89,14 +90,15 @@ def train_project(project, cfg: TrainConfig, name: str | None = None, control: S
                         shape=torch.from_numpy(pf.fits.shape), camera=pf.camera, notes=notes, zoom_frames=zoom)
 
 
-def evaluate_frames(avatar, frames, background: str = "capture") -> dict:
+def evaluate_frames(avatar, frames, background: str = "capture") -> FrameScores:
     """Render every frame of a FrameSet with a TrainedAvatar and score it against the frames.
 
     Both the render and the frame are composited over one flat colour, as the player composites
     (``rgb + (1 - mask) * colour``): ``background="capture"`` uses the median colour outside the
     person masks of the frames (the capture's own backdrop), ``"black"`` compares on black.
     Returns PSNR / SSIM over the whole image and over the person only (``*_person``, the ground
-    truth mask), ``temporal`` flicker (frames in order), the background colour and the frame count.
+    truth mask), ``temporal`` flicker (frames in order), the background colour and the frame count
+    (:class:`~morf.train.frame_scores.FrameScores`).
     """
     from morf.avatar.metrics import background_colour, composite_over, psnr, ssim, summarize, temporal_flicker
 
@@ -117,7 +119,6 @@ def evaluate_frames(avatar, frames, background: str = "capture") -> dict:
         p_all.append(psnr(pred, gt)); s_all.append(ssim(pred, gt))
         p_person.append(psnr(pred, gt, b.mask)); s_person.append(ssim(pred, gt, b.mask))
         preds.append(pred[0]); gts.append(gt[0]); masks.append(b.mask[0])
-    return {"psnr": summarize(p_all), "ssim": summarize(s_all), "psnr_person": summarize(p_person),
-            "ssim_person": summarize(s_person),
-            "temporal": temporal_flicker(torch.stack(preds), torch.stack(gts), torch.stack(masks)),
-            "background": [round(float(c), 4) for c in colour], "frames": frames.num_frames}
+    return FrameScores(summarize(p_all), summarize(s_all), summarize(p_person), summarize(s_person),
+                       temporal_flicker(torch.stack(preds), torch.stack(gts), torch.stack(masks)),
+                       tuple(round(float(c), 4) for c in colour), frames.num_frames)

@@ -70,8 +70,8 @@ def test_a_resolution_point_is_scored_at_the_base_resolution(tmp_path, body_mode
     project = CaptureProject.open(data.project)
     at_base = holdout_quality(project, rows["resolution-32"].evaluation.run, body_model, base_res)
     at_own = holdout_quality(project, rows["resolution-32"].evaluation.run, body_model)
-    assert at_base["psnr"] == pytest.approx(rows["resolution-32"].evaluation.psnr)
-    assert at_base["psnr"] != pytest.approx(at_own["psnr"])
+    assert at_base.psnr == pytest.approx(rows["resolution-32"].evaluation.psnr)
+    assert at_base.psnr != pytest.approx(at_own.psnr)
 
 
 def test_crowded_chart_labels_move_apart():

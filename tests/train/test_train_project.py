@@ -37,4 +37,6 @@ def test_train_project_end_to_end(tiny_capture, body_model, tmp_path, monkeypatc
     assert av.camera is not None and av.shape.shape == (1, 6)
     hold = build_holdout_frames(tiny_capture, body_model, av.camera, av.shape.numpy())
     m = evaluate_frames(av, hold)
-    assert m["frames"] == 3 and np.isfinite(m["psnr"]) and 0 <= m["ssim"] <= 1 and np.isfinite(m["temporal"])
+    assert m.frames == 3 and np.isfinite(m.psnr) and 0 <= m.ssim <= 1 and np.isfinite(m.temporal)
+    assert list(m.to_dict()) == ["psnr", "ssim", "psnr_person", "ssim_person", "temporal", "background", "frames"]
+    assert m.to_dict()["background"] == list(m.background) and len(m.background) == 3
