@@ -169,18 +169,15 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
 def _head_output(model: onnx.ModelProto) -> str | None:
     """The output of the last convolution written as a MatMul: the tensor its bias Add (or, without
     a bias, the MatMul) writes, before the Reshape back to an image."""
-    producer = {o: n for n in model.graph.node for o in n.output}
     matmuls = [n for n in model.graph.node if n.op_type == "MatMul"]
     if not matmuls:
         return None
     out = matmuls[-1].output[0]
-    readers = [n for n in model.graph.node if out in n.input]
-    if len(readers) == 1 and readers[0].op_type == "Add":
-        out = readers[0].output[0]
-    readers = [n for n in model.graph.node if out in n.input]
-    if len(readers) == 1 and readers[0].op_type == "Reshape":
-        return readers[0].output[0]
-    return out if producer.get(out) is not None else None
+    for op in ("Add", "Reshape"):
+        readers = [n for n in model.graph.node if out in n.input]
+        if len(readers) == 1 and readers[0].op_type == op:
+            out = readers[0].output[0]
+    return out
 
 
 def export_fp32(renderer, scales: np.ndarray, path: str | os.PathLike, layout: str = "nchw",
@@ -234,14 +231,14 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
     cfg = getattr(renderer, "cfg", None)
     used = int(getattr(cfg, "in_channels", len(scales)))
     colours = None
+    half_head = int(getattr(cfg, "head_stride", 1)) > 1
     overrides = {FLOAT_INPUT: [{"scale": np.array(1 / 127, np.float32), "zero_point": np.array(ZERO_POINT, np.uint8)}]}
     if hasattr(renderer, "features"):
         inputs = dequantized_inputs(calibration, scales, used)
         renderer = equalize_renderer(renderer, inputs)
         colours = colour_range(renderer, inputs)
-        renderer.pointwise_matmul = int(getattr(cfg, "head_stride", 1)) > 1  # on the copy: see float_nodes
+        renderer.pointwise_matmul = half_head  # on the copy: see float_nodes
     model, last_out = _export_float_graph(renderer, scales, sample_hw, colours)
-    half_head = int(getattr(cfg, "head_stride", 1)) > 1
     if last_out is not None and colours is not None:
         overrides[last_out] = [{"rmin": np.array(colours[0], np.float32), "rmax": np.array(colours[1], np.float32)}]
     with tempfile.TemporaryDirectory() as tmp:
@@ -284,13 +281,8 @@ def float_nodes(model: onnx.ModelProto, last_out: str | None, half_head: bool = 
     names = after + [n for n in fill if n not in after]
     if half_head:
         head_low = [n for n in model.graph.node if n.name.startswith(("/head_low/", "/renderer/head_low/"))]
-        if head_low:
-            head = downstream_nodes(model, head_low[-1].output[0])
-            names += [n for n in head if n not in names]
-            producer = {o: n for n in model.graph.node for o in n.output}
-            last = producer.get(last_out) if last_out else None
-            if last is not None and last.name not in names:
-                names.append(last.name)
+        if head_low:  # the last convolution is downstream of it too
+            names += [n for n in downstream_nodes(model, head_low[-1].output[0]) if n not in names]
     return names
 
 
