@@ -100,7 +100,7 @@ def _load_residuals(project: CaptureProject) -> dict[int, float]:
     """Per-frame mean keypoint residual of the body fit (``project.fits_path``), empty before fitting."""
     if not project.fits_path.is_file():
         return {}
-    # imported here: morf.fitting brings torch, which the app does not need before a project has fits
+    # imported here: the app needs the fits reader only once a project has fits
     from morf.fitting.fits_io import load_fits
 
     fits = load_fits(project)

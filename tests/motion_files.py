@@ -97,5 +97,5 @@ def write_capture_fits(root: Path, rotvecs: np.ndarray, transl: np.ndarray, fps:
                     shape=np.full((1, 6), 0.35, np.float32), keypoint_residual_px=z, keypoint_worst_px=z,
                     silhouette_iou=z, projected_keypoints=np.zeros((T, 23, 2), np.float32), config={"test": True})
     project.fits_dir.mkdir(parents=True, exist_ok=True)
-    save_fits(project.fits_dir / "fits.npz", fits)
+    save_fits(project.fits_path, fits)
     return project

@@ -36,3 +36,15 @@ def test_command_presets_use_registered_stage_presets(rows):
             assert fit in presets.presets_of("fit"), label
         assert train in presets.presets_of("train"), label
         train_preset(train, **train_over).validate()
+
+
+def test_morf_run_hands_its_preset_name_to_the_fit_too():
+    """tiny / cpu / gpu name a preset of every stage, so ``morf run --preset NAME`` fits with the fit
+    preset NAME (the same config for cpu and gpu); auto is chosen from the capture and fits with the
+    default fit."""
+    from morf.cli.run import _fit_preset
+
+    for name in presets.COMMON_NAMES:
+        assert _fit_preset(name) == name and name in presets.presets_of("fit")
+    assert _fit_preset("auto") == presets.default_preset("fit")
+    assert presets.preset("fit", "cpu") == presets.preset("fit", "gpu") == presets.preset("fit", "default")

@@ -3,6 +3,7 @@ none is named, and the command line looking presets up through it."""
 
 from __future__ import annotations
 
+import json
 from types import SimpleNamespace
 
 import pytest
@@ -59,7 +60,7 @@ def test_the_registry_imports_no_command():
     assert done.returncode == 0, done.stdout + done.stderr
 
 
-KNOWN = {"fit": "default, fast, tiny, baseline", "train": "tiny, cpu, gpu", "synth": "tiny, default",
+KNOWN = {"fit": "default, fast, tiny, baseline, cpu, gpu", "train": "tiny, cpu, gpu", "synth": "tiny, default, cpu, gpu",
          "demo": "tiny, quick, full", "stability": "tiny, default", "sweep": "tiny, quick, default"}
 
 
@@ -72,6 +73,43 @@ def test_unknown_stages_and_preset_names_are_input_errors_listing_the_known_ones
             presets.preset(stage, name)
 
 
+def test_every_pipeline_stage_answers_to_tiny_cpu_and_gpu():
+    assert presets.COMMON_NAMES == ("tiny", "cpu", "gpu")
+    for stage in ("synth", "fit", "train"):
+        assert set(presets.COMMON_NAMES) <= set(presets.presets_of(stage)), stage
+        for name in presets.COMMON_NAMES:
+            presets.preset(stage, name).validate()
+
+
+def test_fit_cpu_and_gpu_are_the_fit_that_was_the_default():
+    """Fitting is a per-frame optimisation whose step counts are set by convergence: cpu, gpu and
+    "default" (still the name a fit runs with when none is named) are one config, the one the
+    default preset was before cpu and gpu were added."""
+    default = FitConfig()
+    assert [s.iterations for s in default.stages] == [60, 140, 60]  # the previous default's steps
+    for name in ("default", "cpu", "gpu"):
+        assert presets.preset("fit", name) == default, name
+    for name in ("fast", "tiny", "baseline"):  # the other names keep working
+        assert presets.preset("fit", name) != default, name
+    # a fits/fit_config.json written before (a FitConfig records no preset name) loads as cpu's
+    assert FitConfig.from_dict(json.loads(json.dumps(default.to_dict()))) == presets.preset("fit", "cpu")
+
+
+def test_synth_cpu_and_gpu_are_the_capture_that_was_the_default_under_their_own_names():
+    """A synthetic capture is data, not compute: cpu and gpu make the default capture and record
+    the name that was asked for; "default" still records "default"."""
+    default = SynthConfig()
+    assert (default.preset, default.frames, default.size, default.holdout_frames) == ("default", 240, 512, 60)
+    assert presets.preset("synth", "default") == default
+    for name in ("cpu", "gpu"):
+        config = presets.preset("synth", name)
+        assert config.preset == name and config.replace(preset="default") == default, name
+    assert presets.preset("synth", "tiny").preset == "tiny"
+    # a ground_truth/synth_config.json written before (preset "default") still loads
+    old = json.loads(json.dumps({"config": default.to_dict()}))["config"]
+    assert old["preset"] == "default" and SynthConfig.from_dict(old) == presets.preset("synth", "default")
+
+
 def test_the_default_training_preset_follows_the_device(monkeypatch):
     import torch
 
@@ -80,6 +118,8 @@ def test_the_default_training_preset_follows_the_device(monkeypatch):
     monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
     assert presets.default_preset("train") == "cpu"
     assert presets.default_preset("fit") == presets.default_preset("synth") == "default"
+    # ... which for fit and synth is the device's preset by another name, on either device
+    assert presets.preset("fit", "default") == presets.preset("fit", "cpu") == presets.preset("fit", "gpu")
     assert presets.default_preset("demo") == "quick"
     assert presets.default_preset("stability") == presets.default_preset("sweep") == "default"
     with pytest.raises(InputError, match="stages with presets"):
@@ -101,11 +141,35 @@ def test_morf_train_without_a_preset_uses_the_registrys_default(monkeypatch):
 
 def test_morf_fit_names_the_known_presets_of_an_unknown_one(tmp_path, capsys):
     from morf.capture.project import CaptureProject
+    from morf.cli.fit import resolve_config
     from morf.cli.main import main
 
     CaptureProject.create(tmp_path / "p", num_frames=1, width=8, height=8, fps=None, source={"kind": "test"})
-    assert main(["fit", str(tmp_path / "p"), "--preset", "huge"]) == InputError.exit_code
-    assert "unknown fit preset 'huge'; choose one of default, fast, tiny, baseline" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as stop:
+        main(["fit", str(tmp_path / "p"), "--preset", "huge"])
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert stop.value.code == 2 and "argument --preset: invalid choice: 'huge'" in line
+    assert all(repr(name) in line for name in presets.presets_of("fit")), line
+    assert not (tmp_path / "p" / "fits").exists()
+    # called as a library (no argparse in front): the registry's InputError
+    args = SimpleNamespace(preset="huge", config=None, set=[])
+    with pytest.raises(InputError, match="unknown fit preset 'huge'; choose one of default, fast, tiny, baseline, cpu, gpu$"):
+        resolve_config(args)
+
+
+@pytest.mark.parametrize("command, stage", [("synth", "synth"), ("fit", "fit"), ("train", "train"),
+                                            ("run", "train"), ("demo", "demo")])
+def test_stage_commands_take_their_preset_choices_from_the_registry_and_list_them(command, stage):
+    import argparse
+
+    from morf.cli.main import build_parser
+
+    (sub,) = [a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)]
+    (flag,) = [a for a in sub.choices[command]._actions if "--preset" in a.option_strings]
+    names = tuple(presets.presets_of(stage))
+    extra = ("auto",) if stage == "train" else ()
+    assert tuple(flag.choices) == (*names, *extra), command
+    assert " | ".join((*names, *extra)) in " ".join(flag.help.split()) or command == "train", flag.help
 
 
 def test_replace_refuses_unknown_fields_with_an_input_error():

@@ -20,6 +20,7 @@ evaluation wall time).
 from __future__ import annotations
 
 import time
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +38,61 @@ ABLATION = {
 }
 COLUMNS = ["config", "vertex_error_mm", "keypoint_error_px", "silhouette_iou", "silhouette_iou_body", "jitter", "jitter_reduction",
            "filter_precision", "filter_recall", "frames_per_second"]
+
+
+@dataclass(frozen=True)
+class FitQuality:
+    """One fit against the ground truth (:func:`evaluate_config`).
+
+    Fields:
+        vertex_error_mm: mean per-vertex error after aligning the root joint, mm, over the frames kept
+            for training; vertex_error_mm_all_frames: the same over every frame;
+        keypoint_error_px: fitted vs true (noise-free) keypoints, pixels, frames kept;
+        silhouette_iou: of the fitted surface (body plus clothing offsets) vs the person's mask;
+        silhouette_iou_body: of the body alone (the surface's when the fit has no offsets);
+        offset_mean_mm, offset_max_mm: the clothing offsets, mm (None: the fit has none);
+        jitter: mean vertex acceleration, mm / frame^2, every frame (:func:`jitter_mm`);
+        filter_precision, filter_recall: rejected vs corrupted frames (None: no frame filter);
+        rejected: frames the filter rejected.
+    """
+
+    vertex_error_mm: float
+    vertex_error_mm_all_frames: float
+    keypoint_error_px: float
+    silhouette_iou: float
+    silhouette_iou_body: float
+    offset_mean_mm: float | None
+    offset_max_mm: float | None
+    jitter: float
+    filter_precision: float | None
+    filter_recall: float | None
+    rejected: int
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class ConfigRow:
+    """One configuration's row of fitting.json's "configs".
+
+    Fields:
+        quality: its fit against the ground truth; frames_per_second: frames over the fit and
+        evaluation wall time; seconds: that wall time; jitter_reduction: share of the baseline's
+        jitter removed (None: no baseline in the run, or its jitter is 0).
+    """
+
+    quality: FitQuality
+    frames_per_second: float
+    seconds: float
+    jitter_reduction: float | None = None
+
+    def measured(self) -> dict:
+        """The quality and the timing (what is printed as each configuration finishes)."""
+        return {**self.quality.to_dict(), "frames_per_second": self.frames_per_second, "seconds": self.seconds}
+
+    def to_dict(self) -> dict:
+        return {**self.measured(), "jitter_reduction": self.jitter_reduction}
 
 
 def add_arguments(p) -> None:
@@ -88,7 +144,7 @@ def jitter_mm(vertices: np.ndarray) -> float:
     return float(np.linalg.norm(acc, axis=-1).mean() * 1000)
 
 
-def evaluate_config(model, fits, rejected: dict[int, str], gt, gt_verts, gt_roots) -> dict:
+def evaluate_config(model, fits, rejected: dict[int, str], gt, gt_verts, gt_roots) -> FitQuality:
     """Metrics of one fit against the ground truth (a :class:`morf.synth.ground_truth.GroundTruth`
     with keypoints_true and corrupted)."""
     verts, roots = _vertices(model, fits.rotvecs, fits.transl, fits.shape)
@@ -106,20 +162,20 @@ def evaluate_config(model, fits, rejected: dict[int, str], gt, gt_verts, gt_root
     if fits.config.get("frame_filter"):
         precision = float((flagged & corrupted).sum() / max(1, flagged.sum())) if flagged.any() else 1.0
         recall = float((flagged & corrupted).sum() / max(1, corrupted.sum())) if corrupted.any() else 1.0
-    return {
-        "vertex_error_mm": float(err[used].mean()),
-        "vertex_error_mm_all_frames": float(err.mean()),
-        "keypoint_error_px": float(np.nanmean(kp_err[used])),
-        "silhouette_iou": float(np.nanmean(fits.silhouette_iou[used])),
-        "silhouette_iou_body": float(np.nanmean((fits.silhouette_iou if fits.silhouette_iou_body is None
-                                                 else fits.silhouette_iou_body)[used])),
-        "offset_mean_mm": None if fits.offsets is None else float(fits.offsets.mean() * 1000),
-        "offset_max_mm": None if fits.offsets is None else float(fits.offsets.max() * 1000),
-        "jitter": jitter_mm(verts),
-        "filter_precision": precision,
-        "filter_recall": recall,
-        "rejected": len(rejected),
-    }
+    return FitQuality(
+        vertex_error_mm=float(err[used].mean()),
+        vertex_error_mm_all_frames=float(err.mean()),
+        keypoint_error_px=float(np.nanmean(kp_err[used])),
+        silhouette_iou=float(np.nanmean(fits.silhouette_iou[used])),
+        silhouette_iou_body=float(np.nanmean((fits.silhouette_iou if fits.silhouette_iou_body is None
+                                              else fits.silhouette_iou_body)[used])),
+        offset_mean_mm=None if fits.offsets is None else float(fits.offsets.mean() * 1000),
+        offset_max_mm=None if fits.offsets is None else float(fits.offsets.max() * 1000),
+        jitter=jitter_mm(verts),
+        filter_precision=precision,
+        filter_recall=recall,
+        rejected=len(rejected),
+    )
 
 
 def run(args) -> int:
@@ -140,7 +196,7 @@ def run(args) -> int:
     gt_verts, gt_roots = _vertices(model, gt.rotvecs, gt.transl, gt.shape)
     camera = project.camera()
     inputs = load_fit_inputs(project, camera, base.silhouette_resolution, base.iou_resolution)
-    results: dict[str, dict] = {}
+    results: dict[str, ConfigRow] = {}
     for key in keys:
         cfg = base.replace(**ABLATION[key])
         print(f"fitting: {key}")
@@ -148,23 +204,23 @@ def run(args) -> int:
         state = fit_sequence(model, inputs, cfg, device=torch.device("cpu"))
         fits, rejected = finalize(model, inputs, cfg, state)
         seconds = time.perf_counter() - t0
-        row = evaluate_config(model, fits, rejected, gt, gt_verts, gt_roots)
-        row["frames_per_second"] = inputs.num_frames / seconds
-        row["seconds"] = seconds
+        row = ConfigRow(evaluate_config(model, fits, rejected, gt, gt_verts, gt_roots), inputs.num_frames / seconds,
+                        seconds)
         results[key] = row
-        print("  " + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in row.items()))
-    base_jitter = results.get("baseline", {}).get("jitter")
-    for row in results.values():
-        row["jitter_reduction"] = None if not base_jitter else 1.0 - row["jitter"] / base_jitter
+        print("  " + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
+                               for k, v in row.measured().items()))
+    base_jitter = results["baseline"].quality.jitter if "baseline" in results else None
+    results = {k: replace(row, jitter_reduction=None if not base_jitter else 1.0 - row.quality.jitter / base_jitter)
+               for k, row in results.items()}
     summary = {
         "capture": {"project": str(project.root), "frames": project.num_frames, "size": list(project.image_size),
                     "corrupted_frames": int(gt.corrupted.sum()), "true_jitter": jitter_mm(gt_verts),
                     "keypoints": project.manifest.get("source", {}).get("keypoints")},
         "fit_preset": args.fit_preset,
         "machine": machine_info(),
-        "configs": results,
+        "configs": {k: row.to_dict() for k, row in results.items()},
     }
-    rows = [{"config": k, **v} for k, v in results.items()]
+    rows = [{"config": k, **row.to_dict()} for k, row in results.items()]
     md = (f"# Mesh fitting ablation\n\nCapture: {project.num_frames} frames, "
           f"{project.image_size[0]}x{project.image_size[1]}, {summary['capture']['corrupted_frames']} corrupted; "
           f"true motion jitter {summary['capture']['true_jitter']:.2f} mm/frame^2.\n\n"

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from morf.bench.pareto_results import PAPER_NOTE, QUALITY, PointRow, SweepResult
+from morf.bench.pareto_results import PAPER_NOTE, QUALITY, FloorPoint, PointRow, SweepResult
 from morf.bench.train_eval import TrainEvaluation
 
 
@@ -255,7 +255,7 @@ def seed_spread(rows: list[PointRow]) -> dict | None:
             "std_db": float(q.std(ddof=1))}
 
 
-def floor_point(project, sweep, model) -> dict:
+def floor_point(project, sweep, model) -> FloorPoint:
     """The RGB floor (no learning, :mod:`morf.train.floor`) on the base point's frames, scored as
     the points are; its playback speed is not measured (it cannot be exported)."""
     from morf.bench.train_eval import holdout_quality
@@ -266,18 +266,17 @@ def floor_point(project, sweep, model) -> dict:
     res = train_floor(project, floor_request(base.resolution, base.holdout), f"pareto-rgb-{base.resolution}",
                       "ground-truth", model)
     m = holdout_quality(project, res.run_dir, model, base.resolution)
-    return {"name": "rgb floor", "run": str(res.run_dir), "fps": None,
-            **{k: getattr(m, k) for k in (QUALITY, "ssim_person", "psnr", "temporal")}}
+    return FloorPoint(str(res.run_dir), m.psnr_person, m.ssim_person, m.psnr, m.temporal)
 
 
 def charts(rows: list[dict], front: dict, out: Path, fps_size: int, title: str,
-           noise: dict | None = None, floor: dict | None = None) -> list[str]:
+           noise: dict | None = None, floor: FloorPoint | None = None) -> list[str]:
     from morf.bench.charts import front_chart
 
     paper = fps_size == 640
     base = next((r for r in rows if r["axis"] == "base"), None)
     spread = lambda x: (base[x], min(noise[QUALITY]), max(noise[QUALITY])) if noise and base else None  # noqa: E731
-    ref = {"reference_y": floor[QUALITY], "reference_label": "rgb floor"} if floor else {}
+    ref = {"reference_y": floor.metric(QUALITY), "reference_label": floor.name} if floor is not None else {}
     a = front_chart(rows, "fps", QUALITY, front["fps"], out / "pareto_fps.png", spread=spread("fps"), **ref,
                     title=f"{title}: quality vs live fps", xlabel=f"fps at {fps_size}x{fps_size}, end to end, this CPU",
                     ylabel="hold-out PSNR on the person (dB)", target_x=30.0 if paper else None,
@@ -398,7 +397,7 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
           + (f"The base point over {len(noise['points'])} seeds spans {noise['range_db']:.2f} dB of {QUALITY} "
              f"(std {noise['std_db']:.2f} dB): differences smaller than that are within training noise; "
              "the seed points stay off the fronts.\n\n" if noise else "")
-          + f"RGB floor (no learning, `{Path(floor['run']).name}`): {floor[QUALITY]:.2f} dB {QUALITY} on the same "
+          + f"RGB floor (no learning, `{Path(floor.run).name}`): {floor.metric(QUALITY):.2f} dB {QUALITY} on the same "
             "hold-out; its speed is not measured, so the charts draw it as a horizontal line.\n\n"
           + f"{PAPER_NOTE}\n")
     path = write_results(out, "pareto", result.to_dict(), md)

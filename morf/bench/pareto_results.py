@@ -5,6 +5,7 @@ as measured, and its row in ``pareto.json``'s "points" with what the whole sweep
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 from morf.bench.train_eval import RunSpeed, TrainEvaluation
 
@@ -82,6 +83,39 @@ class PointRow:
 
 
 @dataclass(frozen=True)
+class FloorPoint:
+    """The RGB floor (no learning) on the base point's frames, scored as the points are
+    (:func:`morf.bench.pareto.floor_point`); its playback speed is not measured (it cannot be exported).
+
+    Fields:
+        run: its run folder; psnr_person, psnr: hold-out PSNR over the person and the image, dB;
+        ssim_person: hold-out SSIM over the person; temporal: flicker (lower is better; NaN with
+        fewer than two frames). The same for every floor: name "rgb floor", fps None (not measured).
+    """
+
+    run: str
+    psnr_person: float | None
+    ssim_person: float | None
+    psnr: float | None
+    temporal: float
+
+    name: ClassVar[str] = "rgb floor"
+    fps: ClassVar[None] = None
+
+    def metric(self, key: str) -> float | None:
+        """A hold-out figure by name (``fps`` is None), as :meth:`PointRow.metric`."""
+        return getattr(self, key)
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "run": self.run, "fps": self.fps, "psnr_person": self.psnr_person,
+                "ssim_person": self.ssim_person, "psnr": self.psnr, "temporal": self.temporal}
+
+    @staticmethod
+    def from_dict(d: dict) -> FloorPoint:
+        return FloorPoint(d["run"], d["psnr_person"], d["ssim_person"], d["psnr"], d["temporal"])
+
+
+@dataclass(frozen=True)
 class SweepResult:
     """``pareto.json``.
 
@@ -89,8 +123,8 @@ class SweepResult:
         preset, scene: the sweep preset and the capture's scene; project: the capture's folder;
         fps_size: playback is timed at fps_size^2; points: every point's row, fronts marked;
         seed_spread: :func:`morf.bench.pareto.seed_spread` (None without seed points); reused: the
-        points loaded from ``OUT/points`` unmeasured; seeds: trainings per point; floor:
-        :func:`morf.bench.pareto.floor_point`; ray: {"address", "cpus_per_task"} of the trainings;
+        points loaded from ``OUT/points`` unmeasured; seeds: trainings per point; floor: the RGB
+        floor (:func:`morf.bench.pareto.floor_point`); ray: {"address", "cpus_per_task"} of the trainings;
         machine: :func:`morf.bench.common.machine_info`; charts: the PNGs written.
     """
 
@@ -102,7 +136,7 @@ class SweepResult:
     seed_spread: dict | None
     reused: tuple[str, ...]
     seeds: int
-    floor: dict
+    floor: FloorPoint
     ray: dict
     machine: dict
     charts: tuple[str, ...]
@@ -120,7 +154,7 @@ class SweepResult:
                 "quality_metric": QUALITY, "fps_size": self.fps_size, "fps_precision_default": "int8",
                 "points": [p.to_dict() for p in self.points], "front_fps": self.front_fps,
                 "front_train": self.front_train, "seed_spread": self.seed_spread, "reused": list(self.reused),
-                "seeds": self.seeds, "floor": self.floor, "ray": self.ray,
+                "seeds": self.seeds, "floor": self.floor.to_dict(), "ray": self.ray,
                 "paper_reference": {"fps": 30, "size": 640, "device": "Snapdragon 888", "params_m": 14.4,
                                     "ssim": 0.899, "lpips": 0.0623, "tlpips": 0.00466, "comparable": ["fps"],
                                     "note": PAPER_NOTE},

@@ -113,7 +113,7 @@ def run_quality(out: Path, preset: str, methods: list[str], *, seeds: int = 1, h
                                               sheet_runs=tuple(first.values()), lpips=lpips, vgg=vgg),
                           model, say=print)
     print(format_table(ev))
-    keys = sorted(ev["targets"], key=lambda k: k != "novel-poses")  # novel poses first, as before
+    keys = sorted(ev.targets, key=lambda k: k != "novel-poses")  # novel poses first, as before
     blocks = [block_scores(ev, k, runs) for k in keys]
     blocks = [(b, block_checks(b, FLOOR)) for b in blocks]
     plateaus = [r.plateau_minutes for r in runs if r.method == "morf" and r.plateau_minutes is not None]
@@ -125,7 +125,7 @@ def run_quality(out: Path, preset: str, methods: list[str], *, seeds: int = 1, h
               "runs": [r.to_dict() for r in runs], "training_checks": training.to_dict(),
               "targets_missed": [f"{k}: {n}" for k, c in every for n, met in c.met.items() if met is False],
               "targets_not_measured": [f"{k}: {n}" for k, c in every for n, met in c.met.items() if met is None],
-              "eval": "eval.json", "lpips": ev["lpips"], "machine": machine_info(),
+              "eval": "eval.json", "lpips": ev.lpips, "machine": machine_info(),
               # the load average says how much of the shared CPU the run actually had
               "load_average": list(os.getloadavg())}
     path = write_results(out, "quality", result, quality_markdown(head, blocks, runs, training))

@@ -97,7 +97,7 @@ def _train(project, plan: TrainPlan, method: str, seed: int, model) -> BenchRun:
         return BenchRun(method, seed, name, diverged=True, wall_minutes=(time.time() - t0) / 60, error=str(e))
     plat = None if method == FLOOR else run_plateau(res.run_dir)
     return BenchRun(method, seed, name, train_minutes=res.train_minutes, wall_minutes=(time.time() - t0) / 60,
-                    steps=res.step, plateau_minutes=None if plat is None else plat["minutes"])
+                    steps=res.step, plateau_minutes=None if plat is None else plat.minutes)
 
 
 def _check_existing(run_dir: Path, cfg, fits: str) -> bool:

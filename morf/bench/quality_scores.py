@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from morf.bench.quality_runs import BenchRun
+from morf.evaluate.results import EvalResult
 
 # the LPIPS means are None when morf eval had no LPIPS weights
 METRICS = ("psnr", "psnr_person", "ssim", "ssim_person", "temporal", "lpips", "lpips_person")
@@ -63,21 +64,21 @@ def _spread(values: list) -> float | None:
     return max(vals) - min(vals) if len(vals) > 1 else None
 
 
-def method_scores(method: str, runs: list[BenchRun], eval_result: dict, key: str) -> MethodScores:
-    """The scores of one method's runs on target ``key`` of an eval.json."""
+def method_scores(method: str, runs: list[BenchRun], eval_result: EvalResult, key: str) -> MethodScores:
+    """The scores of one method's runs on target ``key`` of an evaluation."""
     seeds = []
     for r in runs:
-        m = None if r.diverged else eval_result["runs"].get(r.name, {}).get("targets", {}).get(key)
+        m = None if r.diverged else eval_result.scores(r.name, key)
         if m is not None:
-            seeds.append({"seed": r.seed, "run": r.name, **{k: m.get(k) for k in METRICS}})
+            seeds.append({"seed": r.seed, "run": r.name, **{k: m.metric(k) for k in METRICS}})
     return MethodScores(method, {k: _mean([s[k] for s in seeds]) for k in METRICS}, tuple(seeds),
                         {k: _spread([s[k] for s in seeds]) for k in SPREAD_KEYS},
                         sum(1 for r in runs if r.diverged))
 
 
-def block_scores(eval_result: dict, key: str, runs: list[BenchRun]) -> BlockScores:
+def block_scores(eval_result: EvalResult, key: str, runs: list[BenchRun]) -> BlockScores:
     """Every method's scores on target ``key``, in the order the runs were trained (floor last)."""
-    target = eval_result["targets"][key]
+    target = eval_result.targets[key]
     methods = list(dict.fromkeys(r.method for r in runs))
-    return BlockScores(key, target["title"], len(target["frame_ids"]), target["sheet"], target["slices"],
+    return BlockScores(key, target.title, len(target.frame_ids), target.sheet, target.slices,
                        {m: method_scores(m, [r for r in runs if r.method == m], eval_result, key) for m in methods})

@@ -45,6 +45,7 @@ from morf.io import atomic_write_json, load_npz, read_image, save_npz, write_ima
 FORMAT = "morf-capture"
 VERSION = 1
 MANIFEST = "morf_project.json"
+FITS_DIR = "fits"  # PROJECT/fits/: CaptureProject.fits_dir
 
 
 @dataclass(frozen=True)
@@ -288,7 +289,15 @@ class CaptureProject:
     # ---- stage folders ------------------------------------------------------------------
     @property
     def fits_dir(self) -> Path:
-        return self.root / "fits"
+        return self.root / FITS_DIR
+
+    @staticmethod
+    def fits_owner(path: str | Path) -> Path | None:
+        """``ROOT`` when ``path`` names a file in ``ROOT``'s fits folder (``ROOT/fits/NAME``, like
+        :attr:`fits_path`), else None. ``path`` is taken as given (resolve it first to follow links);
+        ``ROOT`` need not be a project (:meth:`is_project` tells)."""
+        path = Path(path)
+        return path.parent.parent if path.parent.name == FITS_DIR else None
 
     @property
     def fits_path(self) -> Path:

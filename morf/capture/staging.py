@@ -17,11 +17,11 @@ import tempfile
 from pathlib import Path
 from typing import Iterator
 
-from morf.capture.project import CaptureProject
+from morf.capture.project import FITS_DIR, CaptureProject
 from morf.errors import ProjectError
 
 # Folders whose content was made from the current frames; replacing the frames orphans them.
-LATER_STAGES = ("fits", "runs", "avatar", "ground_truth")
+LATER_STAGES = (FITS_DIR, "runs", "avatar", "ground_truth")
 
 
 def check_replaceable(root: Path, force: bool) -> bool:

@@ -22,8 +22,8 @@ def add_parser(sub):
     p = sub.add_parser("demo", help="run the whole pipeline on a built-in synthetic capture")
     p.add_argument("dir", nargs="?", default="demo", help="demo folder (created; default ./demo)")
     default = default_preset("demo")  # the presets: morf/presets/demo.py
-    p.add_argument("--preset", choices=sorted(presets_of("demo")), default=default,
-                   help=f"how big a run (default {default})")
+    p.add_argument("--preset", choices=tuple(presets_of("demo")), default=default,
+                   help=f"how big a run: {' | '.join(presets_of('demo'))} (default {default})")
     p.add_argument("--motion", default=None, help=f"motion to animate, .bvh or AMASS .npz (default: {DEMO_MOTION}, "
                                                    "shipped with morf)")
     return p

@@ -54,5 +54,5 @@ def run(args) -> int:
     result = evaluate_project(project, cfg, say=print)
     print(format_table(result))
     out = Path(args.out) if args.out else Path(project.root) / "eval"
-    print(f"wrote {out / 'eval.json'} and {2 * len(result['targets'])} images")
+    print(f"wrote {out / 'eval.json'} and {2 * len(result.targets)} images")
     return 0

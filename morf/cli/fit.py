@@ -10,8 +10,9 @@ def add_parser(sub):
 
     p = sub.add_parser("fit", help="fit the body model to every frame (keypoints, silhouettes, temporal smoothing)")
     p.add_argument("project", help="capture project folder")
-    p.add_argument("--preset", default=None,
-                   help=f"fit preset: {' | '.join(PRESETS['fit'])} (default: {default_preset('fit')})")
+    p.add_argument("--preset", choices=tuple(PRESETS["fit"]), default=None,
+                   help=f"fit preset: {' | '.join(PRESETS['fit'])} (default: {default_preset('fit')}; default, cpu "
+                        "and gpu are one config; fast: fewer steps; tiny: tests; baseline: no refinements)")
     p.add_argument("--focal", type=float, default=None, help="focal length in pixels (overrides the project's camera)")
     p.add_argument("--restart", action="store_true", help="start over instead of resuming from the last completed stage")
     p.add_argument("--device", default=None, help="torch device (default: cuda when available, else cpu)")

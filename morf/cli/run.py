@@ -29,9 +29,10 @@ def add_parser(sub):
                    help="the video to ingest (needed only while the project does not exist yet)")
     p.add_argument("--until", choices=STAGES, default="export", help="stop after this stage (default export)")
     p.add_argument("--preset", choices=(*PRESETS["train"], "auto"), default=None,
-                   help="training size (as 'morf train --preset'; tiny also fits with the tiny fit preset); "
-                        "default: the last 'morf run' on the project's, else its latest training run's, else "
-                        "gpu with CUDA and cpu without")
+                   help=f"training size: {' | '.join((*PRESETS['train'], 'auto'))} (as 'morf train --preset'; "
+                        "tiny, cpu and gpu also name the fit preset, auto fits with the default one); default: the "
+                        "last 'morf run' on the project's, else its latest training run's, else gpu with CUDA and "
+                        "cpu without")
     p.add_argument("--holdout", type=int, default=None, metavar="K",
                    help="keep every K-th usable frame out of training for 'morf eval' (K >= 2; default: the "
                         "last 'morf run' on the project's, else none)")
@@ -199,10 +200,8 @@ def _latest_run(root: Path) -> tuple[str, str] | None:
 
 
 def _fit_preset(train_preset: str) -> str:
-    """The fit preset that goes with a training size: the tiny fit for the tiny training (when
-    there is one), else the default fit."""
+    """The fit preset that goes with a training size: the one of the same name (tiny, cpu, gpu:
+    the names every stage has), else (auto) the default fit."""
     from morf.presets import PRESETS, default_preset
 
-    if train_preset == "tiny":
-        return "tiny" if "tiny" in PRESETS["fit"] else "fast"
-    return default_preset("fit")
+    return train_preset if train_preset in PRESETS["fit"] else default_preset("fit")

@@ -21,8 +21,9 @@ def add_parser(sub):
                        description="Render a person turning in place (Anny body, procedural clothes) into a "
                                    "capture project, plus ground_truth/ with poses, camera and a hold-out set.")
     p.add_argument("project", help="folder to create (must be new or empty)")
-    p.add_argument("--preset", choices=sorted(PRESETS["synth"]), default=None,
-                   help=f"size preset (default: {default_preset('synth')})")
+    p.add_argument("--preset", choices=tuple(PRESETS["synth"]), default=None,
+                   help=f"size preset: {' | '.join(PRESETS['synth'])} (default: {default_preset('synth')}; default, "
+                        "cpu and gpu are one capture, each recording its name; tiny: tests)")
     p.add_argument("--seed", type=int, help="random seed (clothes, shape, motion, nuisances)")
     p.add_argument("--frames", type=int, help="number of capture frames")
     p.add_argument("--holdout-frames", type=int, help="number of novel-pose hold-out frames")

@@ -14,7 +14,6 @@ images, :mod:`morf.evaluate.perceptual`) is computed when its weights are on dis
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
@@ -22,13 +21,14 @@ from typing import Callable
 import torch
 
 from morf.errors import ProjectError
+from morf.evaluate.results import EvalResult, RunScores, TargetEntry, TargetScores
 from morf.evaluate.runs import RunInfo, find_floor, floor_run_name, free_for_floor, read_run, select_runs
 from morf.evaluate.targets import EvalTarget, holdout_target, novel_poses_target, dataset_test_target, trained_on
 
 LPIPS_NOTE = ("not computed: no LPIPS weights given (--lpips PATH or $MORF_LPIPS_WEIGHTS: the lpips package's "
               "weights/v0.1/vgg.pth, with the VGG-16 weights from --vgg PATH or $MORF_VGG16_WEIGHTS)")
 METRIC_KEYS = ("psnr", "psnr_person", "ssim", "ssim_person", "temporal")
-LPIPS_KEYS = ("lpips", "lpips_person")
+LPIPS_KEYS = ("lpips", "lpips_person")  # TargetScores' LPIPS fields
 
 
 def lpips_note(metric) -> str:
@@ -76,11 +76,7 @@ class _TargetResults:
     real: object = None  # SequenceViews of the real frames at the largest side seen
     real_side: int = 0
     rows: list[int] = field(default_factory=list)
-    scored: list = field(default_factory=list)  # (RunInfo, metrics, SequenceViews)
-
-
-def _clean(metrics: dict) -> dict:
-    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in metrics.items()}
+    scored: list = field(default_factory=list)  # (RunInfo, TargetScores, SequenceViews)
 
 
 def ensure_floors(project, runs: list[RunInfo], model, say: Callable[[str], None]) -> list[RunInfo]:
@@ -110,8 +106,8 @@ def ensure_floors(project, runs: list[RunInfo], model, say: Callable[[str], None
 
 
 def evaluate_project(project, cfg: EvalConfig = EvalConfig(), model=None,
-                     say: Callable[[str], None] = lambda line: None) -> dict:
-    """Evaluate, write everything into the output folder, and return the eval.json content."""
+                     say: Callable[[str], None] = lambda line: None) -> EvalResult:
+    """Evaluate, write everything into the output folder, and return what eval.json holds."""
     from morf.avatar.lpips import find_lpips
     from morf.train.data import load_body_fits
     from morf.train.trained_avatar import load_trained_avatar
@@ -147,23 +143,21 @@ def evaluate_project(project, cfg: EvalConfig = EvalConfig(), model=None,
             skipped[run.name] = ("trained on every usable frame and the project has no hold-out sequence or test "
                                  "labels; retrain with --holdout K")
             continue
-        entry = {"method": run.config.method, "holdout": run.holdout, "train_resolution": run.config.resolution,
-                 "fits": run.fits_source, "floor": run.is_floor, "targets": {}}
+        scores = {}
         for target in mine:
             tr = _target_slot(targets, target)
-            metrics = _score(project, model, avatar, run, target, fits, tr, cfg, metric, say)
-            entry["targets"][tr.target.key] = metrics
-        report_runs[run.name] = entry
+            scores[tr.target.key] = _score(project, model, avatar, run, target, fits, tr, cfg, metric, say)
+        report_runs[run.name] = RunScores(run.config.method, run.holdout, run.config.resolution, run.fits_source,
+                                          run.is_floor, scores)
     if not targets:
         raise ProjectError("nothing to evaluate: " + "; ".join(f"{k}: {v}" for k, v in skipped.items()))
     out = Path(cfg.out) if cfg.out else Path(project.root) / "eval"
     order = sorted(targets, key=lambda k: (k == "novel-poses", k))  # capture frames first
-    result = {"project": str(Path(project.root).resolve()), "resolution": cfg.resolution or "training",
-              "lpips": lpips_note(metric), "runs": report_runs, "skipped": skipped,
-              "targets": {k: _write_target(targets[k], out) for k in order}}
+    result = EvalResult(str(Path(project.root).resolve()), cfg.resolution or "training", lpips_note(metric),
+                        report_runs, skipped, {k: _write_target(targets[k], out) for k in order})
     from morf.io import atomic_write_json
 
-    atomic_write_json(out / "eval.json", result)
+    atomic_write_json(out / "eval.json", result.to_dict())
     return result
 
 
@@ -178,7 +172,7 @@ def _target_slot(targets: dict, target: EvalTarget) -> _TargetResults:
 
 
 def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _TargetResults, cfg: EvalConfig,
-           metric, say) -> dict:
+           metric, say) -> TargetScores:
     from morf.evaluate.frames import eval_side, scaled_camera, target_frames
     from morf.evaluate.views import person_column, real_views, render_views, sheet_rows
     from morf.train.project_run import evaluate_frames
@@ -188,34 +182,35 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
     say(f"{run.name}: {tr.target.key}, {frames.num_frames} frames at {side} px")
     scores = evaluate_frames(avatar, frames)
     colour = torch.tensor(scores.background, dtype=torch.float32)
-    metrics = _clean(scores.to_dict())
     if tr.column is None:
         tr.column, tr.rows = person_column(frames), sheet_rows(frames.num_frames, cfg.sheet_rows)
+    views = None
     if cfg.on_sheet(run):
         if side > tr.real_side:
             tr.real, tr.real_side = real_views(frames, colour, tr.rows, tr.column), side
-        tr.scored.append((run, metrics, render_views(avatar, frames, colour, tr.rows, tr.column)))
+        views = render_views(avatar, frames, colour, tr.rows, tr.column)
+    lpips = None
     if metric is not None:
         from morf.evaluate.perceptual import lpips_scores
 
-        metrics.update(lpips_scores(metric, avatar, frames, colour))
-    else:
-        metrics.update(dict.fromkeys(LPIPS_KEYS))
-    metrics["resolution"] = side
-    if target.kind == "capture":  # how many of these frames the run trained on (0 for its own hold-out)
-        metrics["trained_on"] = trained_on(project, fits, run.holdout, target.frame_ids)
-    return metrics
+        lpips = lpips_scores(metric, avatar, frames, colour)
+    # how many of these frames the run trained on (0 for its own hold-out); None for the novel poses
+    seen = trained_on(project, fits, run.holdout, target.frame_ids) if target.kind == "capture" else None
+    result = TargetScores.of(scores, lpips, side, seen)
+    if views is not None:
+        tr.scored.append((run, result, views))
+    return result
 
 
-def _write_target(tr: _TargetResults, out: Path) -> dict:
+def _write_target(tr: _TargetResults, out: Path) -> TargetEntry:
     """Write the target's sheet and y-t image; its eval.json entry."""
     from morf.evaluate.sheet import Column, comparison_sheet, yt_slices
     from morf.io import write_image
 
     t = tr.target
 
-    def label(run, m):
-        p = m.get("psnr_person")
+    def label(run, m: TargetScores):
+        p = m.psnr_person
         return (run.name, "person PSNR " + (f"{p:.2f} dB" if p is not None else "n/a"))
 
     ordered = [s for s in tr.scored if not s[0].is_floor] + [s for s in tr.scored if s[0].is_floor]
@@ -227,36 +222,30 @@ def _write_target(tr: _TargetResults, out: Path) -> dict:
                                  f"time runs left to right over {len(t.frame_ids)} frames"))
     write_image(out / f"sheet-{t.key}.png", sheet)
     write_image(out / f"yt-{t.key}.png", slices)
-    return {"title": t.title, "holdout": t.holdout, "frame_ids": list(t.frame_ids), "sheet_frames": ids,
-            "columns": ["real"] + [run.name for run, _, _ in ordered], "slice_column": round(tr.column, 4),
-            "sheet": f"sheet-{t.key}.png", "sheet_size": [sheet.shape[1], sheet.shape[0]],
-            "slices": f"yt-{t.key}.png", "slices_size": [slices.shape[1], slices.shape[0]]}
+    names = ("real",) + tuple(run.name for run, _, _ in ordered)
+    return TargetEntry(t.title, t.holdout, tuple(t.frame_ids), tuple(ids), names, round(tr.column, 4),
+                       f"sheet-{t.key}.png", (sheet.shape[1], sheet.shape[0]), f"yt-{t.key}.png",
+                       (slices.shape[1], slices.shape[0]))
 
 
-def format_table(result: dict) -> str:
+def format_table(result: EvalResult) -> str:
     """A short plain-text table of the scores, one block per target."""
     lines = []
-    lpips = any(m.get(k) is not None for e in result["runs"].values() for m in e["targets"].values()
+    lpips = any(m.metric(k) is not None for e in result.runs.values() for m in e.targets.values()
                 for k in LPIPS_KEYS)  # LPIPS columns only when computed
-    for key, t in result["targets"].items():
-        lines.append(f"{key}: {t['title']}, {len(t['frame_ids'])} frames")
+    for key, t in result.targets.items():
+        lines.append(f"{key}: {t.title}, {len(t.frame_ids)} frames")
         lines.append(f"  {'run':<24} {'px':>5} {'PSNR':>7} {'person':>7} {'SSIM':>6} {'person':>6} {'flicker':>8}"
                      + (f" {'LPIPS':>6} {'person':>6}" if lpips else ""))
-        for name in scored_runs(result, key):
-            m = result["runs"][name]["targets"][key]
+        for name in result.scored_runs(key):
+            m = result.runs[name].targets[key]
 
             def f(k, fmt):
-                return format(m[k], fmt) if m.get(k) is not None else "n/a"
+                return format(m.metric(k), fmt) if m.metric(k) is not None else "n/a"
 
-            lines.append(f"  {name:<24} {m['resolution']:>5} {f('psnr', '7.2f'):>7} {f('psnr_person', '7.2f'):>7} "
+            lines.append(f"  {name:<24} {m.resolution:>5} {f('psnr', '7.2f'):>7} {f('psnr_person', '7.2f'):>7} "
                          f"{f('ssim', '6.3f'):>6} {f('ssim_person', '6.3f'):>6} {f('temporal', '8.4f'):>8}"
                          + (f" {f('lpips', '6.3f'):>6} {f('lpips_person', '6.3f'):>6}" if lpips else ""))
-    for name, why in result["skipped"].items():
+    for name, why in result.skipped.items():
         lines.append(f"skipped {name}: {why}")
     return "\n".join(lines)
-
-
-def scored_runs(result: dict, key: str) -> list[str]:
-    """The runs of an eval.json scored on target ``key``, the floors last (the sheet's order)."""
-    scored = [(n, e["floor"]) for n, e in result["runs"].items() if key in e["targets"]]
-    return [n for n, floor in scored if not floor] + [n for n, floor in scored if floor]

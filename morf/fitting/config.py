@@ -185,15 +185,22 @@ def _with_iterations(stages: tuple[StageConfig, ...], *iterations: int) -> tuple
     return tuple(dataclasses.replace(s, iterations=n) for s, n in zip(stages, iterations, strict=True))
 
 
-# Named presets: "default" for real use; "fast" for previews; "tiny" for tests (a few seconds on a
-# dozen small frames, far from converged); "baseline" is SMPLify-style fitting without any of the
-# paper's refinements.
+# Named presets: "cpu" / "gpu" for real use, "default" the one a fit runs with when none is named
+# (the device's preset: all three are one config, and a FitConfig records no name, so
+# fits/fit_config.json is the same whichever was named); "fast" for previews; "tiny" for tests (a
+# few seconds on a dozen small frames, far from converged); "baseline" is SMPLify-style fitting
+# without any of the paper's refinements. New names go after "default": a stopped fit resumes under
+# the first name whose config matches (morf.cli.project_steps.fit_options).
+_DEVICE_DEFAULT = FitConfig()
 PRESETS: dict[str, FitConfig] = {
-    "default": FitConfig(),
+    "default": _DEVICE_DEFAULT,
     # the last stage keeps 32 of its 60 steps: 24 left the shape and offsets visibly unconverged
     "fast": FitConfig(stages=_scaled(default_stages(), 0.4, 0.4, 0.53), overlays=False),
     "tiny": FitConfig(stages=_with_iterations(default_stages(), 10, 20, 6)),
     "baseline": FitConfig(shared_shape=False, silhouette=False, temporal=False, frame_filter=False),
+    # cpu = gpu = default: the steps are where a per-frame fit converges, not a compute budget (no heavier fit measured)
+    "cpu": _DEVICE_DEFAULT,
+    "gpu": _DEVICE_DEFAULT,
 }
 
 

@@ -1,5 +1,6 @@
 """Body fits on disk (``CaptureProject.fits_path``, PROJECT/fits/fits.npz): the one reader and
-writer of that file; later stages call :func:`load_fits`."""
+writer of that file; later stages call :func:`load_fits`. Torch-free (the player reads fits through
+``morf.motion.formats``): import nothing here that brings torch."""
 
 from __future__ import annotations
 
@@ -53,6 +54,11 @@ class BodyFits:
     def shape_of(self, i: int) -> np.ndarray:
         """(1, S) the shape of frame ``i``."""
         return self.shape[:1] if self.shape.shape[0] == 1 else self.shape[i:i + 1]
+
+
+# The arrays that mark an .npz as a fits file: written by :func:`save_fits` beside rotvecs / transl
+# and held by no other motion .npz (:func:`morf.motion.formats.npz_motion_kind` tells kinds by them).
+FITS_ONLY_KEYS = ("keypoint_residual_px", "projected_keypoints")
 
 
 def save_fits(path: str | Path, fits: BodyFits) -> None:

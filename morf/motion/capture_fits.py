@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from morf.capture.project import CaptureProject
 from morf.errors import InputError, MorfError
 from morf.motion.anny_rest import target_rest
 from morf.motion.clip import MotionClip, at_uniform_times, resample
@@ -28,12 +29,10 @@ FITS_DEFAULT_FPS = 30.0  # fits outside a capture project with a known frame rat
 
 
 def project_timing(path: Path) -> tuple[float | None, np.ndarray | None]:
-    """(frame rate, per-frame times in seconds) of the capture project holding ``path``
-    (``PROJECT/fits/fits.npz``); (None, None) outside a project, times None when it knows none."""
-    from morf.capture.project import MANIFEST, CaptureProject
-
-    root = path.resolve().parent.parent
-    if not (root / MANIFEST).is_file():
+    """(frame rate, per-frame times in seconds) of the capture project whose fits folder holds
+    ``path`` (its ``fits_path``); (None, None) outside a project, times None when it knows none."""
+    root = CaptureProject.fits_owner(path.resolve())
+    if root is None or not CaptureProject.is_project(root):
         return None, None
     try:
         project = CaptureProject.open(root)
@@ -106,7 +105,8 @@ def clip_from_fits(path: str | Path, model, shape: torch.Tensor | None = None, f
                          f"{model.default_shape().shape[1]}")
     scale = target_rest(model, shape).leg_length / target_rest(model, source_shape).leg_length
     transl[:, :2] *= scale
-    name = path.parent.parent.name if path.parent.name == "fits" else path.stem
+    owner = CaptureProject.fits_owner(path)  # the capture's folder names the clip
+    name = owner.name if owner is not None else path.stem
     clip = MotionClip(rotvecs.astype(np.float32), transl.astype(np.float32), rate, name,
                       f"fits:{path} ({fits.num_frames} frames, scale {scale:.3f})")
     if config.fps is not None and abs(config.fps - rate) > 1e-6:

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from morf.errors import InputError
+from morf.fitting.fits_io import FITS_ONLY_KEYS  # torch-free, like this module
 from morf.motion.amass import stored_fps
 from morf.motion.clip import MotionClip
 
@@ -30,9 +31,6 @@ EXPECTED_NPZ = ("a MoRF clip (rotvecs (T,J,3), transl (T,3), fps), AMASS SMPL-H 
                 "(T,165), trans), SMPL / AIST++ (poses or smpl_poses (T,72), trans or smpl_trans) "
                 "or a capture's fits/fits.npz")
 
-# Arrays only a capture's fits file has beside rotvecs / transl.
-FITS_MARKERS = ("keypoint_residual_px", "projected_keypoints")
-
 
 def npz_motion_kind(arrays: dict[str, np.ndarray]) -> str | None:
     """"clip", "player", "fits", "amass", "smpl" (see the module docstring) or None."""
@@ -40,7 +38,7 @@ def npz_motion_kind(arrays: dict[str, np.ndarray]) -> str | None:
     if "morf_motion_version" in keys:
         return "clip"
     if {"rotvecs", "transl"} <= keys:
-        return "fits" if any(k in keys for k in FITS_MARKERS) else "player"
+        return "fits" if any(k in keys for k in FITS_ONLY_KEYS) else "player"
     if "smpl_poses" in keys:
         return "smpl"
     poses = arrays.get("poses")

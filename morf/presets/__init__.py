@@ -32,6 +32,9 @@ PRESETS: Mapping[str, Mapping[str, Any]] = {
     "stability": STABILITY_PRESETS,  # morf bench stability
     "sweep": SWEEP_PRESETS,  # morf bench pareto (and its --auto-check)
 }
+# the names every pipeline stage (synth, fit, train) answers to, so that one name can go to each
+# stage: "tiny" for tests, "cpu" / "gpu" for the device a run is on (the same config for synth and fit)
+COMMON_NAMES = ("tiny", "cpu", "gpu")
 # stage -> the preset it runs with when none is named, where that is not "default" (training: by device)
 DEFAULTS: Mapping[str, str] = {"demo": "quick"}
 
@@ -53,7 +56,9 @@ def preset(stage: str, name: str) -> Any:
 
 def default_preset(stage: str) -> str:
     """The preset ``stage`` runs with when none is named: "gpu" for training when CUDA is present,
-    "cpu" for training without it, "quick" for the demo, "default" for the other stages."""
+    "cpu" for training without it, "quick" for the demo, "default" for the other stages. For synth
+    and fit, "default" is the device's preset by another name (cpu and gpu are one config there),
+    kept so that what a stage records (a capture's preset) stays what it always was."""
     presets_of(stage)
     if stage == "train":
         import torch

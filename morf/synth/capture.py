@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from morf.camera import PinholeCamera
-from morf.capture.project import MANIFEST, CaptureProject, Keypoints2D
+from morf.capture.project import FITS_DIR, MANIFEST, CaptureProject, Keypoints2D
 from morf.errors import InputError
 from morf.io import atomic_write_json, write_image
 from morf.pipeline.control import Progress, StageControl
@@ -43,7 +43,7 @@ from morf.synth.motion import capture_motion, holdout_motion
 from morf.synth.nuisance import SlideField, corrupt_keypoints, make_slide_field
 from morf.synth.scene import SynthScene, build_scene, posed_frames, rng_streams
 
-_OUTPUTS = ("frames", "masks", "ground_truth", "fits", "runs", "avatar", "keypoints.npz", "review.json", MANIFEST)
+_OUTPUTS = ("frames", "masks", "ground_truth", FITS_DIR, "runs", "avatar", "keypoints.npz", "review.json", MANIFEST)
 
 
 def _prepare_folder(root: Path, overwrite: bool) -> None:

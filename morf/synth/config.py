@@ -106,12 +106,16 @@ def _tuples(d: dict) -> dict:
     return d
 
 
+# "default" is what a capture is made with when no preset is named (and the name it records).
 PRESETS: dict[str, SynthConfig] = {
     # Seconds to build, for tests and CI: detector off (MediaPipe needs larger people).
     "tiny": SynthConfig(preset="tiny", frames=12, size=128, holdout_frames=4, texture_size=512,
                         detector="none"),
     # Sized for real benchmarks of fitting, training and playback.
     "default": SynthConfig(),
+    # cpu = gpu = default (but for the recorded name): a capture is data, not compute; the device changes nothing
+    "cpu": SynthConfig(preset="cpu"),
+    "gpu": SynthConfig(preset="gpu"),
 }
 
 

@@ -8,6 +8,7 @@ minutes of training time (``time_s`` of the log, which excludes time the run was
 
 from __future__ import annotations
 
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -15,8 +16,28 @@ import numpy as np
 from morf.train.run_files import METRICS_FILE, read_metrics_file
 
 
-def plateau(rows: list[dict], key: str = "l1", tolerance: float = 0.05, windows: int = 10) -> dict | None:
-    """``{"step", "minutes", "final", "tolerance"}`` of the plateau, or None with too few lines.
+@dataclass(frozen=True)
+class Plateau:
+    """Where a run stopped improving.
+
+    Fields:
+        step: the training step the plateau starts at; minutes: training minutes up to it;
+        final: the metric's mean over the last window; tolerance: relative, the gain left from
+        ``step`` on is below it; key: the metric (a metrics.jsonl field, e.g. "l1").
+    """
+
+    step: int
+    minutes: float
+    final: float
+    tolerance: float
+    key: str
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def plateau(rows: list[dict], key: str = "l1", tolerance: float = 0.05, windows: int = 10) -> Plateau | None:
+    """The plateau of ``key``, or None with too few lines.
 
     Args:
         rows: metric lines with "step", "time_s" and ``key``, in step order.
@@ -30,10 +51,9 @@ def plateau(rows: list[dict], key: str = "l1", tolerance: float = 0.05, windows:
     final = means[-1]
     ok = np.nonzero(means <= final * (1 + tolerance))[0]
     end = int(ok[0]) + w - 1
-    return {"step": int(rows[end]["step"]), "minutes": float(rows[end]["time_s"]) / 60, "final": float(final),
-            "tolerance": tolerance, "key": key}
+    return Plateau(int(rows[end]["step"]), float(rows[end]["time_s"]) / 60, float(final), tolerance, key)
 
 
-def run_plateau(run_dir: str | Path, **kwargs) -> dict | None:
+def run_plateau(run_dir: str | Path, **kwargs) -> Plateau | None:
     path = Path(run_dir) / METRICS_FILE
     return plateau(read_metrics_file(path), **kwargs) if path.is_file() else None

@@ -31,6 +31,8 @@ def test_tiny_sweep_writes_results_and_resumes(tmp_path, body_model, gl):
     assert data["paper_reference"]["comparable"] == ["fps"]
     floor = data["floor"]  # the RGB floor: a quality with no speed, a line on the charts
     assert floor["fps"] is None and floor["psnr_person"] is not None and floor["run"].endswith("pareto-rgb-64")
+    assert list(floor) == ["name", "run", "fps", "psnr_person", "ssim_person", "psnr", "temporal"]
+    assert res.floor.run == floor["run"] and res.floor.metric("psnr_person") == floor["psnr_person"]
     assert "RGB floor" in (out / "pareto.md").read_text()
     for png in ("pareto_fps.png", "pareto_train.png"):
         assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -18,10 +18,12 @@ def test_lpips_columns_only_when_scored():
     from morf.bench.quality_report import quality_markdown
     from morf.bench.quality_runs import BenchRun
     from morf.bench.quality_scores import METRICS, BlockScores, MethodScores, method_scores
+    from morf.evaluate.results import EvalResult, RunScores, TargetScores
 
-    ev = {"runs": {"bench-morf-tiny": {"targets": {"novel-poses": {
-        "psnr": 20.0, "psnr_person": 18.0, "ssim": 0.9, "ssim_person": 0.7, "temporal": 0.05,
-        "lpips": 0.25, "lpips_person": 0.4}}}}}
+    scores = TargetScores(psnr=20.0, ssim=0.9, psnr_person=18.0, ssim_person=0.7, temporal=0.05,
+                          background=(0.5, 0.5, 0.5), frames=4, lpips=0.25, lpips_person=0.4, resolution=64)
+    ev = EvalResult("p", "training", "", {"bench-morf-tiny": RunScores("morf", 0, 64, "fits", False,
+                                                                      {"novel-poses": scores})}, {}, {})
     runs = [BenchRun("morf", 0, "bench-morf-tiny")]
     scored = method_scores("morf", runs, ev, "novel-poses")
     assert set(METRICS) <= set(scored.mean) and scored.mean["lpips_person"] == 0.4

@@ -30,6 +30,18 @@ def test_eval_scores_every_run_and_the_floor(evaluated):
     assert "holdout-k3" in evaluated["stdout"] and "rgb-holdout3" in evaluated["stdout"]
 
 
+def test_eval_json_reads_back_unchanged(evaluated):
+    from morf.evaluate.results import EvalResult
+
+    ev = evaluated["eval"]
+    back = EvalResult.from_dict(ev)
+    assert json.dumps(back.to_dict()) == json.dumps(ev)  # same keys in the same order
+    run = evaluated["run"]
+    assert back.scored_runs("holdout-k3") == [run, "rgb-holdout3"]
+    assert back.scores(run, "holdout-k3").trained_on == 0 and back.scores(run, "novel-poses").trained_on is None
+    assert back.scores("nope", "holdout-k3") is None
+
+
 def test_sheet_and_slices_have_the_documented_sizes(evaluated):
     from morf.evaluate.sheet import CAPTION_H, GAP, LABEL_H, cell_size, slice_panel_width
 

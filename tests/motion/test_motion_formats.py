@@ -1,5 +1,9 @@
 """Every motion .npz kind is told by its content and read into the same Anny clip."""
 
+import subprocess
+import sys
+import textwrap
+
 import numpy as np
 import pytest
 
@@ -30,9 +34,50 @@ def test_kinds_are_told_by_content(tmp_path):
     assert _kind(tmp_path / "e.npz") == "player"
     rot = np.zeros((4, 104, 3), np.float32)
     project = write_capture_fits(tmp_path / "cap", rot, np.zeros((4, 3), np.float32))
-    assert _kind(project.fits_dir / "fits.npz") == "fits"
+    assert _kind(project.fits_path) == "fits"
     np.savez(tmp_path / "f.npz", weights=np.zeros(3))
     assert _kind(tmp_path / "f.npz") is None
+
+
+def test_fits_are_told_by_the_keys_their_writer_declares(tmp_path):
+    """morf.fitting.fits_io owns the fits format: the keys that mark a fits file are its own."""
+    from morf.fitting.fits_io import FITS_ONLY_KEYS
+    from morf.io import load_npz
+
+    project = write_capture_fits(tmp_path / "cap", np.zeros((3, 104, 3), np.float32), np.zeros((3, 3), np.float32))
+    arrays = load_npz(project.fits_path, skip_pickled=True)
+    assert FITS_ONLY_KEYS and set(FITS_ONLY_KEYS) <= set(arrays)
+    for key in FITS_ONLY_KEYS:  # any one of them is enough
+        assert npz_motion_kind({"rotvecs": arrays["rotvecs"], "transl": arrays["transl"], key: arrays[key]}) == "fits"
+
+
+def test_motion_kinds_and_the_fits_format_import_without_torch():
+    """The torch-free player tells motion kinds by the fits format's own keys: neither module (nor
+    the morf.fitting package they pass through) imports torch; the package's names still load."""
+    script = textwrap.dedent("""
+        import sys
+        import morf.motion.formats, morf.fitting.fits_io
+        assert "torch" not in sys.modules, "torch was imported"
+        import morf.fitting
+        assert morf.fitting.read_fits is morf.fitting.fits_io.read_fits and "torch" not in sys.modules
+        assert not hasattr(morf.fitting, "no_such_name")
+    """)
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr[-2000:]
+
+
+def test_capture_fits_name_and_rate_come_from_the_project(tmp_path, body_model):
+    """A fits file is named by the capture folder that holds it and takes that project's rate; a copy
+    outside a project is named by its file and plays at the stated (or default) rate."""
+    import shutil
+
+    rot = np.zeros((4, 104, 3), np.float32)
+    project = write_capture_fits(tmp_path / "cap", rot, np.zeros((4, 3), np.float32), fps=25.0)
+    clip = load_motion(project.fits_path, body_model, config=RAW)
+    assert clip.name == "cap" and clip.fps == 25.0
+    shutil.copy(project.fits_path, tmp_path / "walk.npz")
+    loose = load_motion(tmp_path / "walk.npz", body_model, config=RAW, source_fps=12.0)
+    assert loose.name == "walk" and loose.fps == 12.0
 
 
 def test_the_same_motion_in_every_smpl_layout_gives_the_same_clip(tmp_path, body_model):
@@ -85,8 +130,8 @@ def test_capture_fits_from_the_camera_world(tmp_path, body_model):
     rot, transl = walk.rotvecs[:20], walk.transl[:20]
     cam = write_capture_fits(tmp_path / "cam", rot, transl, fps=25.0)
     up = write_capture_fits(tmp_path / "up", rot, transl, fps=25.0, camera_world=False)
-    a = load_motion(cam.fits_dir / "fits.npz", body_model, config=RAW)
-    b = load_motion(up.fits_dir / "fits.npz", body_model, config=RAW)
+    a = load_motion(cam.fits_path, body_model, config=RAW)
+    b = load_motion(up.fits_path, body_model, config=RAW)
     assert a.fps == 25.0 and a.num_frames == 20 and a.name == "cam"  # the capture project's rate
     np.testing.assert_allclose(a.rotvecs, b.rotvecs, atol=1e-5)
     np.testing.assert_allclose(a.transl[:, :2], b.transl[:, :2], atol=1e-5)
@@ -100,7 +145,7 @@ def test_capture_fits_from_the_camera_world(tmp_path, body_model):
     # With the default config the feet land on the floor of the target body.
     from morf.motion.anny_rest import FootPointEvaluator
 
-    grounded = load_motion(cam.fits_dir / "fits.npz", body_model)
+    grounded = load_motion(cam.fits_path, body_model)
     feet = FootPointEvaluator(body_model)(grounded.poses(np.arange(grounded.num_frames)))
     assert float(feet[..., 2].min(dim=1).values.abs().max()) < 0.01
 
@@ -122,10 +167,10 @@ def test_capture_fits_of_a_variable_frame_rate_clip_play_at_their_real_pace(tmp_
     times[10:] += 0.4  # ten frames missing after frame 9: 0.4 s without frames
     cap.manifest["frame_times"] = times.tolist()
     cap.save_manifest()
-    clip = load_motion(cap.fits_dir / "fits.npz", body_model, config=RAW)
+    clip = load_motion(cap.fits_path, body_model, config=RAW)
     assert clip.fps == 25.0 and clip.num_frames == 30  # 1.16 s at 25 fps
-    even = load_motion(write_capture_fits(tmp_path / "cfr", walk.rotvecs[:20], walk.transl[:20], fps=25.0).fits_dir
-                       / "fits.npz", body_model, config=RAW)
+    even = load_motion(write_capture_fits(tmp_path / "cfr", walk.rotvecs[:20], walk.transl[:20], fps=25.0).fits_path,
+                       body_model, config=RAW)
     assert even.num_frames == 20
     np.testing.assert_allclose(clip.rotvecs[20:], even.rotvecs[10:], atol=1e-5)  # the frames after the gap
 

@@ -50,7 +50,7 @@ def test_smpl_family_files(tiny_avatar, capture, tmp_path, command, case):
 def test_another_captures_fits_drive_the_avatar(tiny_avatar, capture, tmp_path):
     out = tmp_path / "frames"
     assert main(["animate", str(capture.root), "--avatar", str(tiny_avatar), "--motion",
-                 str(capture.fits_dir / "fits.npz"), "--out", str(out), "--size", "64"]) == 0
+                 str(capture.fits_path), "--out", str(out), "--size", "64"]) == 0
     assert _frames(out) == 8
 
 

@@ -18,14 +18,15 @@ def _rows(n=1000, tau=100.0, noise=0.0, seed=0):
 def test_plateau_of_an_exponential_decay():
     p = plateau(_rows())
     # the last-window mean is ~0.05; within 5% once 0.5 exp(-s/100) averaged over 100 steps < 0.0025
-    assert 500 < p["step"] < 650
-    assert abs(p["minutes"] - p["step"] * 0.6 / 60) < 1e-9
-    assert abs(p["final"] - 0.05) < 1e-3
+    assert 500 < p.step < 650
+    assert abs(p.minutes - p.step * 0.6 / 60) < 1e-9
+    assert abs(p.final - 0.05) < 1e-3
+    assert p.to_dict() == {"step": p.step, "minutes": p.minutes, "final": p.final, "tolerance": 0.05, "key": "l1"}
 
 
 def test_slower_decay_plateaus_later_and_noise_is_averaged():
-    assert plateau(_rows(tau=200))["step"] > plateau(_rows(tau=100))["step"]
-    assert abs(plateau(_rows(noise=0.01))["step"] - plateau(_rows())["step"]) < 250
+    assert plateau(_rows(tau=200)).step > plateau(_rows(tau=100)).step
+    assert abs(plateau(_rows(noise=0.01)).step - plateau(_rows()).step) < 250
 
 
 def test_short_or_torn_logs(tmp_path):
