@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import ctypes
+import math
 import os
 import sys
 import time
@@ -37,6 +38,7 @@ from studio.keys import handle_keys  # noqa: E402
 from studio.layout import draw_ui  # noqa: E402
 from studio.live_render import LiveRenderer  # noqa: E402
 from studio.loader import ImageLoader  # noqa: E402
+from studio.panels.live import post_request as post_live_request  # noqa: E402
 from studio.pacing import IDLE_FPS, MAX_FPS, SNAPSHOT_FPS, FramePacer, Wakeup  # noqa: E402
 from studio.player import PoseRenderer, open_live_player, shutdown_motion_loader  # noqa: E402
 from studio.project_view import ProjectView  # noqa: E402
@@ -44,6 +46,7 @@ from studio.sizes import parse_window_size  # noqa: E402
 from studio.stages import LIBRARY_STAGES, LoadedStages, cpu_load_stage, load_library_stages  # noqa: E402
 from studio.state import PANELS, AppState, LivePanelState  # noqa: E402
 from studio.textures import TextureCache  # noqa: E402
+from studio.ui_cache import UiCache  # noqa: E402
 from studio.worker import StageFn, Worker  # noqa: E402
 from morf.resources import FONT
 
@@ -52,6 +55,9 @@ FONT_SIZE = 15.0
 FIXED_DT = 1.0 / 60.0
 CLEAR_RGB = (0.06, 0.06, 0.07)
 LIVE_PANEL = PANELS.index("Live render")
+# while the live panel plays, frames between full UI frames only redraw the live image (studio.ui_cache);
+# a full frame (text, training progress) still comes at least this often
+FULL_FRAME_INTERVAL_S = 0.25
 
 
 class StudioApp:
@@ -82,6 +88,8 @@ class StudioApp:
         self._headless = headless
         self._fixed_dt = FIXED_DT if (headless if deterministic is None else deterministic) else None
         self.pacer = FramePacer(max_fps, idle_fps)
+        self._inputs = 0  # input events seen (callbacks), and how many the last full frame had seen
+        self._inputs_at_full = 0
         self._init_window(size, headless)
         # other threads end the frame loop's wait through this (no event queue to post to when headless)
         self._wakeup = Wakeup(None if headless else glfw.post_empty_event)
@@ -113,6 +121,11 @@ class StudioApp:
         self.frame_times: list[float] = []  # seconds per frame (UI work and its GL rasterization, no vsync wait)
         self.live_stats: list[tuple[float | None, float]] = []  # (render fps, render ms) per live frame shown
         self._live_seq = 0
+        self.light_frames = True  # run() redraws only the live image when nothing else changed
+        self.light_frame_count = 0
+        self._ui_cache = UiCache(self.ctx)
+        self._last_full_t = -math.inf
+        self._last_frame_t: float | None = None
         self._actions = make_actions(self.state, lambda: self.view, self.send)
         self._closed = False
         if project is not None:
@@ -168,6 +181,7 @@ class StudioApp:
         """Input and window changes ask for a frame. Installed before imgui's backend, which
         chains to them from its own callbacks; the window ones imgui does not use."""
         def on_input(*_):
+            self._inputs += 1
             self.pacer.input()
 
         w = self.window
@@ -226,6 +240,7 @@ class StudioApp:
             print("morf-studio: the live render did not stop within 10 s; leaving it behind", file=sys.stderr)
         self.live, self._live_seq = None, 0
         self.live_panel = LivePanelState()
+        self._ui_cache.forget()
 
     # ---- the frame loop -----------------------------------------------------------------
     def send(self, command: Command) -> None:
@@ -235,11 +250,16 @@ class StudioApp:
         """Run one UI frame; with ``capture``, return the screen as (H, W, 3) uint8 RGB."""
         t0 = time.perf_counter()
         glfw.poll_events()
+        self._inputs_at_full = self._inputs
         imgui.backends.opengl3_new_frame()
         imgui.backends.glfw_new_frame()
         io = imgui.get_io()
         if self._fixed_dt is not None:
             io.delta_time = self._fixed_dt
+        elif self._last_frame_t is not None:  # light frames in between advanced the clock too
+            io.delta_time = max(t0 - self._last_frame_t, 1e-6)
+        self._last_frame_t = self._last_full_t = t0
+        self.live_panel.image_rect = None  # the live panel sets it again when it draws the image whole
         imgui.new_frame()
         ui = self._ui_context()
         recovery = imgui.internal.ErrorRecoveryState()
@@ -264,6 +284,11 @@ class StudioApp:
         # Wait for the GL work of this frame. Without a GPU it is CPU work (llvmpipe): counting
         # it is honest, and not waiting lets frames queue up until some texture upload has to
         # wait for all of them at once (measured: 100-300 ms stalls during live playback).
+        rect = self.live_panel.image_rect
+        if self.light_frames and rect is not None and self.state.playing:
+            self._ui_cache.store((fw, fh), rect)  # the picture light frames start from
+        else:
+            self._ui_cache.forget()
         self.ctx.finish()
         self.frame_times.append(time.perf_counter() - t0)
         shot = None
@@ -272,6 +297,48 @@ class StudioApp:
             shot = np.frombuffer(data, np.uint8).reshape(fh, fw, 3)[::-1].copy()
         glfw.swap_buffers(self.window)
         return shot
+
+    def _light_frame_ok(self) -> bool:
+        """Only the live image would change: the live panel plays, whole on screen, no input since
+        the last full frame, nothing new from the worker or the image loader, and that full frame
+        is recent (its text stays true enough)."""
+        if not self.light_frames or self.live is None or not self.live.ready or self.live.note:
+            return False
+        lp = self.live_panel
+        if self.state.panel != LIVE_PANEL or not self.state.playing or lp.clip is None or lp.clip_loading is not None:
+            return False
+        if self._inputs != self._inputs_at_full or self.textures.backlog():
+            return False
+        if time.perf_counter() - self._last_full_t >= FULL_FRAME_INTERVAL_S:
+            return False
+        snap = self.worker.latest()
+        if snap.review_rev != self._review_rev or snap.busy != self._was_busy:
+            return False
+        return self._ui_cache.ready(glfw.get_framebuffer_size(self.window))
+
+    def _light_frame(self) -> bool:
+        """Advance the motion, ask for its next frame, and show the newest live image over the
+        cached UI (:mod:`studio.ui_cache`). False when a full frame is needed instead (input came)."""
+        t0 = time.perf_counter()
+        glfw.poll_events()
+        if self._inputs != self._inputs_at_full:
+            return False
+        rect = self._ui_cache.rect
+        post_live_request(self.state, self.live_panel, self.live, self._wakeup.notify, rect.render_side,
+                          t0 - self._last_frame_t)
+        frame = self.live.latest()
+        if frame is None:
+            return False
+        if frame.seq != self._live_seq:
+            self._live_seq = frame.seq
+            self.live_stats.append((frame.fps, frame.render_ms))
+        self._ui_cache.show(self.textures.preview("live", frame.image, frame.seq, ring=3))
+        self.ctx.finish()
+        self._last_frame_t = t0
+        self.light_frame_count += 1
+        self.frame_times.append(time.perf_counter() - t0)
+        glfw.swap_buffers(self.window)
+        return True
 
     def _ui_context(self) -> UiContext:
         snap = self.worker.latest()
@@ -335,7 +402,8 @@ class StudioApp:
                     glfw.wait_events_timeout(wait)
                 continue
             self.pacer.frame_started()
-            self.frame()
+            if not (self._light_frame_ok() and self._light_frame()):
+                self.frame()
             self._schedule_animation()
         return None
 
@@ -418,6 +486,7 @@ class StudioApp:
             print("morf-studio: the running stage did not stop within 15 s; leaving it behind", file=sys.stderr)
         self._close_project()
         shutdown_motion_loader()
+        self._ui_cache.release()
         imgui.backends.opengl3_shutdown()
         imgui.backends.glfw_shutdown()
         implot.destroy_context()

@@ -48,6 +48,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the studio's cap on UI redraws per second (default: the studio's; 0: redraw continuously)")
     p.add_argument("--live-threads", type=int, default=None,
                    help="onnxruntime threads of the live render (default: the studio's)")
+    p.add_argument("--full-frames", action="store_true",
+                   help="redraw the whole UI for every live frame (no light frames: studio.ui_cache), for comparison")
     p.add_argument("--headless", action="store_true", help="off-screen (EGL) even when DISPLAY is set")
     p.add_argument("--screenshot", metavar="PNG", default=None, help="save the window's last frame")
     p.add_argument("--no-compare", action="store_true", help="skip the 'morf bench render' measurement")
@@ -108,6 +110,7 @@ class Window:
     ui_frame_ms: np.ndarray  # (N,) each UI frame's own time (UI work + its GL rasterization)
     live_frames: int  # frames the live render thread finished
     live_shown: int  # of those, frames the UI put on screen
+    ui_light_frames: int  # UI frames that redrew the live image alone (studio.ui_cache)
     live_render_ms: np.ndarray  # (M,) render thread's time per shown frame
     cpu: dict[str, float]  # group -> percent of one core
     train_steps: int | None
@@ -170,6 +173,8 @@ def run_studio(args, avatar: Path, tmp: Path) -> tuple[Window, dict]:
     with StudioApp(project, size=parse_window_size(args.size), headless=headless, deterministic=False,
                    motion_dir=motion.parent, **kw) as app:
         info["max_fps"], info["idle_fps"] = app.pacer.max_fps, app.pacer.idle_fps
+        app.light_frames = not args.full_frames
+        info["light_frames"] = app.light_frames
         app.state.select_panel(LIVE_PANEL)
         app.state.motion_file = str(motion)
         app.state.playing = True
@@ -191,6 +196,7 @@ def run_studio(args, avatar: Path, tmp: Path) -> tuple[Window, dict]:
         ui_tid = threading.main_thread().native_id
         roles = {ui_tid: "UI thread", live.native_id: "live render thread", app.worker.native_id: "worker thread"}
         n0, s0, seq0, step0 = len(app.frame_times), len(app.live_stats), live.latest().seq, _step(app)
+        light0 = app.light_frame_count
         cpu0, t0 = thread_cpu_seconds(), time.perf_counter()
         nice = {tid: v[1] for tid, v in cpu0.items()}
         helper_nice = nice.get(live.native_id) if nice.get(live.native_id) != nice.get(ui_tid) else None
@@ -200,7 +206,7 @@ def run_studio(args, avatar: Path, tmp: Path) -> tuple[Window, dict]:
         stats = app.live_stats[s0:]
         window = Window(seconds=t1 - t0, ui_frames=len(app.frame_times) - n0,
                         ui_frame_ms=1e3 * np.asarray(app.frame_times[n0:]), live_frames=seq1 - seq0,
-                        live_shown=len(stats), live_render_ms=np.asarray([ms for _, ms in stats]),
+                        live_shown=len(stats), ui_light_frames=app.light_frame_count - light0, live_render_ms=np.asarray([ms for _, ms in stats]),
                         cpu=cpu_shares(cpu0, cpu1, t1 - t0, roles, helper_nice),
                         train_steps=None if not args.with_training or step1 is None else step1 - (step0 or 0))
         if args.with_training:  # where training stood at the end (a tiny preset may finish early)
@@ -220,6 +226,7 @@ def summarize(w: Window) -> dict:
     return {"seconds": round(w.seconds, 2), "live_fps": w.live_frames / w.seconds,
             "live_shown_fps": w.live_shown / w.seconds,
             "live_render_ms_p50": pct(w.live_render_ms, 50), "ui_fps": w.ui_frames / w.seconds,
+            "ui_light_fps": w.ui_light_frames / w.seconds,
             "ui_frame_ms_p50": pct(w.ui_frame_ms, 50), "ui_frame_ms_p95": pct(w.ui_frame_ms, 95),
             "ui_frame_ms_max": float(w.ui_frame_ms.max()) if len(w.ui_frame_ms) else None,
             "cpu_percent_of_one_core": {k: round(v, 1) for k, v in sorted(w.cpu.items(), key=lambda kv: -kv[1])},
@@ -232,7 +239,7 @@ def report(result: dict) -> str:
              f"{s['seconds']:.0f} s of {Path(result['motion']).name}:",
              f"  live panel: {s['live_fps']:.1f} fps rendered, {s['live_shown_fps']:.1f} fps shown, "
              f"render p50 {s['live_render_ms_p50'] or 0:.0f} ms a frame ({result['live_threads']} onnxruntime threads)",
-             f"  UI: {s['ui_fps']:.1f} redraws/s, frame time p50 {s['ui_frame_ms_p50'] or 0:.1f} ms, "
+             f"  UI: {s['ui_fps']:.1f} redraws/s ({s['ui_light_fps']:.1f} of them the live image alone), frame time p50 {s['ui_frame_ms_p50'] or 0:.1f} ms, "
              f"p95 {s['ui_frame_ms_p95'] or 0:.1f} ms, max {s['ui_frame_ms_max'] or 0:.1f} ms",
              "  CPU (% of one core): " + ", ".join(f"{k} {v:.0f}" for k, v in s["cpu_percent_of_one_core"].items())]
     if result.get("training"):

@@ -37,6 +37,10 @@ class PoseRenderer(Protocol):
 # (live_render.py), so the UI and a running stage still come first when the CPU is short.
 LIVE_RENDER_THREADS = 2
 LIVE_RENDER_SIZE = 640
+# Clips slower than this are resampled to it for the live panel (slerp between the clip's frames):
+# the panel asks for one render per motion frame, so a 30 fps clip would hold a renderer that
+# makes 40 frames a second at 30, and show each pose twice where it makes more.
+LIVE_MOTION_FPS = 60.0
 
 
 class PlaybackPlayer:
@@ -100,14 +104,20 @@ def open_live_player(avatar_dir: Path, size: int = LIVE_RENDER_SIZE,
 
 
 def load_live_motion(path: Path, num_bones: int) -> tuple[MotionClip | None, str | None]:
-    """A motion clip for the player, or (None, why not in words). Frame ``t`` is the player's pose
-    ``(clip.rotvecs[t], clip.transl[t])`` (indexing the clip itself gives a torch ``BodyPose``)."""
+    """A motion clip for the player at :data:`LIVE_MOTION_FPS` or faster, or (None, why not in words).
+    Frame ``t`` is the player's pose ``(clip.rotvecs[t], clip.transl[t])`` (indexing the clip itself
+    gives a torch ``BodyPose``)."""
     try:
         from morf.playback.motion_input import load_playback_motion
     except ImportError as e:
         return None, f"motions need the avatar player (morf.playback): {e}"
     try:
-        return load_playback_motion(path, num_bones), None
+        clip = load_playback_motion(path, num_bones)
+        if clip.fps < LIVE_MOTION_FPS and len(clip) > 1:
+            from morf.motion.clip import resample
+
+            clip = resample(clip, LIVE_MOTION_FPS)
+        return clip, None
     except MorfError as e:
         return None, str(e)
     except Exception as e:

@@ -48,11 +48,23 @@ class AppState:
         self.panel_request = index % len(PANELS)
 
 
+@dataclass(frozen=True)
+class ImageRect:
+    """Where the live panel drew its image in a full UI frame, in window pixels (top left origin,
+    as imgui places it): ``x``, ``y``, ``side``; ``render_side``: the side it asked the player for."""
+
+    x: float
+    y: float
+    side: float
+    render_side: int
+
+
 @dataclass
 class LivePanelState:
     """The live render panel's scratch for the open avatar: the motion list and the loaded clip.
 
-    The app owns one and starts a fresh one when the avatar closes; only the panel changes it.
+    The app owns one and starts a fresh one when the avatar closes; only the panel changes it (the
+    app clears ``image_rect`` before each full UI frame).
     """
 
     motion_dir: str | None = None  # the folder ``motions`` lists (None: not listed yet)
@@ -61,4 +73,6 @@ class LivePanelState:
     clip: MotionClip | None = None  # the loaded motion, None while loading or when it failed
     clip_note: str | None = None  # why the motion could not be loaded
     clip_loading: Future | None = None  # the background load, until the panel picks its result up
-    clip_centre: np.ndarray | None = None  # (3,) mean root position of the clip: the orbit's centre
+    clip_centre: np.ndarray | None = None  # (3,) mean root position of the clip: its height is the orbit's
+    # where the last full UI frame drew the live image when it was whole on screen, else None
+    image_rect: ImageRect | None = None

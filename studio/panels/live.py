@@ -10,13 +10,14 @@ from __future__ import annotations
 import dataclasses
 import math
 from pathlib import Path
+from typing import Callable
 
 from imgui_bundle import ImVec2, imgui
 
 from studio.context import UiContext
-from studio.live_render import LiveRequest
+from studio.live_render import LiveRenderer, LiveRequest
 from studio.player import list_motions, load_live_motion_async
-from studio.state import AppState
+from studio.state import AppState, ImageRect, LivePanelState
 from studio.widgets import GREY, RED, empty_state, remember_item, tex_ref
 
 SIDEBAR_W = 320
@@ -68,24 +69,35 @@ def _sync_motion(state: AppState, ui: UiContext) -> None:
 
 def _request(state: AppState, ui: UiContext, side: int) -> int | None:
     """Post this frame's pose and camera to the render thread; returns the motion frame shown."""
-    live, io = ui.live, imgui.get_io()
+    return post_request(state, ui.live, ui.live_render, ui.redraw_within, side, imgui.get_io().delta_time)
+
+
+def post_request(state: AppState, live: LivePanelState, lr: LiveRenderer, redraw_within: Callable[[float], None],
+                 side: int, dt: float) -> int | None:
+    """Advance the motion by ``dt`` seconds while playing and ask ``lr`` for that frame at ``side``
+    pixels; returns the motion frame index (None: rest pose). Needs no imgui frame: the app's light
+    frames call it too (:mod:`studio.ui_cache`)."""
     clip = live.clip
     pose, index = None, None
     if clip is not None and len(clip):
         if state.playing:
-            state.motion_time += io.delta_time
+            state.motion_time += dt
         index = int(state.motion_time * clip.fps) % len(clip)
         pose = (clip.rotvecs[index], clip.transl[index])  # the player takes numpy; clip[index] is a torch BodyPose
     o = state.orbit
-    if clip is not None and len(clip):  # orbit around where the motion happens, not the origin
-        o = dataclasses.replace(o, target=tuple(float(a + b) for a, b in zip(o.target, live.clip_centre)))
+    if clip is not None and len(clip):
+        # orbit around the person, following the root over the ground (a walk stays in view) at the
+        # clip's mean height (no bobbing)
+        root = clip.transl[index]
+        follow = (root[0], root[1], live.clip_centre[2])
+        o = dataclasses.replace(o, target=tuple(float(a + b) for a, b in zip(o.target, follow)))
     camera = o.camera(side, side)
     key = (state.motion_file if pose is not None else None, index, o.yaw_deg, o.pitch_deg, o.distance_m,
            tuple(o.target), o.fov_y_deg, side)
-    if not ui.live_render.request(LiveRequest(pose, camera, key)) and state.playing and clip is not None and len(clip):
+    if not lr.request(LiveRequest(pose, camera, key)) and state.playing and clip is not None and len(clip):
         # this motion frame is on its way or on screen: the next one is due at the clip's rate
         # (a new request wakes the UI through the render thread's finished frame instead)
-        ui.redraw_within((math.floor(state.motion_time * clip.fps) + 1) / clip.fps - state.motion_time)
+        redraw_within((math.floor(state.motion_time * clip.fps) + 1) / clip.fps - state.motion_time)
     return index
 
 
@@ -103,6 +115,10 @@ def _draw_render(state: AppState, ui: UiContext) -> None:
     else:
         tex = ui.textures.preview("live", frame.image, frame.seq, ring=3)
         imgui.image(tex_ref(tex), ImVec2(side, side))
+        dl = imgui.get_window_draw_list()
+        lo, hi = dl.get_clip_rect_min(), dl.get_clip_rect_max()
+        if lo.x <= origin.x and lo.y <= origin.y and origin.x + side <= hi.x and origin.y + side <= hi.y:
+            ui.live.image_rect = ImageRect(origin.x, origin.y, side, n)  # whole on screen: light frames may redraw it
     if imgui.is_item_hovered():
         io = imgui.get_io()
         if imgui.is_mouse_dragging(imgui.MouseButton_.left):
@@ -110,13 +126,12 @@ def _draw_render(state: AppState, ui: UiContext) -> None:
         if io.mouse_wheel:
             state.orbit.zoom(io.mouse_wheel)
     ui_fps = 1000.0 / ui.frame_ms if ui.frame_ms > 0 else 0.0
-    render_fps = f"{frame.fps:.1f}" if frame is not None and frame.fps else "--"
-    dl = imgui.get_window_draw_list()
-    dl.add_text(ImVec2(origin.x + 8, origin.y + 6), imgui.get_color_u32(imgui.Col_.text), f"render {render_fps} fps")
     if frame is None:
         imgui.text_colored(GREY, "rendering the first frame ...")
     else:
-        imgui.text_colored(GREY, f"render {frame.render_ms:.1f} ms at {n} x {n} (own thread); "
+        # below the image, not on it: light frames redraw the image alone
+        render_fps = f"{frame.fps:.1f} fps, " if frame.fps else ""
+        imgui.text_colored(GREY, f"render {render_fps}{frame.render_ms:.1f} ms at {n} x {n} (own thread); "
                                  f"UI {ui.frame_ms:.1f} ms a frame ({min(ui_fps, 999):.0f} fps possible)")
     shown = f"motion frame {index}" if index is not None else "rest pose"
     imgui.text_colored(GREY, f"{shown}; drag to orbit, wheel to zoom, Space plays")

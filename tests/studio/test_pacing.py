@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -94,6 +95,22 @@ class PacedPlayer:
         return np.full((camera.height, camera.width, 3), 40 * (self.renders % 5), np.uint8)
 
 
+def playing_app(make_app, tmp_path, player):
+    """The tiny project's studio on the live panel, ``player`` playing the shipped walk, its first
+    frames on screen."""
+    app = headless_app(make_app, tmp_path, idle_fps=2.0)
+    app.show_player(player)
+    app.state.select_panel(4)
+    app.state.motion_file = str(Path(__file__).resolve().parents[2] / MOTION)
+    app.state.playing = True
+    for _ in range(60):  # the motion loads, the first frames arrive
+        app.run(seconds=0.5)
+        if app.live_panel.clip is not None and app.live.latest() is not None:
+            break
+    assert app.live.latest() is not None and app.live_panel.clip is not None
+    return app
+
+
 def headless_app(make_app, tmp_path, **kw):
     """The tiny project in a studio that measures real frame times (no fixed frame time)."""
     return make_app("capture", deterministic=False, unavailable={}, motion_dir=str(tmp_path), **kw)
@@ -117,20 +134,7 @@ def test_the_idle_studio_redraws_a_few_times_a_second_and_continuous_mode_as_fas
 
 @pytest.mark.gl
 def test_a_playing_motion_redraws_when_a_live_frame_arrives_and_shows_each_one(make_app, tiny_project, tmp_path):
-    from pathlib import Path
-
-    repo = Path(__file__).resolve().parents[2]
-    player = PacedPlayer(delay=0.08)
-    app = headless_app(make_app, tmp_path, idle_fps=2.0)
-    app.show_player(player)
-    app.state.select_panel(4)
-    app.state.motion_file = str(repo / MOTION)
-    app.state.playing = True
-    for _ in range(60):  # the motion loads, the first frames arrive
-        app.run(seconds=0.5)
-        if app.live_panel.clip is not None and app.live.latest() is not None:
-            break
-    assert app.live.latest() is not None and app.live_panel.clip is not None
+    app = playing_app(make_app, tmp_path, PacedPlayer(delay=0.08))
     n, seq0, shown0 = len(app.frame_times), app.live.latest().seq, len(app.live_stats)
     app.run(seconds=2.0)
     rendered, shown, drawn = app.live.latest().seq - seq0, len(app.live_stats) - shown0, len(app.frame_times) - n
