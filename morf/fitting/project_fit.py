@@ -165,7 +165,7 @@ def write_overlays(project, model, fits: BodyFits, keypoints: np.ndarray, camera
     bar = progress(total=fits.num_frames, desc="fit overlays", unit="frame")
     for sl, out in posed_chunks(model, rv, tr, sh, chunk=8):
         verts = dressed_vertices(model, out, sh if sh.shape[0] == 1 else sh[sl], off)
-        sil = silhouettes(verts, model.faces, camera, 1.0, W, H).cpu().numpy()
+        sil = silhouettes(verts, model.faces, camera, 1.0, W, H)
         for j, i in enumerate(range(sl.start, sl.stop)):
             img = draw_overlay(project.load_frame(i), sil[j], keypoints[i], fits.projected_keypoints[i],
                                rejected.get(i))

@@ -36,7 +36,7 @@ def make_inputs(model, pose: BodyPose, shape: torch.Tensor, size: int = 256, noi
     with torch.no_grad():
         out = model(pose, shape)
         kp = cam.project(out.keypoints3d).numpy()
-        full = silhouettes(out.vertices, model.faces, cam, 1.0, size, size).numpy()
+        full = silhouettes(out.vertices, model.faces, cam, 1.0, size, size)
     rng = np.random.default_rng(seed)
     pts = np.concatenate([kp + rng.normal(0, noise_px, kp.shape), np.ones(kp.shape[:2] + (1,))], -1).astype(np.float32)
     sw, sh, _ = raster_size(size, size, sil_res)

@@ -62,7 +62,7 @@ def _write_project(root, model, n=8, bad=4):
     from morf.fitting.evaluate import silhouettes
 
     with torch.no_grad():
-        masks = silhouettes(model(pose, SHAPE).vertices, model.faces, inputs.camera, 1.0, 256, 256).numpy()
+        masks = silhouettes(model(pose, SHAPE).vertices, model.faces, inputs.camera, 1.0, 256, 256)
     for i in range(n):
         project.save_frame(i, np.full((256, 256, 3), 120, np.uint8))
         project.save_mask(i, masks[i])

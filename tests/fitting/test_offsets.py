@@ -106,7 +106,7 @@ def test_offsets_grow_towards_masks_of_a_dressed_body(body_model):
     with torch.no_grad():
         fat = dressed_vertices(body_model, body_model(pose, SHAPE), SHAPE,
                                torch.full((body_model.dense_weights.shape[0],), 0.025))
-        full = silhouettes(fat, body_model.faces, inputs.camera, 1.0, size, size).numpy()
+        full = silhouettes(fat, body_model.faces, inputs.camera, 1.0, size, size)
     sw, sh, _ = raster_size(size, size, 128)
     masks = np.stack([downsample_mask(m, sw, sh) for m in full])
     inputs = FitInputs(inputs.keypoints, inputs.detected, inputs.camera, masks, inputs.mask_scale,

@@ -1,0 +1,55 @@
+"""OpenGL silhouettes against the per-pixel test in torch, and the fallback without GL."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from morf.body.model import BodyPose
+from morf.camera import PinholeCamera
+from morf.raster.soft_silhouette import hard_coverage
+
+
+def _posed(body_model, n=3):
+    pose = body_model.zero_pose(n)
+    rot = pose.rotvecs.clone()
+    rot[:, 0, 2] = torch.tensor([0.0, 1.2, 2.6])[:n]  # turned about the vertical axis
+    with torch.no_grad():
+        return body_model(BodyPose(rot, pose.transl), body_model.default_shape()).vertices
+
+
+def _torch_silhouettes(vertices, faces, camera, scale, w, h):
+    tri = (camera.project(vertices) * scale)[:, faces]
+    in_front = (camera.world_to_camera(vertices)[..., 2] > 1e-3)[:, faces].all(-1)
+    return hard_coverage(tri, in_front, h, w).numpy()
+
+
+@pytest.mark.parametrize("scale,size", [(1.0, 160), (0.5, 80)])
+def test_gl_silhouettes_cover_the_same_pixel_centres(body_model, gl, scale, size):
+    from morf.raster.gl_silhouette import silhouettes_gl
+
+    cam = PinholeCamera.look_at(160, 160, 40.0, eye=(0.0, -3.4, 0.2), target=(0.0, 0.0, -0.1))
+    verts = _posed(body_model)
+    ref = _torch_silhouettes(verts, body_model.faces, cam, scale, size, size)
+    out = silhouettes_gl(verts, body_model.faces, cam, scale, size, size)
+    assert out.shape == ref.shape == (3, size, size) and out.dtype == bool
+    area = ref.sum((1, 2))
+    assert (area > 0.05 * size * size).all()
+    # only pixel centres lying on a triangle edge may differ
+    assert ((out != ref).sum((1, 2)) <= np.maximum(3, 0.002 * area)).all()
+
+
+def test_without_gl_the_fit_evaluation_draws_them_in_torch(body_model, monkeypatch):
+    import morf.raster.gl_silhouette as gs
+    from morf.fitting.evaluate import silhouettes
+    from morf.raster.gl_context import GLUnavailable
+
+    def no_gl(*a, **k):
+        raise GLUnavailable("no EGL here")
+
+    monkeypatch.setattr(gs, "silhouettes_gl", no_gl)
+    cam = PinholeCamera.look_at(64, 64, 40.0, eye=(0.0, -3.4, 0.2), target=(0.0, 0.0, -0.1))
+    verts = _posed(body_model, 1)
+    out = silhouettes(verts, body_model.faces, cam, 1.0, 64, 64)
+    np.testing.assert_array_equal(out, _torch_silhouettes(verts, body_model.faces, cam, 1.0, 64, 64))
