@@ -46,6 +46,7 @@ from studio.sizes import parse_window_size  # noqa: E402
 from studio.stages import LIBRARY_STAGES, LoadedStages, cpu_load_stage, load_library_stages  # noqa: E402
 from studio.state import PANELS, AppState, LivePanelState  # noqa: E402
 from studio.textures import TextureCache  # noqa: E402
+from studio.sub_buffer import open_sub_buffer  # noqa: E402
 from studio.ui_cache import UiCache  # noqa: E402
 from studio.worker import StageFn, Worker  # noqa: E402
 from morf.resources import FONT
@@ -124,6 +125,9 @@ class StudioApp:
         self.light_frames = True  # run() redraws only the live image when nothing else changed
         self.light_frame_count = 0
         self._ui_cache = UiCache(self.ctx)
+        # X windows with GLX_MESA_copy_sub_buffer: light frames present the live rectangle alone
+        self._sub_buffer = None if headless else open_sub_buffer(self.window)
+        self._back_is_ui = False  # the back buffer holds the stored UI (no swap since a light frame drew it)
         self._last_full_t = -math.inf
         self._last_frame_t: float | None = None
         self._actions = make_actions(self.state, lambda: self.view, self.send)
@@ -296,6 +300,7 @@ class StudioApp:
             data = self.ctx.screen.read(viewport=(0, 0, fw, fh), components=3, alignment=1)
             shot = np.frombuffer(data, np.uint8).reshape(fh, fw, 3)[::-1].copy()
         glfw.swap_buffers(self.window)
+        self._back_is_ui = False
         return shot
 
     def _light_frame_ok(self) -> bool:
@@ -332,12 +337,20 @@ class StudioApp:
         if frame.seq != self._live_seq:
             self._live_seq = frame.seq
             self.live_stats.append((frame.fps, frame.render_ms))
-        self._ui_cache.show(self.textures.preview("live", frame.image, frame.seq, ring=3))
+        image = self.textures.preview("live", frame.image, frame.seq, ring=3)
+        if self._sub_buffer is not None and self._back_is_ui:
+            self._ui_cache.draw_image(image)  # the rest of the back buffer is still the stored UI
+        else:
+            self._ui_cache.show(image)
         self.ctx.finish()
         self._last_frame_t = t0
         self.light_frame_count += 1
         self.frame_times.append(time.perf_counter() - t0)
-        glfw.swap_buffers(self.window)
+        if self._sub_buffer is not None:
+            self._sub_buffer.present(*self._ui_cache.image_viewport())
+            self._back_is_ui = True
+        else:
+            glfw.swap_buffers(self.window)
         return True
 
     def _ui_context(self) -> UiContext:

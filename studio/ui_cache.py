@@ -63,14 +63,25 @@ class UiCache:
         """The next frame must be a full one (the stored picture no longer shows the UI)."""
         self.rect = None
 
+    def image_viewport(self) -> tuple[int, int, int, int]:
+        """The live rectangle in GL window coordinates (x, y from the bottom left, width, height)."""
+        r, h = self.rect, self._fbo.size[1]
+        return int(round(r.x)), int(round(h - r.y - r.side)), int(round(r.side)), int(round(r.side))
+
     def show(self, image: moderngl.Texture) -> None:
         """The stored frame on the window's back buffer, ``image`` drawn over the live rectangle."""
-        ctx, r = self._ctx, self.rect
+        self._ctx.screen.use()
+        self._ctx.copy_framebuffer(self._ctx.screen, self._fbo)
+        self.draw_image(image)
+
+    def draw_image(self, image: moderngl.Texture) -> None:
+        """``image`` over the live rectangle of the back buffer, leaving the rest as it is (for a
+        back buffer that still holds the stored frame: :mod:`studio.sub_buffer`)."""
+        ctx = self._ctx
         w, h = self._fbo.size
         ctx.screen.use()
-        ctx.copy_framebuffer(ctx.screen, self._fbo)
         ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        ctx.viewport = (int(round(r.x)), int(round(h - r.y - r.side)), int(round(r.side)), int(round(r.side)))
+        ctx.viewport = self.image_viewport()
         image.use(0)
         self._sampler.use(0)
         self._program["image"].value = 0

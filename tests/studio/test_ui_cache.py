@@ -71,3 +71,41 @@ def test_while_a_motion_plays_most_frames_are_light_and_full_frames_keep_coming(
     light0 = app.light_frame_count
     app.run(seconds=0.5)
     assert app.light_frame_count == light0
+
+
+@pytest.mark.gl
+def test_with_a_sub_buffer_light_frames_present_the_rectangle_and_copy_the_ui_once_after_each_swap(
+        make_app, tiny_project, tmp_path):
+    from studio.sub_buffer import open_sub_buffer
+
+    app = playing_app(make_app, tmp_path, PacedPlayer(delay=0.03))
+    assert open_sub_buffer(app.window) is None  # GLFW's null platform: no GLX, light frames swap
+
+    class Recorder:
+        def __init__(self):
+            self.rects = []
+
+        def present(self, x, y, w, h):
+            self.rects.append((x, y, w, h))
+
+    calls = []
+    cache = app._ui_cache
+    show, draw_image = cache.show, cache.draw_image
+    cache.show = lambda image: (calls.append("copy"), show(image))
+    cache.draw_image = lambda image: (calls.append("image"), draw_image(image))
+    swaps = []
+    real_frame = app.frame
+    app.frame = lambda *a, **k: (swaps.append(len(calls)), real_frame(*a, **k))[1]
+    app._sub_buffer = Recorder()
+    app.run(seconds=2.0)
+    assert len(app._sub_buffer.rects) >= 10 and len(set(app._sub_buffer.rects)) == 1
+    x, y, w, h = app._sub_buffer.rects[0]
+    assert w == h == int(round(cache.rect.side))
+    # the UI is copied back only on the first light frame after a full frame (a swap); then the image alone
+    starts = set(swaps) | {0}  # (the first light frame follows a full frame drawn before the recorder)
+    for i, c in enumerate(calls):
+        if c == "copy":
+            assert i in starts
+        else:
+            assert i not in starts
+    assert calls.count("image") > calls.count("copy") >= 1
