@@ -45,8 +45,8 @@ from studio.project_view import ProjectView  # noqa: E402
 from studio.sizes import parse_window_size  # noqa: E402
 from studio.stages import LIBRARY_STAGES, LoadedStages, cpu_load_stage, load_library_stages  # noqa: E402
 from studio.state import PANELS, AppState, LivePanelState  # noqa: E402
-from studio.textures import TextureCache  # noqa: E402
 from studio.sub_buffer import open_sub_buffer  # noqa: E402
+from studio.textures import TextureCache  # noqa: E402
 from studio.ui_cache import UiCache  # noqa: E402
 from studio.worker import StageFn, Worker  # noqa: E402
 from morf.resources import FONT
