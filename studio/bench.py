@@ -249,11 +249,20 @@ def report(result: dict) -> str:
                      f"step {t['step']} of {t['total']}" + (f", error: {t['error']}" if t["error"] else ""))
     b = result.get("bench_render")
     if b:
-        lines.append(f"  morf bench render on the same avatar: {b['fps']:.1f} fps end to end "
-                     f"({b['threads']} onnxruntime threads); live panel at {100 * result['live_vs_bench']:.0f}% of it")
+        lines.append(f"  morf bench render on the same avatar: {b['fps']:.1f} fps end to end (mean of "
+                     f"{b['fps_before']:.1f} before and {b['fps_after']:.1f} after the studio; {b['threads']} "
+                     f"onnxruntime threads); live panel at {100 * result['live_vs_bench']:.0f}% of it")
     lines.append(f"  targets: live >= {100 * TARGET_LIVE_RATIO:.0f}% of bench render: {result['targets']['live_fps']}; "
                  f"UI p95 < {TARGET_UI_P95_MS:.0f} ms: {result['targets']['ui_p95']}")
     return "\n".join(lines)
+
+
+def _bench_render(avatar: Path, frames: int) -> dict:
+    """``morf bench render``'s measurement of ``avatar`` at the live panel's size, in a fresh process."""
+    from morf.bench.render import measure_in_child
+    from studio.player import LIVE_RENDER_SIZE
+
+    return {**measure_in_child(avatar, LIVE_RENDER_SIZE, frames), "size": LIVE_RENDER_SIZE}
 
 
 def run(args) -> int:
@@ -261,6 +270,7 @@ def run(args) -> int:
     if not (avatar / "manifest.json").is_file():
         print(f"morf bench studio: error: not an exported avatar (no manifest.json): {avatar}", file=sys.stderr)
         return 2
+    before = None if args.no_compare else _bench_render(avatar, args.compare_frames)
     with tempfile.TemporaryDirectory(prefix="morf-bench-studio-") as tmp:
         window, info = run_studio(args, avatar, Path(tmp))
     from morf.bench.common import machine_info
@@ -270,14 +280,14 @@ def run(args) -> int:
                     "preset": info.pop("train_preset", None),  # before **info: recorded once
                     **info, "studio": summarize(window), "machine": machine_info(),
                     "command": "morf bench studio " + " ".join(sys.argv[1:])}
-    if not args.no_compare:
-        from morf.bench.render import measure_in_child
-        from studio.player import LIVE_RENDER_SIZE
-
-        m = measure_in_child(avatar, LIVE_RENDER_SIZE, args.compare_frames)
-        result["bench_render"] = {"fps": m["fps_end_to_end"], "frame_ms": m["frame_ms"], "threads": m.get("threads", 2),
-                                  "size": LIVE_RENDER_SIZE}
-        result["live_vs_bench"] = result["studio"]["live_fps"] / m["fps_end_to_end"]
+    if before is not None:
+        # measured right before and right after the studio: the host's load moves it between minutes
+        after = _bench_render(avatar, args.compare_frames)
+        fps = (before["fps_end_to_end"] + after["fps_end_to_end"]) / 2
+        result["bench_render"] = {"fps": fps, "fps_before": before["fps_end_to_end"], "fps_after": after["fps_end_to_end"],
+                                  "frame_ms": (before["frame_ms"] + after["frame_ms"]) / 2,
+                                  "threads": after.get("threads", 2), "size": after["size"]}
+        result["live_vs_bench"] = result["studio"]["live_fps"] / fps
     ratio, p95 = result.get("live_vs_bench"), result["studio"]["ui_frame_ms_p95"]
     result["targets"] = {"live_fps": "n/a" if ratio is None else ("met" if ratio >= TARGET_LIVE_RATIO else "missed"),
                          "ui_p95": "n/a" if p95 is None else ("met" if p95 < TARGET_UI_P95_MS else "missed")}

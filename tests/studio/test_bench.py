@@ -32,10 +32,13 @@ def test_the_studio_benchmark_plays_an_avatar_and_writes_its_numbers(tiny_avatar
     pytest.importorskip("imgui_bundle")
     shot = tmp_path / "studio.png"
     rc = bench.main(["--avatar", str(tiny_avatar_dir), "--seconds", "1.5", "--warmup", "1", "--headless",
-                     "--no-compare", "--out", str(tmp_path), "--screenshot", str(shot)])
+                     "--compare-frames", "2", "--out", str(tmp_path), "--screenshot", str(shot)])
     assert rc == 0 and shot.is_file()
     result = json.loads((tmp_path / "studio.json").read_text())
     s = result["studio"]
     assert s["live_fps"] > 0 and s["ui_fps"] > 0 and s["ui_frame_ms_p95"] > 0
     assert "UI thread" in s["cpu_percent_of_one_core"] and "live render thread" in s["cpu_percent_of_one_core"]
-    assert result["targets"]["live_fps"] == "n/a" and result["window"] == "headless EGL"
+    assert result["window"] == "headless EGL" and result["targets"]["live_fps"] in ("met", "missed")
+    b = result["bench_render"]  # the reference, measured before and after the studio
+    assert b["fps_before"] > 0 and b["fps_after"] > 0 and b["fps"] == pytest.approx((b["fps_before"] + b["fps_after"]) / 2)
+    assert result["live_vs_bench"] == pytest.approx(s["live_fps"] / b["fps"])
