@@ -14,25 +14,12 @@ starts at zero: a fresh warp is the identity.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import torch
 import torch.nn.functional as F
 from torch import nn
 
-
-@dataclass(frozen=True)
-class WarpConfig:
-    """Sizes of the warp networks."""
-
-    pose_dim: int = 103 * 3  # flattened body rotvecs without the root (see pose_features)
-    latent_dim: int = 32  # per-frame latent z
-    style_dim: int = 64  # style vector w
-    mlp_layers: int = 3  # depth of W
-    fourier_freqs: int = 6  # positional encoding: sin/cos of 2^k * pi * (x, y), k < fourier_freqs
-    base_resolution: int = 64  # resolution of the encoding and of the predicted offsets
-    width: int = 32  # channels of E's first level (doubles per level, capped at 4x)
-    levels: int = 3  # down-sampling levels in E (and up-sampling in F)
+from morf.avatar.network_configs import WarpConfig  # noqa: F401  (the warp networks' size, torch-free)
 
 
 def fourier_encoding(height: int, width: int, num_freqs: int) -> torch.Tensor:

@@ -24,7 +24,6 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
-import torch
 
 from morf.bench.common import machine_info, markdown_table, write_results
 
@@ -126,6 +125,8 @@ def _capture(args, model):
 
 def _vertices(model, rotvecs, transl, shape) -> np.ndarray:
     """(N, V, 3) world vertices and (N, 3) root joints, float32 numpy."""
+    import torch
+
     from morf.fitting.evaluate import posed_chunks
 
     verts, roots = [], []
@@ -179,6 +180,8 @@ def evaluate_config(model, fits, rejected: dict[int, str], gt, gt_verts, gt_root
 
 
 def run(args) -> int:
+    import torch
+
     from morf.body import load_body_model
     from morf.errors import InputError
     from morf.fitting import finalize, fit_sequence, load_fit_inputs, preset

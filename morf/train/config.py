@@ -9,8 +9,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
-from morf.avatar.renderer import RendererConfig
-from morf.avatar.warp import WarpConfig
+from morf.avatar.network_configs import RendererConfig, WarpConfig
 from morf.config_checks import apply_settings, check_keys
 from morf.errors import InputError
 

@@ -37,6 +37,20 @@ def test_motion_clips_import_without_torch():
     assert r.returncode == 0, r.stderr[-2000:]
 
 
+def test_the_command_line_is_built_without_torch():
+    """Every ``morf`` command builds the whole parser (the preset registry, each benchmark's options):
+    none of that may import torch, so a command that needs none starts without it."""
+    script = textwrap.dedent("""
+        import sys
+        sys.modules["torch"] = None  # any import of torch now fails
+        from morf.cli.main import build_parser
+        args = build_parser().parse_args(["play", "avatar", "--motion", "walk.npz", "--out", "walk.mp4"])
+        assert args.command == "play", args
+    """)
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr[-2000:]
+
+
 def test_manifest_describes_the_folder(tiny_avatar):
     import json
 
