@@ -7,7 +7,7 @@ Every name below is loaded from its submodule on first use, so importing a torch
 does not bring in the optimizer and torch.
 """
 
-import importlib
+from morf.lazy import lazy_attributes
 
 # name -> the submodule that defines it
 _LAZY = {
@@ -23,16 +23,4 @@ __all__ = [
     "PRESETS", "BodyFits", "FilterConfig", "FitConfig", "FitInputs", "FitReport", "FitState", "StageConfig",
     "finalize", "fit_project", "fit_sequence", "load_fit_inputs", "load_fits", "preset", "read_fits",
 ]
-
-
-def __getattr__(name):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'morf.fitting' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later look-ups skip this function
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_attributes(__name__, _LAZY)
