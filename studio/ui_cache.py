@@ -70,7 +70,6 @@ class UiCache:
 
     def show(self, image: moderngl.Texture) -> None:
         """The stored frame on the window's back buffer, ``image`` drawn over the live rectangle."""
-        self._ctx.screen.use()
         self._ctx.copy_framebuffer(self._ctx.screen, self._fbo)
         self.draw_image(image)
 

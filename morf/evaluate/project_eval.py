@@ -27,7 +27,6 @@ from morf.evaluate.targets import EvalTarget, holdout_target, novel_poses_target
 
 LPIPS_NOTE = ("not computed: no LPIPS weights given (--lpips PATH or $MORF_LPIPS_WEIGHTS: the lpips package's "
               "weights/v0.1/vgg.pth, with the VGG-16 weights from --vgg PATH or $MORF_VGG16_WEIGHTS)")
-METRIC_KEYS = ("psnr", "psnr_person", "ssim", "ssim_person", "temporal")
 LPIPS_KEYS = ("lpips", "lpips_person")  # TargetScores' LPIPS fields
 
 
