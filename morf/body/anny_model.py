@@ -13,6 +13,8 @@ import threading
 
 import torch
 
+from morf.body.anny_import import import_anny
+from morf.body.kinematics import KinematicChain, forward_kinematics_local_ref
 from morf.body.lbs import linear_blend_skinning
 from morf.body.model import BodyModel, BodyOutput, BodyPose
 from morf.body.rotations import axis_angle_to_matrix
@@ -56,12 +58,12 @@ class AnnyBodyModel(BodyModel):
     def __init__(self, topology: str = "anny"):
         super().__init__()
         with _LOAD_LOCK, _quiet_stdio():
-            import anny
+            anny = import_anny()
 
             model = anny.Anny(topology=topology).to(torch.float32)
             regressor = anny.KeypointsRegressor.coco(model)
-            # warp compiles and prints on the first skinning call; do that call here, silenced.
-            model(torch.eye(4).expand(1, len(model.bone_labels), 4, 4).clone(), None)
+            # Anny's own forward pass skins with NVIDIA warp, which starts up (0.3 s) and prints
+            # on its first call; this class skins with morf.body.lbs and never makes that call.
         self.anny = model
         self.bone_names = list(model.bone_labels)
         self.bone_parents = [int(p) for p in model.bone_parents]
@@ -77,6 +79,9 @@ class AnnyBodyModel(BodyModel):
         self.register_buffer("dense_weights", dense, persistent=False)
         self.register_buffer("keypoint_regressor", regressor.regression_weights.float(), persistent=False)
         self._n_local = len(model.local_change_labels)
+        # our batched-matmul kinematics where Anny uses the parameterization it implements
+        self._chain = (KinematicChain.from_parents(model.bone_parents)
+                       if model.pose_parameterization == "local-ref" else None)
         self._n_facial = len(model.facial_action_labels)
 
     @property
@@ -109,10 +114,14 @@ class AnnyBodyModel(BodyModel):
     def bone_transforms(self, pose: BodyPose, rest_bone_poses: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Skinning matrices and posed bone poses, both (B, J, 4, 4), for ``pose`` on a shaped rest
         skeleton ``rest_bone_poses`` (1 or B, J, 4, 4) from :meth:`rest`."""
+        deltas = self.pose_to_deltas(pose)
+        if self._chain is not None:
+            return forward_kinematics_local_ref(self._chain, rest_bone_poses, deltas,
+                                                self.anny.reference_bone_orientations)
         B = pose.batch_size
         if rest_bone_poses.shape[0] == 1 and B > 1:
             rest_bone_poses = rest_bone_poses.expand(B, -1, -1, -1)
-        return self.anny.get_bone_transforms(self.pose_to_deltas(pose), rest_bone_poses)
+        return self.anny.get_bone_transforms(deltas, rest_bone_poses)
 
     def forward(self, pose: BodyPose, shape: torch.Tensor) -> BodyOutput:
         """Pose a batch. ``shape`` is (1, 6) shared or (B, 6) per frame."""

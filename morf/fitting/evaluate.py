@@ -12,7 +12,7 @@ from morf.body.model import BodyPose
 from morf.camera import PinholeCamera
 from morf.fitting.losses import keypoint_residual_px, worst_keypoint_residual_px
 from morf.fitting.offsets import dressed_vertices
-from morf.raster.soft_silhouette import hard_coverage
+from morf.raster.soft_silhouette import front_facing, hard_coverage
 
 
 @dataclass(frozen=True)
@@ -45,23 +45,27 @@ def posed_chunks(model, rotvecs: torch.Tensor, transl: torch.Tensor, shape: torc
 
 
 def silhouettes(vertices: torch.Tensor, faces: torch.Tensor, camera: PinholeCamera, scale: float,
-                width: int, height: int) -> np.ndarray:
+                width: int, height: int, front_only: bool = False) -> np.ndarray:
     """(B, V, 3) world vertices -> (B, height, width) bool hard silhouettes at ``scale``.
 
     Drawn by OpenGL (:func:`morf.raster.gl_silhouette.silhouettes_gl`: 12x faster at 512 px);
     where no GL context can be made, by the same per-pixel test in torch (the two differ on at
-    most a few outline pixels of a frame, where a pixel centre lies on a triangle edge)."""
+    most a few outline pixels of a frame, where a pixel centre lies on a triangle edge).
+    ``front_only`` draws only the triangles facing the camera."""
     from morf.raster.gl_context import GLUnavailable
 
     try:
         from morf.raster.gl_silhouette import silhouettes_gl
 
-        return silhouettes_gl(vertices, faces, camera, scale, width, height)
+        return silhouettes_gl(vertices, faces, camera, scale, width, height, front_only=front_only)
     except GLUnavailable:
         pix = camera.project(vertices) * scale
         tri = pix[:, faces]
-        in_front = (camera.world_to_camera(vertices)[..., 2] > 1e-3)[:, faces].all(-1)
-        return hard_coverage(tri, in_front, height, width).cpu().numpy()
+        cam_v = camera.world_to_camera(vertices)
+        keep = (cam_v[..., 2] > 1e-3)[:, faces].all(-1)
+        if front_only:
+            keep = keep & front_facing(cam_v, faces)
+        return hard_coverage(tri, keep, height, width).cpu().numpy()
 
 
 def iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:

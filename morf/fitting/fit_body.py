@@ -66,8 +66,13 @@ class FitBody(torch.nn.Module):
             self.register_buffer("proxy_ids", ids, persistent=False)
             self.register_buffer("proxy_weights", model.dense_weights[ids].contiguous(), persistent=False)
             self.register_buffer("proxy_faces", torch.as_tensor(proxy.faces, device=kp_ids.device), persistent=False)
+            # the full mesh's triangles around the proxy's vertices: all their rest normals need
+            touches = torch.zeros(model.num_vertices, dtype=torch.bool, device=kp_ids.device)
+            touches[ids] = True
+            self.register_buffer("normal_faces", model.faces[touches[model.faces].any(1)].contiguous(),
+                                 persistent=False)
         else:
-            self.proxy_ids = self.proxy_weights = self.proxy_faces = None
+            self.proxy_ids = self.proxy_weights = self.proxy_faces = self.normal_faces = None
 
     def forward(self, pose: BodyPose, shape: torch.Tensor, proxy_rows: torch.Tensor | None = None,
                 proxy_offsets: torch.Tensor | None = None) -> FitBodyOutput:
@@ -84,8 +89,9 @@ class FitBody(torch.nn.Module):
         rest_v = rest["rest_vertices"]
         kv = rest_v[:, self.kp_ids]
         if kv.shape[0] == 1:
-            kvh = torch.cat([kv[0], kv.new_ones(kv.shape[1], 1)], -1)  # (Sk, 4)
-            A = torch.einsum("kvd,vj->kjd", self.regressor[:, :, None] * kvh[None], self.kp_weights)
+            A = rest.get("keypoint_basis")
+            if A is None:
+                A = self._keypoint_basis(kv[0])
             kp = torch.einsum("bjcd,kjd->bkc", T34, A)
         else:
             kp = torch.einsum("kv,bvc->bkc", self.regressor, _skin(T34, self.kp_weights, kv))
@@ -94,7 +100,7 @@ class FitBody(torch.nn.Module):
             rows = slice(None) if proxy_rows is None else proxy_rows
             pv = rest_v[:, self.proxy_ids]
             if proxy_offsets is not None:
-                normals = vertex_normals_torch(rest_v.detach(), model.faces)[:, self.proxy_ids]
+                normals = vertex_normals_torch(rest_v.detach(), self.normal_faces)[:, self.proxy_ids]
                 pv = pv + proxy_offsets[None, :, None] * normals
             proxy = _skin(T34[rows], self.proxy_weights, pv if pv.shape[0] == 1 else pv[rows])
         return FitBodyOutput(keypoints3d=kp, proxy_vertices=proxy)
@@ -107,9 +113,17 @@ class FitBody(torch.nn.Module):
         key = getattr(self, "_rest_key", None)
         if key is None or key.shape != shape.shape or not torch.equal(key, shape):
             with torch.no_grad():
-                self._rest_cache = self.model.rest(shape)
+                rest = dict(self.model.rest(shape))
+                if shape.shape[0] == 1:
+                    rest["keypoint_basis"] = self._keypoint_basis(rest["rest_vertices"][0, self.kp_ids])
+                self._rest_cache = rest
             self._rest_key = shape.detach().clone()
         return self._rest_cache
+
+    def _keypoint_basis(self, kv: torch.Tensor) -> torch.Tensor:
+        """(K, J, 4) ``A_kj`` of the class docstring from the (Sk, 3) rest vertices the regressor reads."""
+        kvh = torch.cat([kv, kv.new_ones(kv.shape[0], 1)], -1)  # (Sk, 4)
+        return torch.einsum("kvd,vj->kjd", self.regressor[:, :, None] * kvh[None], self.kp_weights)
 
 
 def _skin(T34: torch.Tensor, weights: torch.Tensor, rest_v: torch.Tensor) -> torch.Tensor:

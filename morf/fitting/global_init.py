@@ -18,6 +18,7 @@ import torch
 from morf.body.rotations import axis_angle_to_matrix
 from morf.camera import PinholeCamera
 from morf.errors import InputError
+from morf.fitting.adam import Adam
 from morf.fitting.losses import keypoint_loss
 from morf.fitting.params import yaw_candidates, yaw_matrix
 
@@ -123,7 +124,7 @@ def fit_global(points: np.ndarray, camera: PinholeCamera, rest_kp: torch.Tensor,
     w = torch.zeros(rest_kp.shape[0], dtype=dtype)
     for k, v in GLOBAL_KEYPOINT_WEIGHTS.items():
         w[k] = v
-    opt = torch.optim.Adam([delta, transl], lr=lr)
+    opt = Adam([delta, transl], lr=lr)
 
     def losses():
         R = axis_angle_to_matrix(delta) @ R0

@@ -13,7 +13,9 @@ from dataclasses import dataclass
 import torch
 
 from morf.camera import PinholeCamera, project_points
+from morf.fitting.adam import Adam
 from morf.fitting.config import FitConfig, StageConfig
+from morf.fitting.evaluate import silhouettes
 from morf.fitting.fit_body import FitBody
 from morf.fitting.inputs import FitInputs
 from morf.fitting.losses import dice_loss_per_frame, keypoint_loss, rotation_temporal_loss, shape_loss, temporal_loss
@@ -59,8 +61,11 @@ def _data_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, idx:
         pix = project_points(cam_v, sc.fx, sc.fy, sc.cx, sc.cy)
         faces = problem.body.proxy_faces
         h, w = problem.masks.shape[-2:]
+        covered = None
+        if pix.device.type == "cpu":  # the GL rasterizer finds the covered pixels (torch without GL)
+            covered = torch.from_numpy(silhouettes(out.proxy_vertices.detach(), faces, sc, 1.0, w, h, front_only=True))
         sil = soft_silhouette(pix, faces, h, w, sigma=cfg.silhouette_sigma,
-                              face_mask=front_facing(cam_v.detach(), faces))
+                              face_mask=front_facing(cam_v.detach(), faces), covered=covered)
         dice = dice_loss_per_frame(sil, problem.masks[sil_idx]).sum() * sil_factor
         total = total + cfg.silhouette_weight * dice
         logs["silhouette"] = float(dice.detach())
@@ -110,7 +115,7 @@ def run_stage(problem: FitProblem, params: FitParameters, cfg: FitConfig, stage:
     groups_ = [{"params": trainable, "lr": stage.lr}]
     if use_offsets:
         groups_.append({"params": [params.offsets], "lr": cfg.offset_lr})
-    opt = torch.optim.Adam(groups_)
+    opt = Adam(groups_)
     sil_frames = torch.arange(N, device=device)
     if use_sil:
         # frames with a detected person and a non-empty mask take part in the silhouette loss

@@ -31,6 +31,11 @@ void main() { covered = 1.0; }
 """
 
 
+# image rows run down while GL's window y runs up, so a triangle counter-clockwise seen from
+# outside the mesh comes out clockwise in GL's window coordinates
+FRONT_FACE_WINDING = "cw"
+
+
 def _faces_key(faces: np.ndarray) -> str:
     return hashlib.sha1(np.ascontiguousarray(faces, np.int32).tobytes()).hexdigest()
 
@@ -66,7 +71,7 @@ def _framebuffer(state: GLState, width: int, height: int):
 
 @with_gl_context
 def silhouettes_gl(vertices, faces, camera: PinholeCamera, scale: float = 1.0, width: int | None = None,
-                   height: int | None = None) -> np.ndarray:
+                   height: int | None = None, front_only: bool = False) -> np.ndarray:
     """(B, height, width) bool silhouettes of B posed meshes.
 
     Args:
@@ -74,6 +79,9 @@ def silhouettes_gl(vertices, faces, camera: PinholeCamera, scale: float = 1.0, w
         faces: (F, 3) vertex indices, numpy or torch.
         camera: the camera; ``scale`` resizes its image (pixel coordinates times ``scale``), and
             ``width`` x ``height`` is the size of the result (default: the camera's, scaled).
+        front_only: draw only the triangles that face the camera (counter-clockwise seen from
+            outside, as :func:`morf.raster.soft_silhouette.front_facing`); a closed mesh's
+            silhouette is the same either way, a not quite closed one's (the fit's proxy) is not.
     """
     if hasattr(vertices, "detach"):
         vertices = vertices.detach().cpu().numpy()
@@ -94,6 +102,10 @@ def silhouettes_gl(vertices, faces, camera: PinholeCamera, scale: float = 1.0, w
     fbo.use()
     ctx.viewport = (0, 0, w, h)
     ctx.disable(ctx.BLEND | ctx.CULL_FACE | ctx.DEPTH_TEST)
+    if front_only:
+        ctx.enable(ctx.CULL_FACE)
+        ctx.cull_face = "back"
+        ctx.front_face = FRONT_FACE_WINDING
     out = np.empty((len(v), h, w), bool)
     for i in range(len(v)):
         mesh.vbo.write(v[i].tobytes())
@@ -101,4 +113,7 @@ def silhouettes_gl(vertices, faces, camera: PinholeCamera, scale: float = 1.0, w
         mesh.vao.render()
         # row 0 of the read-back is framebuffer y = 0, which gl_projection maps to image row 0
         out[i] = np.frombuffer(fbo.read(components=1, alignment=1), np.uint8).reshape(h, w) > 127
+    if front_only:
+        ctx.disable(ctx.CULL_FACE)
+        ctx.front_face = "ccw"
     return out

@@ -197,7 +197,7 @@ def _outline_faces(tri, valid, covered, margin, height, width) -> torch.Tensor:
 
 def soft_silhouette(pixels: torch.Tensor, faces: torch.Tensor, height: int, width: int, *,
                     sigma: float = 0.5, margin_sigmas: float = 3.0, edge_offset: float = 1.0986,
-                    face_mask: torch.Tensor | None = None) -> torch.Tensor:
+                    face_mask: torch.Tensor | None = None, covered: torch.Tensor | None = None) -> torch.Tensor:
     """Differentiable silhouette of triangle meshes already projected to pixels.
 
     Args:
@@ -212,6 +212,8 @@ def soft_silhouette(pixels: torch.Tensor, faces: torch.Tensor, height: int, widt
             area per pixel of outline (0.14 px at sigma 0.5); the offset keeps that bias small
             while the fringe still carries gradient.
         face_mask: optional (B, F) bool, triangles to draw (e.g. :func:`front_facing` ones).
+        covered: optional (B, H, W) bool, the pixel centres inside the mesh when the caller has
+            them already (from OpenGL, say); by default :func:`hard_coverage` finds them.
     Returns:
         (B, H, W) coverage in [0, 1], differentiable with respect to ``pixels``.
     """
@@ -224,7 +226,8 @@ def soft_silhouette(pixels: torch.Tensor, faces: torch.Tensor, height: int, widt
         valid = area2.abs() > 1e-9
         if face_mask is not None:
             valid = valid & face_mask
-        covered = hard_coverage(td, valid, height, width)
+        if covered is None:
+            covered = hard_coverage(td, valid, height, width)
         margin = sigma * margin_sigmas
         outline = _outline_faces(td, valid, covered, margin, height, width)
         pairs = enumerate_pairs(td, outline, margin, height, width, pixel_mask=~covered)

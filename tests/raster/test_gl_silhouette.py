@@ -44,6 +44,7 @@ def test_without_gl_the_fit_evaluation_draws_them_in_torch(body_model, monkeypat
     import morf.raster.gl_silhouette as gs
     from morf.fitting.evaluate import silhouettes
     from morf.raster.gl_context import GLUnavailable
+    from morf.raster.soft_silhouette import front_facing
 
     def no_gl(*a, **k):
         raise GLUnavailable("no EGL here")
@@ -53,3 +54,27 @@ def test_without_gl_the_fit_evaluation_draws_them_in_torch(body_model, monkeypat
     verts = _posed(body_model, 1)
     out = silhouettes(verts, body_model.faces, cam, 1.0, 64, 64)
     np.testing.assert_array_equal(out, _torch_silhouettes(verts, body_model.faces, cam, 1.0, 64, 64))
+    # front_only keeps the camera-facing triangles there too (an open mesh shows the difference)
+    faces = body_model.faces[::3]
+    cam_v = cam.world_to_camera(verts)
+    keep = (cam_v[..., 2] > 1e-3)[:, faces].all(-1) & front_facing(cam_v, faces)
+    ref = hard_coverage(cam.project(verts)[:, faces], keep, 64, 64).numpy()
+    np.testing.assert_array_equal(silhouettes(verts, faces, cam, 1.0, 64, 64, front_only=True), ref)
+    assert (silhouettes(verts, faces, cam, 1.0, 64, 64) != ref).any()
+
+
+def test_front_only_draws_the_triangles_facing_the_camera(body_model, gl):
+    from morf.fitting.evaluate import silhouettes
+    from morf.raster.soft_silhouette import front_facing
+
+    cam = PinholeCamera.look_at(120, 120, 40.0, eye=(0.0, -3.4, 0.2), target=(0.0, 0.0, -0.1))
+    verts = _posed(body_model, 2)
+    faces = body_model.faces[::3]  # an open mesh: back faces show through the gaps
+    cam_v = cam.world_to_camera(verts)
+    keep = (cam_v[..., 2] > 1e-3)[:, faces].all(-1) & front_facing(cam_v, faces)
+    ref = hard_coverage((cam.project(verts))[:, faces], keep, 120, 120).numpy()
+    out = silhouettes(verts, faces, cam, 1.0, 120, 120, front_only=True)
+    every = silhouettes(verts, faces, cam, 1.0, 120, 120)
+    assert ((out != ref).sum((1, 2)) <= np.maximum(3, 0.002 * ref.sum((1, 2)))).all()
+    assert ((every != ref).sum((1, 2)) > 50).all()  # the back faces do change this mesh's picture
+
