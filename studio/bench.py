@@ -54,6 +54,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--screenshot", metavar="PNG", default=None, help="save the window's last frame")
     p.add_argument("--no-compare", action="store_true", help="skip the 'morf bench render' measurement")
     p.add_argument("--compare-frames", type=int, default=60, help="timed frames of the 'morf bench render' measurement")
+    p.add_argument("--rounds", type=int, default=3,
+                   help="split the timed seconds into this many rounds with a 'morf bench render' measurement "
+                        "before each and after the last, the studio waiting meanwhile; each round is compared "
+                        "with the measurements beside it (the host's load drifts between minutes). With "
+                        "--with-training the reference is taken before and after the studio only")
     p.add_argument("--out", default=None, help="folder for studio.json and studio.md")
     return p
 
@@ -116,6 +121,23 @@ class Window:
     train_steps: int | None
 
 
+def merge_windows(windows: list[Window]) -> Window:
+    """The rounds of one run as one window: counts and seconds added, per-frame samples joined,
+    CPU shares weighted by each round's seconds."""
+    seconds = sum(w.seconds for w in windows)
+    cpu: dict[str, float] = {}
+    for w in windows:
+        for k, v in w.cpu.items():
+            cpu[k] = cpu.get(k, 0.0) + v * w.seconds / seconds
+    steps = [w.train_steps for w in windows]
+    return Window(seconds=seconds, ui_frames=sum(w.ui_frames for w in windows),
+                  ui_frame_ms=np.concatenate([w.ui_frame_ms for w in windows]),
+                  live_frames=sum(w.live_frames for w in windows), live_shown=sum(w.live_shown for w in windows),
+                  ui_light_frames=sum(w.ui_light_frames for w in windows),
+                  live_render_ms=np.concatenate([w.live_render_ms for w in windows]), cpu=cpu,
+                  train_steps=None if any(t is None for t in steps) else sum(steps))
+
+
 def _minimal_project(root: Path) -> Path:
     """A one-frame capture project: the live panel needs an open project around it."""
     from morf.capture.project import CaptureProject
@@ -152,8 +174,30 @@ def _step(app) -> int | None:
     return progress.step if progress is not None else None
 
 
-def run_studio(args, avatar: Path, tmp: Path) -> tuple[Window, dict]:
-    """Open the studio, play the motion in the live panel, time ``args.seconds`` of it."""
+def _timed_window(app, live, seconds: float, roles: dict[int, str], ui_tid: int, training) -> Window:
+    """Run the studio's frame loop for ``seconds`` and say what it did."""
+    n0, s0, seq0, step0 = len(app.frame_times), len(app.live_stats), live.latest().seq, _step(app)
+    light0 = app.light_frame_count
+    cpu0, t0 = thread_cpu_seconds(), time.perf_counter()
+    nice = {tid: v[1] for tid, v in cpu0.items()}
+    helper_nice = nice.get(live.native_id) if nice.get(live.native_id) != nice.get(ui_tid) else None
+    app.run(seconds=seconds)
+    t1, cpu1 = time.perf_counter(), thread_cpu_seconds()
+    seq1, step1 = live.latest().seq, _step(app)
+    stats = app.live_stats[s0:]
+    return Window(seconds=t1 - t0, ui_frames=len(app.frame_times) - n0,
+                  ui_frame_ms=1e3 * np.asarray(app.frame_times[n0:]), live_frames=seq1 - seq0,
+                  live_shown=len(stats), ui_light_frames=app.light_frame_count - light0,
+                  live_render_ms=np.asarray([ms for _, ms in stats]),
+                  cpu=cpu_shares(cpu0, cpu1, t1 - t0, roles, helper_nice),
+                  train_steps=None if not training or step1 is None else step1 - (step0 or 0))
+
+
+def run_studio(args, avatar: Path, tmp: Path, between=None) -> tuple[list[Window], dict]:
+    """Open the studio, play the motion in the live panel, time ``args.seconds`` of it.
+
+    With ``between`` (a callable taking the round number), the seconds are split into
+    ``args.rounds`` rounds and ``between(r)`` runs before each round and after the last."""
     from studio.app import StudioApp
     from studio.commands import StartStage
     from studio.sizes import parse_window_size
@@ -195,20 +239,14 @@ def run_studio(args, avatar: Path, tmp: Path) -> tuple[Window, dict]:
             raise RuntimeError(f"the motion did not load: {app.live_panel.clip_note}")
         ui_tid = threading.main_thread().native_id
         roles = {ui_tid: "UI thread", live.native_id: "live render thread", app.worker.native_id: "worker thread"}
-        n0, s0, seq0, step0 = len(app.frame_times), len(app.live_stats), live.latest().seq, _step(app)
-        light0 = app.light_frame_count
-        cpu0, t0 = thread_cpu_seconds(), time.perf_counter()
-        nice = {tid: v[1] for tid, v in cpu0.items()}
-        helper_nice = nice.get(live.native_id) if nice.get(live.native_id) != nice.get(ui_tid) else None
-        app.run(seconds=args.seconds)
-        t1, cpu1 = time.perf_counter(), thread_cpu_seconds()
-        seq1, step1 = live.latest().seq, _step(app)
-        stats = app.live_stats[s0:]
-        window = Window(seconds=t1 - t0, ui_frames=len(app.frame_times) - n0,
-                        ui_frame_ms=1e3 * np.asarray(app.frame_times[n0:]), live_frames=seq1 - seq0,
-                        live_shown=len(stats), ui_light_frames=app.light_frame_count - light0, live_render_ms=np.asarray([ms for _, ms in stats]),
-                        cpu=cpu_shares(cpu0, cpu1, t1 - t0, roles, helper_nice),
-                        train_steps=None if not args.with_training or step1 is None else step1 - (step0 or 0))
+        rounds = max(1, int(between is not None and args.rounds))
+        windows = []
+        for r in range(rounds):
+            if between is not None:
+                between(r)  # the studio's frame loop waits meanwhile: nothing is drawn or rendered
+            windows.append(_timed_window(app, live, args.seconds / rounds, roles, ui_tid, args.with_training))
+        if between is not None:
+            between(rounds)
         if args.with_training:  # where training stood at the end (a tiny preset may finish early)
             snap = app.worker.latest()
             info["training"] = {"state": snap.state, "stage": snap.stage, "error": snap.error,
@@ -218,7 +256,7 @@ def run_studio(args, avatar: Path, tmp: Path) -> tuple[Window, dict]:
             from morf.io import write_image
 
             write_image(args.screenshot, app.frame(capture=True))
-    return window, info
+    return windows, info
 
 
 def summarize(w: Window) -> dict:
@@ -249,12 +287,31 @@ def report(result: dict) -> str:
                      f"step {t['step']} of {t['total']}" + (f", error: {t['error']}" if t["error"] else ""))
     b = result.get("bench_render")
     if b:
-        lines.append(f"  morf bench render on the same avatar: {b['fps']:.1f} fps end to end (mean of "
-                     f"{b['fps_before']:.1f} before and {b['fps_after']:.1f} after the studio; {b['threads']} "
-                     f"onnxruntime threads); live panel at {100 * result['live_vs_bench']:.0f}% of it")
+        each = " / ".join(f"{f:.1f}" for f in b["fps_each"])
+        lines.append(f"  morf bench render on the same avatar: {b['fps']:.1f} fps end to end (measured {each}, "
+                     f"before, between and after the rounds; {b['threads']} onnxruntime threads)")
+        per = ", ".join(f"{r['live_fps']:.1f} / {r['bench_fps']:.1f} = {100 * r['ratio']:.0f}%" for r in result["rounds"])
+        lines.append(f"  live panel vs bench render, round by round: {per}; median {100 * result['live_vs_bench']:.0f}%")
     lines.append(f"  targets: live >= {100 * TARGET_LIVE_RATIO:.0f}% of bench render: {result['targets']['live_fps']}; "
                  f"UI p95 < {TARGET_UI_P95_MS:.0f} ms: {result['targets']['ui_p95']}")
     return "\n".join(lines)
+
+
+def compare_rounds(windows: list[Window], refs: list[dict]) -> dict:
+    """The live panel against ``morf bench render``: each round against the mean of the
+    measurements right before and after it (``refs`` has one more entry than ``windows``, or two
+    around a single window); the run's ratio is the median round's."""
+    fps = [r["fps_end_to_end"] for r in refs]
+    rounds = []
+    for i, w in enumerate(windows):
+        ref = (fps[i] + fps[min(i + 1, len(fps) - 1)]) / 2
+        live = w.live_frames / w.seconds
+        rounds.append({"live_fps": live, "bench_fps": ref, "ratio": live / ref})
+    bench = {"fps": float(np.mean(fps)), "fps_before": fps[0], "fps_after": fps[-1], "fps_each": fps,
+             "frame_ms": float(np.mean([r["frame_ms"] for r in refs])),
+             "threads": refs[-1].get("threads", 2), "size": refs[-1]["size"]}
+    return {"bench_render": bench, "rounds": rounds,
+            "live_vs_bench": float(np.median([r["ratio"] for r in rounds]))}
 
 
 def _bench_render(avatar: Path, frames: int) -> dict:
@@ -270,24 +327,27 @@ def run(args) -> int:
     if not (avatar / "manifest.json").is_file():
         print(f"morf bench studio: error: not an exported avatar (no manifest.json): {avatar}", file=sys.stderr)
         return 2
-    before = None if args.no_compare else _bench_render(avatar, args.compare_frames)
+    refs: list[dict] = []
+    between = None
+    if not args.no_compare:
+        if args.with_training:  # training would run on during a reference: measure around the studio
+            refs.append(_bench_render(avatar, args.compare_frames))
+        else:
+            def between(r):
+                refs.append(_bench_render(avatar, args.compare_frames))
     with tempfile.TemporaryDirectory(prefix="morf-bench-studio-") as tmp:
-        window, info = run_studio(args, avatar, Path(tmp))
+        windows, info = run_studio(args, avatar, Path(tmp), between)
+    if not args.no_compare and args.with_training:
+        refs.append(_bench_render(avatar, args.compare_frames))
     from morf.bench.common import machine_info
 
     result: dict = {"benchmark": "studio", "avatar": str(avatar), "motion": str(Path(args.motion).resolve()),
                     "size": args.size, "with_training": args.with_training,
                     "preset": info.pop("train_preset", None),  # before **info: recorded once
-                    **info, "studio": summarize(window), "machine": machine_info(),
+                    **info, "studio": summarize(merge_windows(windows)), "machine": machine_info(),
                     "command": "morf bench studio " + " ".join(sys.argv[1:])}
-    if before is not None:
-        # measured right before and right after the studio: the host's load moves it between minutes
-        after = _bench_render(avatar, args.compare_frames)
-        fps = (before["fps_end_to_end"] + after["fps_end_to_end"]) / 2
-        result["bench_render"] = {"fps": fps, "fps_before": before["fps_end_to_end"], "fps_after": after["fps_end_to_end"],
-                                  "frame_ms": (before["frame_ms"] + after["frame_ms"]) / 2,
-                                  "threads": after.get("threads", 2), "size": after["size"]}
-        result["live_vs_bench"] = result["studio"]["live_fps"] / fps
+    if refs:
+        result.update(compare_rounds(windows, refs))
     ratio, p95 = result.get("live_vs_bench"), result["studio"]["ui_frame_ms_p95"]
     result["targets"] = {"live_fps": "n/a" if ratio is None else ("met" if ratio >= TARGET_LIVE_RATIO else "missed"),
                          "ui_p95": "n/a" if p95 is None else ("met" if p95 < TARGET_UI_P95_MS else "missed")}
