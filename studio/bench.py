@@ -328,17 +328,18 @@ def run(args) -> int:
         print(f"morf bench studio: error: not an exported avatar (no manifest.json): {avatar}", file=sys.stderr)
         return 2
     refs: list[dict] = []
-    between = None
-    if not args.no_compare:
-        if args.with_training:  # training would run on during a reference: measure around the studio
-            refs.append(_bench_render(avatar, args.compare_frames))
-        else:
-            def between(r):
-                refs.append(_bench_render(avatar, args.compare_frames))
+
+    def measure(_round: int = 0) -> None:
+        refs.append(_bench_render(avatar, args.compare_frames))
+
+    # with training beside, a reference would share the CPU with it: measure around the studio only
+    between = None if (args.no_compare or args.with_training) else measure
+    if not args.no_compare and args.with_training:
+        measure()
     with tempfile.TemporaryDirectory(prefix="morf-bench-studio-") as tmp:
         windows, info = run_studio(args, avatar, Path(tmp), between)
     if not args.no_compare and args.with_training:
-        refs.append(_bench_render(avatar, args.compare_frames))
+        measure()
     from morf.bench.common import machine_info
 
     result: dict = {"benchmark": "studio", "avatar": str(avatar), "motion": str(Path(args.motion).resolve()),
