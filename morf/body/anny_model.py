@@ -16,7 +16,7 @@ import torch
 from morf.body.anny_import import import_anny
 from morf.body.kinematics import KinematicChain, forward_kinematics_local_ref
 from morf.body.lbs import linear_blend_skinning
-from morf.body.model import BodyModel, BodyOutput, BodyPose
+from morf.body.model import BodyModel, BodyOutput, BodyPose, PoseMatrices
 from morf.body.rotations import axis_angle_to_matrix
 
 _LOAD_LOCK = threading.Lock()
@@ -100,10 +100,10 @@ class AnnyBodyModel(BodyModel):
         return self.anny.get_rest_model(coeffs)
 
     @staticmethod
-    def pose_to_deltas(pose: BodyPose) -> torch.Tensor:
-        """(B, J, 4, 4) Anny "local-ref" delta transforms from axis-angle + root translation."""
-        B, J, _ = pose.rotvecs.shape
-        R = axis_angle_to_matrix(pose.rotvecs)
+    def pose_to_deltas(pose: BodyPose | PoseMatrices) -> torch.Tensor:
+        """(B, J, 4, 4) Anny "local-ref" delta transforms from the bone rotations + root translation."""
+        R = pose.rotations if isinstance(pose, PoseMatrices) else axis_angle_to_matrix(pose.rotvecs)
+        B, J = R.shape[:2]
         top = torch.cat([R, R.new_zeros(B, J, 3, 1)], dim=-1)
         bottom = R.new_tensor([0, 0, 0, 1.0]).expand(B, J, 1, 4)
         T = torch.cat([top, bottom], dim=-2)
@@ -111,14 +111,16 @@ class AnnyBodyModel(BodyModel):
         trans[:, 0, :3, 3] = pose.transl
         return T + trans
 
-    def bone_transforms(self, pose: BodyPose, rest_bone_poses: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    def bone_transforms(self, pose: BodyPose | PoseMatrices,
+                        rest_bone_poses: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Skinning matrices and posed bone poses, both (B, J, 4, 4), for ``pose`` on a shaped rest
         skeleton ``rest_bone_poses`` (1 or B, J, 4, 4) from :meth:`rest`."""
-        deltas = self.pose_to_deltas(pose)
         if self._chain is not None:
-            return forward_kinematics_local_ref(self._chain, rest_bone_poses, deltas,
+            R = pose.rotations if isinstance(pose, PoseMatrices) else axis_angle_to_matrix(pose.rotvecs)
+            return forward_kinematics_local_ref(self._chain, rest_bone_poses, R, pose.transl,
                                                 self.anny.reference_bone_orientations)
-        B = pose.batch_size
+        deltas = self.pose_to_deltas(pose)
+        B = deltas.shape[0]
         if rest_bone_poses.shape[0] == 1 and B > 1:
             rest_bone_poses = rest_bone_poses.expand(B, -1, -1, -1)
         return self.anny.get_bone_transforms(deltas, rest_bone_poses)

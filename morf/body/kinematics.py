@@ -73,23 +73,25 @@ def _homogeneous(rotation: torch.Tensor, translation: torch.Tensor) -> torch.Ten
     return torch.cat([top, bottom], -2)
 
 
-def forward_kinematics_local_ref(chain: KinematicChain, rest_bone_poses: torch.Tensor, deltas: torch.Tensor,
+def forward_kinematics_local_ref(chain: KinematicChain, rest_bone_poses: torch.Tensor, rotations: torch.Tensor,
+                                 root_translation: torch.Tensor,
                                  reference_orientations: torch.Tensor | None = None
                                  ) -> tuple[torch.Tensor, torch.Tensor]:
-    """Skinning transforms and posed bone poses for "local-ref" deltas.
+    """Skinning transforms and posed bone poses for "local-ref" deltas that rotate every bone
+    (D_c) and translate the root only (d_0; d_c = 0 for the others, as a body pose has it).
 
     Args:
         chain: the bone tree.
         rest_bone_poses: (1 or B, J, 4, 4) rest poses of the shaped skeleton.
-        deltas: (B, J, 4, 4) delta transforms (only the top 3x4 block is read).
+        rotations: (B, J, 3, 3) the deltas' rotations D_c.
+        root_translation: (B, 3) the root delta's translation d_0.
         reference_orientations: (J, 3, 3), or None for the rest orientations.
     Returns:
         transforms T (B, J, 4, 4) and posed poses W (B, J, 4, 4).
     """
-    parent, order, local, inverse = (t.to(deltas.device) for t in (chain.parent, chain.order, chain.local,
-                                                                   chain.inverse))
+    parent, order, local, inverse = (t.to(rotations.device) for t in (chain.parent, chain.order, chain.local,
+                                                                      chain.inverse))
     R, h = rest_bone_poses[..., :3, :3], rest_bone_poses[..., :3, 3]
-    D, d = deltas[..., :3, :3], deltas[..., :3, 3]
     offsets = h - h[..., parent, :]
     if reference_orientations is None:
         U = R
@@ -99,14 +101,14 @@ def forward_kinematics_local_ref(chain: KinematicChain, rest_bone_poses: torch.T
         A = torch.cat([torch.eye(3, dtype=R.dtype, device=R.device).expand_as(A[..., :1, :, :]), A[..., 1:, :, :]], -3)
         offsets = (A[..., parent, :, :] @ offsets[..., None])[..., 0]
     U_pt = U[..., parent, :, :].transpose(-1, -2)
-    M = D @ U
+    M = rotations @ U
     # rotation and translation parts apart: 3x3 products, no 4x4 slices whose backward pass
-    # would fill whole zero tensors
+    # would fill whole zero tensors; below the root d_c = 0, so K_c's translation is the rest's
     K_rot = (U_pt @ M)[..., order, :, :]
-    K_t = (U_pt @ (d + offsets)[..., None])[..., order, :, :]
+    K_t = (U_pt @ offsets[..., None])[..., order, :, :]
     U0_t = U[..., 0, :, :].transpose(-1, -2)
     rot = [(U0_t @ M[..., 0, :, :])[..., None, :, :]]
-    trans = [(U0_t @ d[..., 0, :, None])[..., None, :, :]]
+    trans = [(U0_t @ root_translation[..., None])[..., None, :, :]]
     for first, last in chain.levels[1:]:
         parent_rot = rot[-1][..., local[first:last], :, :]
         rot.append(parent_rot @ K_rot[..., first:last, :, :])

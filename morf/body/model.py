@@ -27,6 +27,19 @@ class BodyPose:
 
 
 @dataclass(frozen=True)
+class PoseMatrices:
+    """A :class:`BodyPose` with its rotations as matrices (what forward kinematics consumes;
+    the fit builds it directly and skips a matrix -> axis-angle -> matrix round trip).
+
+    Fields:
+        rotations: (B, J, 3, 3) per bone; transl: (B, 3) global translation in metres.
+    """
+
+    rotations: torch.Tensor
+    transl: torch.Tensor
+
+
+@dataclass(frozen=True)
 class BodyOutput:
     """What a posed body gives to fitting, rasterization and playback.
 

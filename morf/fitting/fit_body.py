@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import torch
 
-from morf.body.model import BodyPose
+from morf.body.model import BodyPose, PoseMatrices
 from morf.fitting.offsets import vertex_normals_torch
 from morf.fitting.proxy_mesh import ProxyMesh
 
@@ -74,9 +74,10 @@ class FitBody(torch.nn.Module):
         else:
             self.proxy_ids = self.proxy_weights = self.proxy_faces = self.normal_faces = None
 
-    def forward(self, pose: BodyPose, shape: torch.Tensor, proxy_rows: torch.Tensor | None = None,
+    def forward(self, pose: BodyPose | PoseMatrices, shape: torch.Tensor, proxy_rows: torch.Tensor | None = None,
                 proxy_offsets: torch.Tensor | None = None) -> FitBodyOutput:
-        """``pose``: (B, J, 3) rotvecs + (B, 3) transl; ``shape``: (1, S) shared or (B, S).
+        """``pose``: (B, J, 3) rotvecs or (B, J, 3, 3) matrices + (B, 3) transl; ``shape``: (1, S)
+        shared or (B, S).
 
         ``proxy_rows``: (P,) batch rows whose proxy vertices are needed (default: all rows).
         ``proxy_offsets``: optional (Vp,) clothing offsets of the proxy vertices, metres along the

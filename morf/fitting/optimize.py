@@ -48,7 +48,7 @@ def _data_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, idx:
     """Keypoint (+ silhouette) loss of the frames ``idx`` (a chunk)."""
     use_sil = sil_idx is not None and sil_idx.numel() > 0
     local = torch.searchsorted(idx, sil_idx.contiguous()) if use_sil else idx.new_zeros(0)
-    out = problem.body(params.pose(idx), params.shape(idx), proxy_rows=local,
+    out = problem.body(params.pose_matrices(idx), params.shape(idx), proxy_rows=local,
                        proxy_offsets=params.offsets if (offsets and use_sil) else None)
     cam = problem.inputs.camera
     proj = cam.project(out.keypoints3d)

@@ -11,7 +11,7 @@ import math
 
 import torch
 
-from morf.body.model import BodyPose
+from morf.body.model import BodyPose, PoseMatrices
 from morf.body.rotations import axis_angle_to_matrix, matrix_to_axis_angle
 
 # Anny bones the fit rotates (the root is handled separately).
@@ -81,6 +81,16 @@ class FitParameters(torch.nn.Module):
         rot = rot.index_copy(1, self.bone_ids, body)
         rot = torch.cat([root[:, None], rot[:, 1:]], dim=1)
         return BodyPose(rotvecs=rot, transl=self.transl[idx])
+
+    def pose_matrices(self, idx: torch.Tensor | slice = slice(None)) -> PoseMatrices:
+        """:meth:`pose` with its rotations as (n, J, 3, 3) matrices (what the fit's forward
+        kinematics consume), built without the root's matrix -> axis-angle round trip."""
+        body = axis_angle_to_matrix(self.body[idx])
+        n = body.shape[0]
+        rot = torch.eye(3, dtype=body.dtype, device=body.device).repeat(n, self.num_bones, 1, 1)
+        rot = rot.index_copy(1, self.bone_ids, body)
+        rot = torch.cat([self.root_matrix(idx)[:, None], rot[:, 1:]], dim=1)
+        return PoseMatrices(rotations=rot, transl=self.transl[idx])
 
     def load_state(self, rotvecs: torch.Tensor, transl: torch.Tensor, shape: torch.Tensor,
                    offsets: torch.Tensor | None = None) -> None:

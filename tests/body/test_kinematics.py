@@ -54,3 +54,24 @@ def test_chain_from_parents_orders_levels_and_rejects_bad_trees():
         KinematicChain.from_parents([0, 0])
     with pytest.raises(ValueError):
         KinematicChain.from_parents([-1, 2, 1])
+
+
+def test_fit_pose_matrices_pose_the_body_as_its_axis_angles(model):
+    from morf.fitting.params import FIT_BONES, FitParameters
+    from morf.body.rotations import axis_angle_to_matrix
+
+    g = torch.Generator().manual_seed(2)
+    N = 4
+    bone_ids = [model.bone_index(b) for b in FIT_BONES]
+    root = axis_angle_to_matrix(torch.randn(N, 3, generator=g))
+    params = FitParameters(N, len(model.bone_names), bone_ids, root, torch.randn(N, 3, generator=g),
+                           model.default_shape(), True)
+    with torch.no_grad():
+        params.body.normal_(0, 0.4, generator=g)
+        params.root_delta.normal_(0, 0.2, generator=g)
+    rest = model.rest(model.default_shape())["rest_bone_poses"]
+    T_mat, _ = model.bone_transforms(params.pose_matrices(), rest)
+    T_vec, _ = model.bone_transforms(params.pose(), rest)
+    torch.testing.assert_close(T_mat, T_vec, rtol=1e-4, atol=2e-5)
+    torch.testing.assert_close(model.pose_to_deltas(params.pose_matrices()), model.pose_to_deltas(params.pose()),
+                               rtol=1e-4, atol=2e-5)
