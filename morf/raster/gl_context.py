@@ -91,14 +91,27 @@ def create_headless_context():
                                 "install the system packages libegl1 and libgl1") from None
 
 
+# Why EGL gave no context, once it failed: a missing driver does not appear later in the process,
+# and callers with a torch fallback (the fit's silhouettes, every step) should not retry each time.
+_EGL_FAILURE: list[str] = []
+
+
 def gl_state() -> GLState:
     """The calling thread's :class:`GLState` (context made on first call).
 
-    Raises :class:`GLUnavailable` with a one-line hint when EGL cannot give a context.
+    Raises :class:`GLUnavailable` with a one-line hint when EGL cannot give a context (after the
+    first failure at once, without trying again).
     """
     state = getattr(_LOCAL, "state", None)
     if state is None:
-        state = GLState(create_headless_context())
+        if _EGL_FAILURE:
+            raise GLUnavailable(_EGL_FAILURE[0])
+        try:
+            ctx = create_headless_context()
+        except GLUnavailable as e:
+            _EGL_FAILURE.append(str(e))
+            raise
+        state = GLState(ctx)
         _LOCAL.state = state
     return state
 

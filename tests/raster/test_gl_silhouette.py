@@ -78,3 +78,31 @@ def test_front_only_draws_the_triangles_facing_the_camera(body_model, gl):
     assert ((out != ref).sum((1, 2)) <= np.maximum(3, 0.002 * ref.sum((1, 2)))).all()
     assert ((every != ref).sum((1, 2)) > 50).all()  # the back faces do change this mesh's picture
 
+
+
+def test_a_failed_egl_context_is_not_tried_again(monkeypatch):
+    import threading
+
+    import morf.raster.gl_context as glc
+
+    calls = []
+
+    def failing():
+        calls.append(1)
+        raise glc.GLUnavailable("no EGL here")
+
+    monkeypatch.setattr(glc, "create_headless_context", failing)
+    monkeypatch.setattr(glc, "_EGL_FAILURE", [])
+    errors = []
+
+    def on_a_fresh_thread():  # a thread without a context yet
+        for _ in range(3):
+            try:
+                glc.gl_state()
+            except glc.GLUnavailable as e:
+                errors.append(str(e))
+
+    t = threading.Thread(target=on_a_fresh_thread)
+    t.start()
+    t.join()
+    assert calls == [1] and errors == ["no EGL here"] * 3
