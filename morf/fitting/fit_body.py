@@ -66,7 +66,7 @@ class FitBody(torch.nn.Module):
             self.register_buffer("proxy_ids", ids, persistent=False)
             self.register_buffer("proxy_weights", model.dense_weights[ids].contiguous(), persistent=False)
             self.register_buffer("proxy_faces", torch.as_tensor(proxy.faces, device=kp_ids.device), persistent=False)
-            # the full mesh's triangles around the proxy's vertices: all their rest normals need
+            # the full mesh's triangles around the proxy's vertices: all that their rest normals need
             touches = torch.zeros(model.num_vertices, dtype=torch.bool, device=kp_ids.device)
             touches[ids] = True
             self.register_buffer("normal_faces", model.faces[touches[model.faces].any(1)].contiguous(),
