@@ -52,6 +52,11 @@ def _quiet_stdio():
             os.close(fd)
 
 
+def _rotation_matrices(pose: BodyPose | PoseMatrices) -> torch.Tensor:
+    """(B, J, 3, 3) bone rotations of either pose form."""
+    return pose.rotations if isinstance(pose, PoseMatrices) else axis_angle_to_matrix(pose.rotvecs)
+
+
 class AnnyBodyModel(BodyModel):
     """Anny full-body model, float32, shape = 6 phenotype values in [0, 1]."""
 
@@ -102,7 +107,7 @@ class AnnyBodyModel(BodyModel):
     @staticmethod
     def pose_to_deltas(pose: BodyPose | PoseMatrices) -> torch.Tensor:
         """(B, J, 4, 4) Anny "local-ref" delta transforms from the bone rotations + root translation."""
-        R = pose.rotations if isinstance(pose, PoseMatrices) else axis_angle_to_matrix(pose.rotvecs)
+        R = _rotation_matrices(pose)
         B, J = R.shape[:2]
         top = torch.cat([R, R.new_zeros(B, J, 3, 1)], dim=-1)
         bottom = R.new_tensor([0, 0, 0, 1.0]).expand(B, J, 1, 4)
@@ -116,8 +121,7 @@ class AnnyBodyModel(BodyModel):
         """Skinning matrices and posed bone poses, both (B, J, 4, 4), for ``pose`` on a shaped rest
         skeleton ``rest_bone_poses`` (1 or B, J, 4, 4) from :meth:`rest`."""
         if self._chain is not None:
-            R = pose.rotations if isinstance(pose, PoseMatrices) else axis_angle_to_matrix(pose.rotvecs)
-            return forward_kinematics_local_ref(self._chain, rest_bone_poses, R, pose.transl,
+            return forward_kinematics_local_ref(self._chain, rest_bone_poses, _rotation_matrices(pose), pose.transl,
                                                 self.anny.reference_bone_orientations)
         deltas = self.pose_to_deltas(pose)
         B = deltas.shape[0]

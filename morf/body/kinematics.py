@@ -2,7 +2,7 @@
 
 Anny computes its small 3x3 / 4x4 products as broadcast multiply-and-sum, which its authors
 measured faster on a GPU. On a CPU ``torch.matmul`` is about twice as fast for the forward and
-backward pass (53 frames: 11 -> 6.7 ms; 240 frames: 41 -> 21 ms a fitting step on the 2-core
+backward pass (53 frames: 11.4 -> 6.5 ms; 240 frames: 43 -> 18 ms a fitting step on the 2-core
 AMD EPYC), and fitting calls forward kinematics on every step. The result is the same transform
 to float32 rounding; ``tests/body/test_kinematics.py`` checks it against Anny's.
 

@@ -49,7 +49,9 @@ class Adam:
             for p in group["params"]:
                 if p.grad is None:
                     continue
-                state = self._state.setdefault(id(p), [0, torch.zeros_like(p), torch.zeros_like(p)])
+                state = self._state.get(id(p))
+                if state is None:
+                    state = self._state[id(p)] = [0, torch.zeros_like(p), torch.zeros_like(p)]
                 state[0] += 1
                 t, m, v = state
                 c1 = 1.0 - b1 ** t
