@@ -128,8 +128,9 @@ def _capture(args, model):
 
 
 def time_fit_command(project, runs: int, fit_preset: str = "default") -> list[float]:
-    """Wall seconds of ``morf fit COPY --restart --preset FIT_PRESET`` in a fresh Python process,
-    ``runs`` times, on a copy of ``project`` without its fits (the user's own stay as they are)."""
+    """Wall seconds of ``morf fit COPY --restart --preset FIT_PRESET`` (the installed command, a
+    fresh process each time), ``runs`` times, on a copy of ``project`` without its fits (the user's
+    own stay as they are)."""
     import shutil
     import subprocess
     import sys
@@ -137,14 +138,18 @@ def time_fit_command(project, runs: int, fit_preset: str = "default") -> list[fl
 
     from morf.errors import MorfError
 
-    code = "import sys; from morf.cli.main import main; sys.exit(main(sys.argv[1:]))"
+    # the console script a user runs: beside this interpreter in a virtual environment, else on PATH
+    beside = Path(sys.executable).with_name("morf")
+    command = str(beside) if beside.is_file() else shutil.which("morf")
+    if command is None:
+        raise MorfError("cannot find the 'morf' command to time (not beside this Python, not on PATH)")
     seconds = []
     with tempfile.TemporaryDirectory(prefix="morf-bench-fit-") as tmp:
         copy = Path(tmp) / "capture"
         shutil.copytree(project.root, copy, ignore=shutil.ignore_patterns("fits", "runs", "avatar", "eval"))
         for _ in range(runs):
             t0 = time.perf_counter()
-            r = subprocess.run([sys.executable, "-c", code, "fit", str(copy), "--restart", "--preset", fit_preset],
+            r = subprocess.run([command, "fit", str(copy), "--restart", "--preset", fit_preset],
                                capture_output=True, text=True)
             seconds.append(time.perf_counter() - t0)
             if r.returncode != 0:
