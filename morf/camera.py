@@ -13,6 +13,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+# GL's front-face winding for meshes drawn with PinholeCamera.gl_projection: its y flip turns
+# triangles counter-clockwise seen from outside into clockwise ones in window coordinates
+GL_FRONT_FACE = "cw"
+
 # torch is imported inside the projection functions only: the exported-avatar player uses this
 # camera without torch installed.
 if TYPE_CHECKING:
@@ -107,7 +111,8 @@ class PinholeCamera:
     def gl_projection(self, near: float = 0.05, far: float = 100.0) -> np.ndarray:
         """4x4 OpenGL clip matrix that, applied to camera coordinates, matches :meth:`project`.
 
-        The y axis is flipped so that row 0 of a read-back framebuffer is image row 0.
+        The y axis is flipped so that row 0 of a read-back framebuffer is image row 0; that turns a
+        mesh's counter-clockwise front faces clockwise in GL's window (:data:`GL_FRONT_FACE`).
         """
         W, H = self.width, self.height
         P = np.zeros((4, 4))

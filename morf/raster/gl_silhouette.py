@@ -12,7 +12,7 @@ import hashlib
 
 import numpy as np
 
-from morf.camera import PinholeCamera
+from morf.camera import GL_FRONT_FACE, PinholeCamera
 from morf.raster.gl_buffers import camera_uniforms, set_uniforms
 from morf.raster.gl_context import GLState, gl_state, with_gl_context
 
@@ -29,11 +29,6 @@ _FRAG = """
 out float covered;
 void main() { covered = 1.0; }
 """
-
-
-# image rows run down while GL's window y runs up, so a triangle counter-clockwise seen from
-# outside the mesh comes out clockwise in GL's window coordinates
-FRONT_FACE_WINDING = "cw"
 
 
 def _faces_key(faces: np.ndarray) -> str:
@@ -105,7 +100,7 @@ def silhouettes_gl(vertices, faces, camera: PinholeCamera, scale: float = 1.0, w
     if front_only:
         ctx.enable(ctx.CULL_FACE)
         ctx.cull_face = "back"
-        ctx.front_face = FRONT_FACE_WINDING
+        ctx.front_face = GL_FRONT_FACE
     out = np.empty((len(v), h, w), bool)
     for i in range(len(v)):
         mesh.vbo.write(v[i].tobytes())

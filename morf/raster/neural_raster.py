@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from morf.camera import GL_FRONT_FACE
 from morf.raster.texture_quant import ZERO_POINT, QuantizedTexture
 from morf.resources import SHADERS
 
@@ -128,7 +129,7 @@ class NeuralRasterizer:
         # same (identical on 30 views around the body) and llvmpipe shades ~25% fewer fragments.
         # gl_projection flips y, which turns the mesh's counter-clockwise front faces clockwise.
         ctx.enable(ctx.DEPTH_TEST | ctx.CULL_FACE)
-        ctx.front_face, ctx.cull_face = "cw", "back"
+        ctx.front_face, ctx.cull_face = GL_FRONT_FACE, "back"
         self.fbo.clear(_CLEAR_WORD, _CLEAR_WORD, _CLEAR_WORD, _CLEAR_WORD, depth=1.0)
         self.vao.render()
         ctx.disable(ctx.CULL_FACE)  # the GL default, for whoever draws next in a shared context
