@@ -20,6 +20,10 @@ process (start-up, evaluation and overlays counted), as a user runs it.
 
 from __future__ import annotations
 
+import shutil
+import subprocess
+import sys
+import tempfile
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -131,11 +135,6 @@ def time_fit_command(project, runs: int, fit_preset: str = "default") -> list[fl
     """Wall seconds of ``morf fit COPY --restart --preset FIT_PRESET`` (the installed command, a
     fresh process each time), ``runs`` times, on a copy of ``project`` without its fits (the user's
     own stay as they are)."""
-    import shutil
-    import subprocess
-    import sys
-    import tempfile
-
     from morf.errors import MorfError
 
     # the console script a user runs: beside this interpreter in a virtual environment, else on PATH
