@@ -24,8 +24,10 @@ class RendererConfig:
     # three texture channels RGB the same way). False: the head alone makes the colour.
     rgb_skip: bool = False
     # With ``rgb_skip``: pixels off the body mesh take the colour of the nearest covered pixels
-    # (a push-pull fill over this many 2x levels) before the residual is added, so where the real
-    # silhouette reaches past the fitted body the skip offers the neighbouring colour, not black.
+    # (a push-pull fill over this many 2x levels, more on images over 256 px so that it reaches as
+    # far across the person at any size; 0: no fill)
+    # before the residual is added, so where the real silhouette reaches past the fitted body the
+    # skip offers the neighbouring colour, not black.
     fill_levels: int = 4
     # 1: the head's 1x1 convolutions run at the input's resolution. 2: at half of it, a quarter of
     # the pixels (with a stem of 4 at 640x640 the full-resolution head was a third of the int8

@@ -27,6 +27,8 @@ the Dice loss off its initial plateau sooner.
 
 from __future__ import annotations
 
+import math
+
 import torch
 import torch.nn.functional as F
 from torch import nn
@@ -38,10 +40,12 @@ MASK_BIAS_INIT = -2.0
 
 
 def _half(t: torch.Tensor) -> torch.Tensor:
-    """The 2x2 mean: on even sides as a bilinear resize by 1/2 (the same numbers, one Resize in
-    ONNX, which onnxruntime runs in about half the time of its AveragePool at 640x640); odd
-    sides pool with a partial last window."""
-    if t.shape[-2] % 2 == 0 and t.shape[-1] % 2 == 0:
+    """The 2x2 mean: on large even sides as a bilinear resize by 1/2 (the same numbers, one Resize
+    in ONNX, which onnxruntime runs in about half the time of its AveragePool at 640x640); small or
+    odd sides pool with a partial last window. Pooling with ``ceil_mode`` never reaches a side of
+    0, so a graph traced at 640 with the fill's deeper levels also runs on smaller images (a
+    Resize by 1/2 turns a side of 1 into 0)."""
+    if t.shape[-2] % 2 == 0 and t.shape[-1] % 2 == 0 and min(t.shape[-2:]) >= 64:
         return F.interpolate(t, scale_factor=0.5, mode="bilinear", align_corners=False)
     return F.avg_pool2d(t, 2, 2, ceil_mode=True)
 
@@ -52,10 +56,13 @@ def push_pull_fill(rgb: torch.Tensor, covered: torch.Tensor, levels: int) -> tor
     Push: average colour and coverage over 2x2 blocks ``levels`` times (colour stays
     premultiplied by coverage); pull: from the coarsest level up, a pixel keeps its own
     normalised colour as far as it is covered and takes the upsampled coarser colour for the
-    rest. Covered pixels come back unchanged; uncovered pixels within about ``2**levels`` pixels
-    of the body get its colour. ``covered`` must be 0 or 1 (the rasterizer's coverage) and
-    ``rgb`` zero where it is 0 (a rasterization is). Only resizing, division and elementwise
-    arithmetic, so it exports to ONNX as plain ops.
+    rest. The pull carries a weight beside the colour (the coarser levels' coverage) and divides
+    by it at the end, so an upsampled value that mixes covered and empty coarse pixels keeps the
+    covered ones' colour instead of fading towards black. Covered pixels come back unchanged;
+    uncovered pixels within about ``2**levels`` pixels of the body get its colour, farther ones
+    black. ``covered`` must be 0 or 1 (the rasterizer's coverage) and ``rgb`` zero where it is 0
+    (a rasterization is). Only resizing, division and elementwise arithmetic, so it exports to
+    ONNX as plain ops.
     """
     if levels <= 0:
         return rgb
@@ -63,17 +70,19 @@ def push_pull_fill(rgb: torch.Tensor, covered: torch.Tensor, levels: int) -> tor
     for _ in range(levels):
         cols.append(_half(cols[-1]))
         covs.append(_half(covs[-1]))
-    fill = cols[-1] / covs[-1].clamp_min(1e-4)
+    acc = torch.cat([cols[-1], covs[-1]], dim=1)  # colour x weight, weight
     for col, cov in zip(reversed(cols[1:-1]), reversed(covs[1:-1])):
-        up = F.interpolate(fill, size=col.shape[-2:], mode="bilinear", align_corners=False)
+        up = F.interpolate(acc, size=col.shape[-2:], mode="bilinear", align_corners=False)
         a = (cov * 4).clamp(max=1.0)  # a quarter covered is enough to trust the level's own colour
-        fill = a * (col / cov.clamp_min(1e-4)) + (1 - a) * up
+        own = torch.cat([col / cov.clamp_min(1e-4), torch.ones_like(cov)], dim=1)
+        acc = a * own + (1 - a) * up
     # Full resolution: the coverage is 0 or 1 there and rgb is zero where it is 0, so the pull
     # step reduces to adding the coarser colour where uncovered, written as arithmetic (covered
     # pixels keep their colour bit for bit): three float ops in the playback graph (onnxruntime's
     # Where, broadcasting the mask over the planes, was slower).
-    up = F.interpolate(fill, size=rgb.shape[-2:], mode="bilinear", align_corners=False).to(rgb.dtype)
-    return rgb + up * (1 - covered)
+    up = F.interpolate(acc, size=rgb.shape[-2:], mode="bilinear", align_corners=False)
+    fill = (up[:, :3] / up[:, 3:].clamp_min(1e-4)).to(rgb.dtype)
+    return rgb + fill * (1 - covered)
 
 
 def _block(cin: int, cout: int, stride: int = 1) -> nn.Sequential:
@@ -81,11 +90,28 @@ def _block(cin: int, cout: int, stride: int = 1) -> nn.Sequential:
                          nn.Conv2d(cout, cout, 3, 1, 1), nn.LeakyReLU(0.2, inplace=True))
 
 
+def fill_levels_for(height: int, width: int, levels: int) -> int:
+    """Push-pull levels for an image: at least ``levels`` (0 stays 0: no fill), and enough that
+    ``2**levels`` is ``1 / FILL_REACH`` of the smaller side, so the fill reaches as far across the
+    person at every image side (4 levels at 256 px, the `cpu` preset's training side; 6 at 640)."""
+    if levels <= 0:
+        return 0
+    return max(levels, math.ceil(math.log2(max(min(height, width), 1) / FILL_REACH)))
+
+
+FILL_REACH = 16
+
 class TextureColour(nn.Module):
     """The colour the renderer's residual is added to (``rgb_skip``): texture channels 0-2,
     filled off the mesh by :func:`push_pull_fill` (a pixel is on the mesh where any of its
     texture channels is non-zero: the rasterization is exactly zero off the body). A module of its
-    own so the int8 exporter can find its nodes and keep them in float."""
+    own so the int8 exporter can find its nodes and keep them in float.
+
+    The fill's levels grow with the image (:func:`fill_levels_for`). With a fixed count it faded
+    to black ``2**levels`` pixels from the body whatever the size: enough at the training side,
+    but at 2-2.5x that side (evaluation at the capture's size, playback at 640) a loose trouser
+    leg's edge past the fitted body fell outside the fill's reach and showed as a dark band
+    (docs/avatar.md)."""
 
     def __init__(self, levels: int):
         super().__init__()
@@ -97,7 +123,7 @@ class TextureColour(nn.Module):
         x = x.float()
         covered = (x.abs().sum(1, keepdim=True) > 0).to(x.dtype)
         rgb = x[:, :3] if scale is None else x[:, :3] * scale
-        return push_pull_fill(rgb, covered, self.levels)
+        return push_pull_fill(rgb, covered, fill_levels_for(x.shape[-2], x.shape[-1], self.levels))
 
 
 class UNetRenderer(nn.Module):

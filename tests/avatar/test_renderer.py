@@ -138,6 +138,22 @@ def test_push_pull_fill_keeps_covered_and_fills_near_pixels():
     assert torch.isfinite(out).all() and out.min() >= 0 and out.max() <= 1
 
 
+def test_texture_colour_fills_far_from_the_body_at_any_side():
+    """The skip's fill reaches as far across the image at every side: at playback's larger sides a
+    loose sleeve's edge beyond the fitted body takes the body's colour, not a fade to black."""
+    from morf.avatar.renderer import TextureColour, fill_levels_for
+
+    assert [fill_levels_for(s, s, 4) for s in (64, 256, 512, 640)] == [4, 4, 5, 6]
+    assert fill_levels_for(64, 64, 0) == 0
+    for side in (64, 256, 640):
+        x = torch.zeros(1, 4, side, side)
+        x[:, :3, :, : side // 4] = torch.tensor([0.2, 0.3, 0.6]).view(1, 3, 1, 1)
+        x[:, 3, :, : side // 4] = 1.0
+        colour = TextureColour(4)(x)
+        far = colour[0, :, side // 2, side // 4 + side // 20]  # side/20 pixels off the body: 32 at 640
+        torch.testing.assert_close(far, torch.tensor([0.2, 0.3, 0.6]), atol=0.02, rtol=0)
+
+
 def test_rgb_skip_starts_at_the_texture_colour():
     """With rgb_skip the residual starts at zero: inside the mesh the colour is channels 0-2."""
     torch.manual_seed(0)
