@@ -29,24 +29,37 @@ def run_discriminator(disc, x: torch.Tensor, bf16: bool = False) -> list[list[to
     return [[f.float() for f in scale] for scale in feats]
 
 
+def composited(out: AvatarOutput, target: torch.Tensor, mask: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Render and premultiplied target over the same random colour, one per image (``rgb + (1 -
+    mask) * colour``, the player's composite): colour and mask are judged together, so an
+    uncertain edge pixel costs the same whichever way it is wrong."""
+    colour = torch.rand(target.shape[0], 3, 1, 1, device=target.device, dtype=target.dtype)
+    return out.rgb + (1 - out.mask) * colour, target + (1 - mask) * colour
+
+
 def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=None, perceptual=None,
                      gan_on: bool = False, bf16: bool | None = None) -> dict[str, torch.Tensor]:
     """Unweighted loss terms of the generator side (texture, warp, renderer).
 
     Keys: l1, dice, tv_rgb, and when applicable ssim, residual, perceptual, warp_l2, warp_tv, gan,
     feature_matching.
-    The RGB target is the frame premultiplied by its person mask (the renderer's convention).
+    The RGB target is the frame premultiplied by its person mask (the renderer's convention); with
+    ``cfg.loss_background == "random"`` the image terms compare render and frame composited over
+    one random colour per image (:func:`composited`).
     """
     bf16 = cfg.bf16 if bf16 is None else bf16
     target = batch.image * batch.mask
-    L = {"l1": l1_loss(out.rgb, target), "dice": dice_loss(out.mask, batch.mask), "tv_rgb": tv_loss(out.rgb)}
+    image, image_target = out.rgb, target
+    if cfg.loss_background == "random":
+        image, image_target = composited(out, target, batch.mask)
+    L = {"l1": l1_loss(image, image_target), "dice": dice_loss(out.mask, batch.mask), "tv_rgb": tv_loss(out.rgb)}
     if cfg.w_ssim > 0:  # around the person: the real mask grown by the SSIM window's radius
         near = F.max_pool2d(batch.mask, 11, 1, 5)
-        L["ssim"] = ssim_loss(out.rgb, target, near)
+        L["ssim"] = ssim_loss(image, image_target, near)
     if cfg.w_residual > 0 and out.residual is not None:
         L["residual"] = (out.residual.float() * out.mask).abs().mean()  # as far as it shows in the image
     if perceptual is not None:
-        L["perceptual"] = perceptual(out.rgb, target)
+        L["perceptual"] = perceptual(image, image_target)
     if out.offsets is not None:
         L["warp_l2"] = offset_l2(out.offsets)
         L["warp_tv"] = tv_loss(out.offsets)
