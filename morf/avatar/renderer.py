@@ -27,6 +27,7 @@ the Dice loss off its initial plateau sooner.
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 import torch
@@ -116,6 +117,19 @@ class TextureColour(nn.Module):
     def __init__(self, levels: int):
         super().__init__()
         self.levels = levels
+        self.min_side = 0  # reach as far as at this side at least (the exporter's trace, see below)
+
+    @contextlib.contextmanager
+    def reaching(self, side: int):
+        """Within the block, fill as far as at an image side of ``side`` pixels whatever the input's
+        size. The ONNX exporter traces the graph on a small sample and the levels become constants
+        of the graph: traced at 128 px, the player's 640 px frames got the 4 levels of 128."""
+        before = self.min_side
+        self.min_side = side
+        try:
+            yield self
+        finally:
+            self.min_side = before
 
     def forward(self, x: torch.Tensor, scale: torch.Tensor | None = None) -> torch.Tensor:
         """(B, C, H, W) rasterization -> (B, 3, H, W) colour; ``scale`` (1, 3, 1, 1) multiplies
@@ -123,7 +137,8 @@ class TextureColour(nn.Module):
         x = x.float()
         covered = (x.abs().sum(1, keepdim=True) > 0).to(x.dtype)
         rgb = x[:, :3] if scale is None else x[:, :3] * scale
-        return push_pull_fill(rgb, covered, fill_levels_for(x.shape[-2], x.shape[-1], self.levels))
+        side = max(min(x.shape[-2:]), self.min_side)
+        return push_pull_fill(rgb, covered, fill_levels_for(side, side, self.levels))
 
 
 class UNetRenderer(nn.Module):

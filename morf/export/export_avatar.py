@@ -158,11 +158,13 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
     export_fp32(renderer, qtex.scales, tmp / RENDERERS["fp32"], cfg.input_layout)
     control.check()
     step(3, "quantising the renderer to int8")
-    export_int8(renderer, qtex.scales, tmp / RENDERERS["int8"], calib, cfg.input_layout)
+    chosen = export_int8(renderer, qtex.scales, tmp / RENDERERS["int8"], calib, cfg.input_layout)
     step(4, "measuring int8 against fp32")
     # With no held-out views the report falls back on calibration views (and says so).
     quality = int8_quality(tmp / RENDERERS["fp32"], tmp / RENDERERS["int8"], held or calib[:4], cfg.input_layout)
     quality["on"] = "heldout" if held else "calibration"
+    quality["calibration"] = chosen["calibration"]  # the activation ranges kept, and why
+    quality["calibration_scores_db"] = chosen["scores_db"]
     rcfg = getattr(renderer, "cfg", None)
     manifest = write_manifest(tmp, _manifest_fields(qtex, skeleton, mesh, rcfg, (H, W), shape, cfg, quality,
                                                     len(calib), time.time() - t0))

@@ -73,6 +73,20 @@ def test_fp32_matches_torch(tmp_path, renderers, name, layout):
         assert "ReduceSum" not in ops and "ReduceMax" in ops
 
 
+def test_exported_fill_reaches_across_player_frames(tmp_path, renderers):
+    """The fill's levels are constants of the traced graph: traced on a small sample, a 640 px
+    frame got the sample's few levels and faded to black a few pixels from the body. The graph
+    must fill as the torch renderer does at the frame's own size."""
+    r = renderers["half"]
+    q = quantize_texture(sinusoid_texture(16, 640, seed=4))
+    x = np.full((1, 16, 640, 640), 128, np.uint8)
+    x[0, :, 200:440, :160] = q.data.transpose(2, 0, 1)[:, 200:440, :160]
+    export_fp32(r, q.scales, tmp_path / "r.onnx", "nchw", opaque=None)
+    got, ref = _run(tmp_path / "r.onnx", x), _torch_reference(r, x, q.scales)
+    np.testing.assert_allclose(got, ref, atol=2e-5)
+    assert np.abs(ref[0, :3, 320, 220]).sum() > 1e-3  # 60 px off the body: filled, not black
+
+
 @pytest.mark.parametrize("name", ["stem2", "skip", "half"])
 def test_int8_close_to_fp32(tmp_path, renderers, name):
     calib, scales = _rasters(4, seed=2)
