@@ -108,7 +108,6 @@ def run(args) -> int:
 
     from morf.bench.common import machine_info, markdown_table, write_results
     from morf.body import load_body_model
-    from morf.cpu_features import native_bf16
     from morf.errors import InputError
     from morf.train.config import preset
     from morf.train.data import build_frames
@@ -123,19 +122,20 @@ def run(args) -> int:
     frames = build_frames(project, model, cfg.resolution).frames
     zoom = build_frames(project, model, cfg.zoom_resolution).frames if cfg.zoom_resolution else None
     texture = torch.rand(cfg.texture_channels, cfg.texture_size, cfg.texture_size)
-    rows = []
+    rows, note = [], ""
     for bf16 in (True, False):
         trainer = Trainer(cfg, frames, texture, device="cpu", zoom_frames=zoom)
+        chosen, note = trainer.bf16, trainer.bf16_note  # what a training here gets, and why
         trainer.bf16 = bf16  # forced either way: the point is to see what each costs here
         s = time_steps(trainer, args.steps, args.warmup)
-        rows.append(StepTime(bf16, s, bf16 == (cfg.bf16 and native_bf16())))
+        rows.append(StepTime(bf16, s, bf16 == chosen))
         print(f"bf16 autocast {'on ' if bf16 else 'off'}: {s:.3f} s/step")
     machine = machine_info()
     result = StepResult(args.preset, args.method, str(project.root), frames.num_frames, args.steps, tuple(rows),
                         machine)
     md = (f"# Training step time ({args.preset} preset, {args.method})\n\n"
           f"CPU: {machine['cpu']}; flags: {', '.join(machine['cpu_features']['flags']) or 'none read'}; "
-          f"native bf16: {machine['cpu_features']['native_bf16']}\n\n"
+          f"native bf16: {machine['cpu_features']['native_bf16']}; a training here: bfloat16 autocast {note}\n\n"
           + markdown_table([r.to_dict() for r in rows], COLUMNS, "{:.3f}"))
     path = write_results(out, "step", result.to_dict(), md)
     print(f"wrote {path}")

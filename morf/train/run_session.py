@@ -50,7 +50,7 @@ def open_run(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, texture_in
         trainer.load_state_dict(run.load_checkpoint(map_location=trainer.device))
         run.log(f"resumed at step {trainer.step}")
     else:
-        log_start(run, cfg, frames, trainer.device, trainer.bf16, perceptual is not None, notes)
+        log_start(run, cfg, frames, trainer.device, trainer.bf16, perceptual is not None, notes, trainer.bf16_note)
     return run, trainer
 
 

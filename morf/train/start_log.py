@@ -10,12 +10,13 @@ from morf.train.run_files import RunFiles
 
 
 def log_start(run: RunFiles, cfg: TrainConfig, frames: FrameSet, device, bf16: bool, vgg: bool,
-              notes: list[str] | None = None) -> None:
+              notes: list[str] | None = None, bf16_note: str | None = None) -> None:
     """Write the header of a run that starts at step 0.
 
     Args:
         device: the trainer's device; bf16: whether the trainer's autocast is on (only logged when
-        the config asks for it); vgg: whether a VGG-16 perceptual loss was given; notes: extra lines.
+        the config asks for it); vgg: whether a VGG-16 perceptual loss was given; notes: extra lines;
+        bf16_note: the trainer's own words for its choice (``Trainer.bf16_note``), logged instead.
     """
     run.log(f"start: method {cfg.method}, preset {cfg.preset}, {frames.num_frames} frames at "
             f"{frames.resolution} px, device {device}")
@@ -28,7 +29,7 @@ def log_start(run: RunFiles, cfg: TrainConfig, frames: FrameSet, device, bf16: b
         run.log("perceptual loss: none (no VGG-16 weights given with --vgg / MORF_VGG16_WEIGHTS); "
                 f"structure from the SSIM term (weight {cfg.w_ssim})")
     if cfg.bf16:
-        run.log("bfloat16 autocast: " + ("on" if bf16 else
-                                         "off (this CPU has neither AMX-BF16 nor AVX512-BF16; emulated it is slower)"))
+        run.log("bfloat16 autocast: " + (bf16_note or ("on" if bf16 else
+                                         "off (this CPU has neither AMX-BF16 nor AVX512-BF16; emulated it is slower)")))
     for line in notes or []:
         run.log(line)

@@ -25,6 +25,7 @@ from morf.avatar.discriminator import MultiScaleDiscriminator
 from morf.avatar.model import AvatarModel, AvatarOutput
 from morf.avatar.warp import pose_features
 from morf.cpu_features import native_bf16
+from morf.train.bf16_check import BF16_TOLERANCE, bf16_disagreement
 from morf.errors import TrainingDiverged
 from morf.train.config import TrainConfig
 from morf.train.frames import Batch, FrameSet
@@ -82,8 +83,17 @@ class Trainer:
         # the moving average of the avatar's weights (cfg.ema_decay), in model.parameters() order
         self.ema = [p.detach().clone() for p in self.model.parameters()] if cfg.ema_decay > 0 else None
         # bfloat16 autocast where it is fast: on CUDA, or on a CPU that has it natively (cfg.bf16
-        # allows it; an emulating CPU would run the step 1.8x slower)
+        # allows it; an emulating CPU would run the step 1.8x slower), and only where this
+        # machine's bfloat16 convolutions agree with float32 (bf16_check.py: a wrong kernel
+        # trains a renderer that renders wrong in float32). bf16_note says which, for train.log.
         self.bf16 = cfg.bf16 and (self.device.type == "cuda" or native_bf16())
+        self.bf16_note = "on" if self.bf16 else "off (this CPU has neither AMX-BF16 nor AVX512-BF16; emulated it is slower)"
+        if self.bf16:
+            err, where = bf16_disagreement([self.model.renderer, self.disc], self.device)
+            if err > BF16_TOLERANCE:
+                self.bf16 = False
+                self.bf16_note = (f"off (this machine's bfloat16 convolution disagrees with float32 at {where}: "
+                                  f"relative error {err:.2f})")
         self.step = 0
         self.elapsed_s = 0.0  # training wall time over all sessions of this run
         # Adversarial terms (GAN, feature matching, discriminator updates) held off until the mask

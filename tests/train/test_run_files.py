@@ -105,6 +105,9 @@ def test_start_header(tmp_path):
     run = RunFiles(tmp_path / "c")
     log_start(run, TrainConfig(bf16=True), frames, "cuda", True, True)
     assert _header(run)[1:] == ["perceptual loss: VGG-16", "bfloat16 autocast: on"]
+    run = RunFiles(tmp_path / "d")  # the trainer's own reason wins
+    log_start(run, TrainConfig(bf16=True), frames, "cpu", False, True, bf16_note="off (wrong kernel)")
+    assert _header(run)[1:] == ["perceptual loss: VGG-16", "bfloat16 autocast: off (wrong kernel)"]
 
 
 def test_metrics_are_plain_json(tmp_path):

@@ -304,10 +304,30 @@ def test_bf16_only_where_the_cpu_has_it(frames_factory, monkeypatch):
     import morf.train.trainer as trainer_mod
 
     cfg = tiny("stylepeople", bf16=True)
+    monkeypatch.setattr(trainer_mod, "bf16_disagreement", lambda modules, device: (0.002, ""))
     for native in (True, False):
         monkeypatch.setattr(trainer_mod, "native_bf16", lambda native=native: native)
         assert Trainer(cfg, frames_factory(), texture_init(cfg), device="cpu").bf16 is native
     assert Trainer(tiny("stylepeople"), frames_factory(), texture_init(cfg), device="cpu").bf16 is False
+
+
+def test_bf16_off_where_its_convolutions_are_wrong(frames_factory, monkeypatch):
+    """A native-bf16 CPU whose bfloat16 convolution disagrees with float32 trains in float32, and
+    train.log's line says why; the check sees the trainer's own renderer."""
+    import morf.train.trainer as trainer_mod
+
+    cfg = tiny("stylepeople", bf16=True)
+    seen = []
+
+    def disagree(modules, device):
+        seen.extend(m for m in modules if m is not None)
+        return 1.16, "stem.0 (16->16 channels, kernel 4x4, stride 4)"
+
+    monkeypatch.setattr(trainer_mod, "native_bf16", lambda: True)
+    monkeypatch.setattr(trainer_mod, "bf16_disagreement", disagree)
+    t = Trainer(cfg, frames_factory(), texture_init(cfg), device="cpu")
+    assert t.bf16 is False and seen[0] is t.model.renderer
+    assert t.bf16_note.startswith("off (this machine's bfloat16 convolution disagrees with float32 at stem.0")
 
 
 def test_cpu_flags_read_from_cpuinfo(monkeypatch, tmp_path):
