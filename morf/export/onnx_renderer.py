@@ -283,9 +283,11 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
 
 # Activation-range calibrations the int8 export tries; it keeps the one whose graph is closest to
 # the float graph on the calibration views (:func:`calibration_score`). The 99.99th percentile
-# spares most pixels the range of a few extreme ones; on some trained avatars it clipped the
-# encoder's largest activations and the int8 mask came out a pixel smaller all round (34.9 dB over
-# the image, 26.7 over the person, against 39.1 / 31.2 with the full range; docs/playback.md).
+# spares most pixels the range of a few extreme ones and usually wins (a `cpu`-preset avatar:
+# 49.9 dB against 43.9 with the full range); on an avatar whose renderer had learned extreme
+# encoder activations (trained through a wrong bfloat16 kernel, morf/train/bf16_check.py) it
+# clipped them and the int8 mask came out a pixel smaller all round: 26.3 dB against 29.8 with
+# the full range (docs/playback.md).
 CALIBRATIONS = (("percentile", "Percentile", {"CalibPercentile": 99.99}), ("minmax", "MinMax", {}))
 SCORE_EVERY = 4  # score the calibrations on every 4th calibration view
 
