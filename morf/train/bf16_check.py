@@ -19,6 +19,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+# train.log's words when a CPU has no bfloat16 in hardware (the trainer does not try it there)
+OFF_NOT_NATIVE = "off (this CPU has neither AMX-BF16 nor AVX512-BF16; emulated it is slower)"
 BF16_TOLERANCE = 0.05  # relative RMS error; rounding alone gives about 0.002, the broken kernel 1.16
 CHECK_SIDE = 64  # input side of the check (the wrong kernel above was wrong at 64, 128 and 256)
 

@@ -4,6 +4,7 @@ frames, device), which perceptual loss and whether bfloat16 autocast is on, then
 
 from __future__ import annotations
 
+from morf.train.bf16_check import OFF_NOT_NATIVE
 from morf.train.config import TrainConfig
 from morf.train.frames import FrameSet
 from morf.train.run_files import RunFiles
@@ -29,7 +30,6 @@ def log_start(run: RunFiles, cfg: TrainConfig, frames: FrameSet, device, bf16: b
         run.log("perceptual loss: none (no VGG-16 weights given with --vgg / MORF_VGG16_WEIGHTS); "
                 f"structure from the SSIM term (weight {cfg.w_ssim})")
     if cfg.bf16:
-        run.log("bfloat16 autocast: " + (bf16_note or ("on" if bf16 else
-                                         "off (this CPU has neither AMX-BF16 nor AVX512-BF16; emulated it is slower)")))
+        run.log("bfloat16 autocast: " + (bf16_note or ("on" if bf16 else OFF_NOT_NATIVE)))
     for line in notes or []:
         run.log(line)

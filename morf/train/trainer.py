@@ -25,7 +25,7 @@ from morf.avatar.discriminator import MultiScaleDiscriminator
 from morf.avatar.model import AvatarModel, AvatarOutput
 from morf.avatar.warp import pose_features
 from morf.cpu_features import native_bf16
-from morf.train.bf16_check import BF16_TOLERANCE, bf16_disagreement
+from morf.train.bf16_check import BF16_TOLERANCE, OFF_NOT_NATIVE, bf16_disagreement
 from morf.errors import TrainingDiverged
 from morf.train.config import TrainConfig
 from morf.train.frames import Batch, FrameSet
@@ -87,7 +87,7 @@ class Trainer:
         # machine's bfloat16 convolutions agree with float32 (bf16_check.py: a wrong kernel
         # trains a renderer that renders wrong in float32). bf16_note says which, for train.log.
         self.bf16 = cfg.bf16 and (self.device.type == "cuda" or native_bf16())
-        self.bf16_note = "on" if self.bf16 else "off (this CPU has neither AMX-BF16 nor AVX512-BF16; emulated it is slower)"
+        self.bf16_note = "on" if self.bf16 else OFF_NOT_NATIVE
         if self.bf16:
             err, where = bf16_disagreement([self.model.renderer, self.disc], self.device)
             if err > BF16_TOLERANCE:
