@@ -267,7 +267,9 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
                                 per_channel=True, activation_type=QuantType.QUInt8, weight_type=QuantType.QInt8,
                                 calibrate_method=getattr(CalibrationMethod, method),
                                 extra_options={**extra, "TensorQuantOverrides": overrides})
-        scores = {name: calibration_score(f32, q8, calibration[::SCORE_EVERY]) for name, q8 in candidates.items()}
+        views = calibration[::SCORE_EVERY]
+        reference = float_outputs(f32, views)
+        scores = {name: calibration_score(q8, views, reference) for name, q8 in candidates.items()}
         best = max(scores, key=lambda name: scores[name])
         q = onnx.load(candidates[best])
     q.metadata_props.add(key="int8_calibration", value=f"{best} ({', '.join(f'{k} {v:.1f} dB' for k, v in scores.items())})")
@@ -292,19 +294,28 @@ CALIBRATIONS = (("percentile", "Percentile", {"CalibPercentile": 99.99}), ("minm
 SCORE_EVERY = 4  # score the calibrations on every 4th calibration view
 
 
-def calibration_score(f32_path, q8_path, rasters) -> float:
-    """How close an int8 graph is to its float graph on uint8 rasterizations: the lower of the
-    PSNR over the image and over the person (the float mask > 0.5), in dB, RGB on black, averaged
-    over the views. Both graphs read the dequantised input ``x``."""
+def _session(path):
     import onnxruntime as ort
 
     opts = ort.SessionOptions()
     opts.intra_op_num_threads = 2
-    sessions = [ort.InferenceSession(str(p), opts, providers=["CPUExecutionProvider"]) for p in (f32_path, q8_path)]
+    return ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
+
+
+def float_outputs(f32_path, rasters) -> list[np.ndarray]:
+    """The float graph's (4, H, W) RGB + mask on each uint8 rasterization (its input ``x``)."""
+    session = _session(f32_path)
+    return [session.run(None, feed)[0][0] for feed in iter(_Calibration(rasters).get_next, None)]
+
+
+def calibration_score(q8_path, rasters, reference: list[np.ndarray]) -> float:
+    """How close an int8 graph is to its float graph's outputs ``reference`` (:func:`float_outputs`)
+    on the same uint8 rasterizations: the lower of the PSNR over the image and over the person
+    (the float mask > 0.5), in dB, RGB on black, over the views."""
+    session = _session(q8_path)
     image, person = [], []
-    for r in rasters:
-        feed = {FLOAT_INPUT: (np.asarray(r, np.float32) - ZERO_POINT) / 127.0}
-        a, b = (s.run(None, feed)[0][0] for s in sessions)
+    for feed, a in zip(iter(_Calibration(rasters).get_next, None), reference):
+        b = session.run(None, feed)[0][0]
         se = (a[:3] - b[:3]) ** 2
         on = a[3] > 0.5
         image.append(float(se.mean()))

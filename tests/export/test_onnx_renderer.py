@@ -114,6 +114,27 @@ def test_int8_close_to_fp32(tmp_path, renderers, name):
         assert 30 < psnr < 120  # close, yet really quantised
 
 
+def test_int8_keeps_the_calibration_closer_to_float(tmp_path, renderers, monkeypatch):
+    """Both activation ranges are tried; the one whose int8 graph scores higher is written, and the
+    model and the return value say which."""
+    import morf.export.onnx_renderer as onnx_renderer
+
+    calib, scales = _rasters(4, seed=2)
+    real = onnx_renderer.calibration_score
+    scores = iter([20.0, 35.0])  # percentile, then minmax: the full range wins here
+
+    def scored(q8_path, rasters, reference):
+        assert len(rasters) == len(reference) == 1  # every 4th of the 4 calibration views
+        assert 10 < real(q8_path, rasters, reference) < 120  # the real score of a real int8 graph
+        return next(scores)
+
+    monkeypatch.setattr(onnx_renderer, "calibration_score", scored)
+    chosen = export_int8(renderers["half"], scales, tmp_path / "q.onnx", calib)
+    assert chosen == {"calibration": "minmax", "scores_db": {"percentile": 20.0, "minmax": 35.0}}
+    meta = {p.key: p.value for p in onnx.load(tmp_path / "q.onnx").metadata_props}
+    assert meta["int8_calibration"].startswith("minmax (percentile 20.0 dB, minmax 35.0 dB)")
+
+
 @pytest.mark.parametrize("stem", [2, 1])
 def test_int8_keeps_colours_under_large_mask_logits(tmp_path, stem):
     """A trained renderer's mask logit spans tens of units while RGB spans one: int8 stays close."""

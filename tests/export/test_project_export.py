@@ -35,6 +35,9 @@ def test_export_project_writes_the_avatar_folder_and_reports_progress(trained_ca
     assert on_disk["source"]["run"] == "morf-tiny" == manifest["source"]["run"]
     assert manifest["renderer"]["int8"]["calibration_views"] <= 4
     assert manifest["int8_quality"]["on"] == "heldout"  # 12 frames: every 8th is held out
+    q = manifest["int8_quality"]  # which activation ranges were kept, and both scores
+    assert q["calibration"] in q["calibration_scores_db"] and set(q["calibration_scores_db"]) == {"percentile", "minmax"}
+    assert q["calibration_scores_db"][q["calibration"]] == max(q["calibration_scores_db"].values())
     # the largest training scale: the working camera at the body's root, times the zoomed crops' factor
     from morf.raster.view_scale import pixels_per_metre
     from morf.train.trained_avatar import load_trained_avatar
