@@ -79,11 +79,12 @@ def push_pull_fill(rgb: torch.Tensor, covered: torch.Tensor, levels: int) -> tor
         acc = a * own + (1 - a) * up
     # Full resolution: the coverage is 0 or 1 there and rgb is zero where it is 0, so the pull
     # step reduces to adding the coarser colour where uncovered, written as arithmetic (covered
-    # pixels keep their colour bit for bit): three float ops in the playback graph (onnxruntime's
-    # Where, broadcasting the mask over the planes, was slower).
-    up = F.interpolate(acc, size=rgb.shape[-2:], mode="bilinear", align_corners=False)
-    fill = (up[:, :3] / up[:, 3:].clamp_min(1e-4)).to(rgb.dtype)
-    return rgb + fill * (1 - covered)
+    # pixels keep their colour bit for bit; onnxruntime's Where, broadcasting the mask over the
+    # planes, was slower). In the playback graph every op here runs at full resolution: one Split
+    # of the upsampled colour and weight (two Slices copied the planes twice as slowly), and the
+    # division and the uncovered mask on the one weight plane before a single three-plane product.
+    up, weight = F.interpolate(acc, size=rgb.shape[-2:], mode="bilinear", align_corners=False).split([3, 1], dim=1)
+    return rgb + (up * ((1 - covered) / weight.clamp_min(1e-4))).to(rgb.dtype)
 
 
 def _block(cin: int, cout: int, stride: int = 1) -> nn.Sequential:

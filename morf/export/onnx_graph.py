@@ -175,8 +175,8 @@ COMPOSITE_PREFIX = "composite_"
 def append_composite(model: onnx.ModelProto, rgba: str = "rgba", background: str = "background",
                      image: str = "image") -> onnx.ModelProto:
     """Add the compositing to the graph, in place: a second output ``image`` (1, H, W, 3) uint8 =
-    ``round(clip(255 * rgb + (1 - mask) * background, 0, 255))`` from the premultiplied ``rgba``
-    (1, 4, H, W) output and a new float32 input ``background`` (1, 3, H, W) in 0-255, or
+    ``round(clip(255 * rgb + (1 - mask) * background, 0, 255))`` (ties to even) from the
+    premultiplied ``rgba`` (1, 4, H, W) output and a new float32 input ``background`` (1, 3, H, W) in 0-255, or
     (1, 3, 1, 1) for a plain colour (broadcast). The input is required even when only ``rgba``
     is fetched (feed zeros); an optional input (an initializer of the same name) would do, but
     onnxruntime warns about those on every session it opens.
@@ -190,22 +190,28 @@ def append_composite(model: onnx.ModelProto, rgba: str = "rgba", background: str
     g = model.graph
     if any(o.name == image for o in g.output):
         return model
-    g.initializer.extend([numpy_helper.from_array(np.array([3, 1], np.int64), "composite_split"),
-                          numpy_helper.from_array(np.array(255.0, np.float32), "composite_255"),
-                          numpy_helper.from_array(np.array(1.0, np.float32), "composite_one"),
-                          numpy_helper.from_array(np.array(0.0, np.float32), "composite_lo"),
-                          numpy_helper.from_array(np.array(255.0, np.float32), "composite_hi"),
-                          numpy_helper.from_array(np.array(0.5, np.float32), "composite_half"),
+    g.initializer.extend([numpy_helper.from_array(np.array(1.0, np.float32), "composite_one"),
+                          numpy_helper.from_array(np.array(1.0 / 255.0, np.float32), "composite_unit"),
+                          numpy_helper.from_array(np.array(0, np.uint8), "composite_zero"),
                           numpy_helper.from_array(np.array([1, 3, 0, 0], np.int64), "composite_shape")])
-    nodes = [
-        helper.make_node("Split", [rgba, "composite_split"], ["composite_rgb", "composite_mask"], axis=1),
-        helper.make_node("Mul", ["composite_rgb", "composite_255"], ["composite_fg"]),
-        helper.make_node("Sub", ["composite_one", "composite_mask"], ["composite_inv"]),
-        helper.make_node("Mul", ["composite_inv", background], ["composite_bg"]),
-        helper.make_node("Add", ["composite_fg", "composite_bg"], ["composite_sum"]),
-        helper.make_node("Clip", ["composite_sum", "composite_lo", "composite_hi"], ["composite_clipped"]),
-        helper.make_node("Add", ["composite_clipped", "composite_half"], ["composite_rounded"]),
-        helper.make_node("Cast", ["composite_rounded"], ["composite_planes"], to=TensorProto.UINT8),  # truncates: round half up
+    # The premultiplied RGB and the mask as the graph makes them, before they are concatenated into
+    # ``rgba`` (splitting it again copied four full-resolution planes).
+    concat = _producer(model, rgba)
+    if concat is not None and concat.op_type == "Concat" and len(concat.input) == 2 and _attr(concat, "axis") in (1, -3):
+        nodes, (rgb, mask) = [], concat.input
+    else:
+        g.initializer.append(numpy_helper.from_array(np.array([3, 1], np.int64), "composite_split"))
+        nodes, rgb, mask = [helper.make_node("Split", [rgba, "composite_split"], ["composite_rgb", "composite_mask"], axis=1)], \
+            "composite_rgb", "composite_mask"
+    # In [0, 1] throughout; QuantizeLinear with scale 1/255 multiplies by 255, rounds and
+    # saturates to uint8 in one op (a Clip, an Add of 0.5 and a Cast before; it rounds a tie to
+    # even where they rounded it up).
+    nodes += [
+        helper.make_node("Sub", ["composite_one", mask], ["composite_inv"]),
+        helper.make_node("Mul", [background, "composite_unit"], ["composite_bg_unit"]),
+        helper.make_node("Mul", ["composite_inv", "composite_bg_unit"], ["composite_bg"]),
+        helper.make_node("Add", [rgb, "composite_bg"], ["composite_sum"]),
+        helper.make_node("QuantizeLinear", ["composite_sum", "composite_unit", "composite_zero"], ["composite_planes"]),
         helper.make_node("Reshape", ["composite_planes", "composite_shape"], ["composite_fence"]),
         helper.make_node("Transpose", ["composite_fence"], [image], perm=[0, 2, 3, 1]),
     ]

@@ -142,9 +142,10 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
                                                  padding=last.padding)
             if hasattr(self.renderer, "to_full"):
                 out = self.renderer.to_full(out)
-            logit = out[:, 3:4] if colours is None else out[:, 3:4] * k + c
+            # one Split, not two Slices: each Slice copied its full-resolution planes at half speed
+            rgb, logit = out.split([3, 1], dim=1)
+            logit = logit if colours is None else logit * k + c
             mask = torch.sigmoid(logit)
-            rgb = out[:, :3]
             if getattr(cfg, "rgb_skip", False):  # the residual over the texture's own colour
                 rgb = rgb + self.renderer.colour(raw, self.scale[:, :3])  # reads the raw input: the scale stays folded
             rgb = rgb * mask if getattr(cfg, "premultiply", False) else rgb
