@@ -82,6 +82,8 @@ class UiCache:
         ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.viewport = self.image_viewport()
         image.use(0)
+        exact = round(self.rect.side) == self.rect.render_side  # pixel for pixel: no filtering to do
+        self._sampler.filter = (moderngl.NEAREST, moderngl.NEAREST) if exact else (moderngl.LINEAR, moderngl.LINEAR)
         self._sampler.use(0)
         self._program["image"].value = 0
         self._vao.render(moderngl.TRIANGLE_STRIP)

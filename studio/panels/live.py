@@ -12,6 +12,7 @@ import math
 from pathlib import Path
 from typing import Callable
 
+import moderngl
 from imgui_bundle import ImVec2, imgui
 
 from studio.context import UiContext
@@ -108,12 +109,20 @@ def _draw_render(state: AppState, ui: UiContext) -> None:
     n = lr.size or int(min(side, RENDER_MAX))  # players with no fixed size render at the view's size
     index = _request(state, ui, n)
     frame = lr.latest()
+    # Shown pixel for pixel where the panel has room (what the player rendered, not a resampling of
+    # it, and the cheapest draw in software GL), scaled down where it has not.
+    exact = side >= n
+    side = float(n) if exact else side
     imgui.set_cursor_pos_x(imgui.get_cursor_pos_x() + max((avail.x - side) / 2, 0))
+    if exact:  # on whole pixels: each texel lands on one
+        pos = imgui.get_cursor_screen_pos()
+        imgui.set_cursor_screen_pos(ImVec2(math.floor(pos.x), math.floor(pos.y)))
     origin = imgui.get_cursor_screen_pos()
     if frame is None:
         imgui.dummy(ImVec2(side, side))
     else:
         tex = ui.textures.preview("live", frame.image, frame.seq, ring=3)
+        tex.filter = (moderngl.NEAREST, moderngl.NEAREST) if exact else (moderngl.LINEAR, moderngl.LINEAR)
         imgui.image(tex_ref(tex), ImVec2(side, side))
         dl = imgui.get_window_draw_list()
         lo, hi = dl.get_clip_rect_min(), dl.get_clip_rect_max()
