@@ -59,6 +59,7 @@ LIVE_PANEL = PANELS.index("Live render")
 # while the live panel plays, frames between full UI frames only redraw the live image (studio.ui_cache);
 # a full frame (text, training progress) still comes at least this often
 FULL_FRAME_INTERVAL_S = 0.25
+RASTER_WAIT_S = 0.02  # the longest a light frame waits for the live render's rasterization
 
 
 class StudioApp:
@@ -331,6 +332,9 @@ class StudioApp:
         rect = self._ui_cache.rect
         post_live_request(self.state, self.live_panel, self.live, self._wakeup.notify, rect.render_side,
                           t0 - self._last_frame_t)
+        # let the render thread rasterize the next frame first: its GL work holds the GIL, ours would
+        # hold it off; we then draw while its renderer runs (studio/live_render.py)
+        self.live.wait_rasterized(RASTER_WAIT_S)
         frame = self.live.latest()
         if frame is None:
             return False

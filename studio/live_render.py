@@ -6,6 +6,12 @@ context (a GL context is current on one thread only; ``morf.raster.gl_context`` 
 thread). The UI posts the pose and camera it wants into a one-slot box and picks up the newest
 finished image from another; both are newest-wins, so a slow renderer skips poses instead of
 falling behind, and neither lock is held for more than swapping a reference.
+
+A player's GL rasterization holds Python's GIL (moderngl does not release it), the renderer
+after it does not. The UI, having asked for the next frame, can wait for that rasterization
+(:meth:`LiveRenderer.wait_rasterized`) before drawing the frame it has: its own GL calls then
+run while the renderer runs instead of holding the render thread off the GIL (measured in
+docs/studio.md).
 """
 
 from __future__ import annotations
@@ -90,6 +96,8 @@ class LiveRenderer:
         self._done_key: Hashable = object()  # key of the last request rendered (or failed)
         self._closing = False
         self._opened = threading.Event()
+        self._rasterized = threading.Event()  # cleared by a new request, set once its GL work is done
+        self._rasterized.set()
         self._thread = threading.Thread(target=self._main, name="morf-live-render", daemon=True)
         self.ready = False  # the player opened
         self.note: str | None = None  # why there is no player, or the last render error
@@ -114,8 +122,15 @@ class LiveRenderer:
             if self._pending is not None and self._pending.key == req.key:
                 return False
             self._pending = req
+            self._rasterized.clear()
             self._cond.notify()
         return True
+
+    def wait_rasterized(self, timeout: float) -> bool:
+        """Wait (without the GIL) until the newest request's GL rasterization is done, its render
+        ended, or ``timeout`` seconds passed; True unless the timeout ended it. Returns at once
+        when no request is on its way."""
+        return self._rasterized.wait(timeout)
 
     def latest(self) -> LiveFrame | None:
         return self._frame
@@ -160,6 +175,8 @@ class LiveRenderer:
             self._opened.set()
             self._on_frame()
             return
+        if hasattr(player, "on_rasterized"):
+            player.on_rasterized = self._rasterized.set
         self.size = int(getattr(player, "size", 0) or 0)
         self.num_bones = int(getattr(player, "num_bones", 0) or 0)
         self.ready = True
@@ -173,6 +190,7 @@ class LiveRenderer:
                     while not self._closing and (self._pending is None or self._pending.key == self._done_key):
                         self._cond.wait()
                     if self._closing:
+                        self._rasterized.set()
                         return
                     req = self._pending
                 t0 = time.perf_counter()
@@ -182,8 +200,10 @@ class LiveRenderer:
                     self.note = f"the player failed: {type(e).__name__}: {e}"
                     with self._cond:
                         self._done_key = req.key
+                    self._rasterized.set()
                     self._on_frame()
                     continue
+                self._rasterized.set()  # players without the hook: nobody waits longer than the render
                 now = time.perf_counter()
                 image.flags.writeable = False
                 finished.append(now)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Callable, Protocol
 
 import numpy as np
 
@@ -56,6 +56,7 @@ class PlaybackPlayer:
         self._gl = gl  # morf.raster.gl_context.GLState of the opening thread, or None
         self.size = int(player.size)
         self.num_bones = int(player.avatar.skeleton.num_bones)
+        self.on_rasterized: Callable[[], None] | None = None  # called between GL work and the renderer
 
     def render(self, pose: Any, camera: PinholeCamera) -> np.ndarray:
         if pose is None:
@@ -63,11 +64,11 @@ class PlaybackPlayer:
         else:
             rotvecs, transl = pose
         if self._gl is None:
-            return self._player.render(rotvecs, transl, camera)
+            return self._player.render(rotvecs, transl, camera, on_rasterized=self.on_rasterized)
         from morf.raster.gl_context import current
 
         with current(self._gl):
-            return self._player.render(rotvecs, transl, camera)
+            return self._player.render(rotvecs, transl, camera, on_rasterized=self.on_rasterized)
 
     def release(self) -> None:
         if self._gl is None:

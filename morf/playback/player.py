@@ -140,10 +140,16 @@ class Player:
         return out
 
     # ---- public entry points -----------------------------------------------------------------
-    def render(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera) -> np.ndarray:
-        """One frame: (J, 3) axis-angle pose, (3,) translation, a PinholeCamera -> (size, size, 3) uint8."""
+    def render(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera, on_rasterized=None) -> np.ndarray:
+        """One frame: (J, 3) axis-angle pose, (3,) translation, a PinholeCamera -> (size, size, 3) uint8.
+
+        ``on_rasterized``: called between the GL rasterization and the renderer, e.g. to tell an
+        app's UI thread that this thread's GL work (which holds Python's GIL) is done."""
         camera, box = self.view(transl, camera)
-        return self._finish(self.shade(self.rasterize(pose_rotvecs, transl, camera)), box)
+        raster = self.rasterize(pose_rotvecs, transl, camera)
+        if on_rasterized is not None:
+            on_rasterized()
+        return self._finish(self.shade(raster), box)
 
     def render_texture(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera):
         """Like :meth:`render` but leaves the image in a moderngl RGB8 texture (for the studio).

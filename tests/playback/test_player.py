@@ -25,6 +25,18 @@ def test_renders_a_person(tiny_avatar, still_pose):
     assert img[covered].std() > 5  # textured, not a flat fill
 
 
+def test_the_rasterized_hook_runs_between_the_gl_work_and_the_renderer(tiny_avatar, still_pose):
+    rot, tr = still_pose
+    calls = []
+    with Player(tiny_avatar, size=SIZE) as p:
+        rasterize, shade = p.rasterize, p.shade
+        p.rasterize = lambda *a, **k: calls.append("raster") or rasterize(*a, **k)
+        p.shade = lambda x: calls.append("shade") or shade(x)
+        img = p.render(rot, tr, front_camera(SIZE), on_rasterized=lambda: calls.append("hook"))
+        assert calls == ["raster", "hook", "shade"]
+        assert np.array_equal(img, p.render(rot, tr, front_camera(SIZE)))  # the same image without it
+
+
 def test_texture_sequence_and_fp32_agree(tiny_avatar, still_pose):
     rot, tr = still_pose
     cams = [front_camera(SIZE, yaw_deg=a) for a in (0, 40, 80)]

@@ -82,6 +82,47 @@ def test_a_player_that_cannot_open_or_fails_is_reported_not_raised():
     lr.close()
 
 
+class HookedPlayer(GatedPlayer):
+    """A GatedPlayer whose rasterization (the part that holds the GIL) ends when ``raster_gate`` opens."""
+
+    def __init__(self):
+        super().__init__()
+        self.raster_gate = threading.Event()
+        self.on_rasterized = None
+
+    def render(self, pose, camera):
+        self.entered.set()
+        self.raster_gate.wait(10)
+        if self.on_rasterized is not None:
+            self.on_rasterized()
+        return super().render(pose, camera)
+
+
+def test_the_ui_can_wait_for_the_next_frames_rasterization_only():
+    player = HookedPlayer()
+    lr = LiveRenderer(lambda: (player, None)).start()
+    assert lr.wait_open(5) and player.on_rasterized is not None
+    assert lr.wait_rasterized(0.0)  # nothing asked for yet: no wait
+    assert lr.request(LiveRequest("a", CAM, "a"))
+    assert player.entered.wait(5)
+    assert not lr.wait_rasterized(0.05)  # rasterizing: the UI would wait (up to its timeout)
+    player.raster_gate.set()
+    assert lr.wait_rasterized(5)  # rasterized: the UI draws while the renderer (gated) still runs
+    assert lr.latest() is None
+    player.gate.set()
+    assert _wait(lambda: lr.latest() is not None and lr.latest().key == "a")
+    assert not lr.request(LiveRequest("a", CAM, "a")) and lr.wait_rasterized(0.0)  # same key: nothing to wait for
+    lr.close()
+
+    plain = GatedPlayer()  # no hook: the wait ends with the render
+    plain.gate.set()
+    lr = LiveRenderer(lambda: (plain, None)).start()
+    lr.wait_open(5)
+    lr.request(LiveRequest("b", CAM, "b"))
+    assert lr.wait_rasterized(5) and _wait(lambda: lr.latest() is not None)
+    lr.close()
+
+
 @pytest.mark.gl
 def test_live_panel_golden_with_a_tiny_exported_avatar(make_app, tiny_project, tiny_avatar_dir):
     import shutil
