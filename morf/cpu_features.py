@@ -37,6 +37,11 @@ def native_bf16() -> bool:
 
 
 def cpu_summary() -> dict:
-    """The flags of :data:`FLAGS_OF_INTEREST` this CPU has, for benchmark records and logs."""
+    """The flags of :data:`FLAGS_OF_INTEREST` this CPU has, for benchmark records and logs, and
+    whether the kernel lets this process use AMX (``amx_usable``; a CPU flag is not enough)."""
+    from morf.amx_permission import amx_permitted
+
     flags = cpu_flags()
-    return {"flags": [f for f in FLAGS_OF_INTEREST if f in flags], "native_bf16": native_bf16()}
+    has_amx = "amx_tile" in flags
+    return {"flags": [f for f in FLAGS_OF_INTEREST if f in flags], "native_bf16": native_bf16(),
+            "amx_usable": bool(has_amx and amx_permitted())}

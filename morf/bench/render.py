@@ -34,6 +34,8 @@ def add_arguments(p) -> None:
     p.add_argument("--size", type=int, default=640)
     p.add_argument("--frames", type=int, default=60, help="timed frames per measurement")
     p.add_argument("--no-variants", action="store_true", help="only the default renderer (no size variants)")
+    p.add_argument("--no-amx", action="store_true",
+                   help="refuse AMX to the measurement (Linux x86-64): what this CPU gets without it")
 
 
 # ---- measurement (child process, torch-free) ------------------------------------------------------
@@ -168,11 +170,16 @@ def graph_profile(player, raster, runs: int = 10) -> GraphProfile:
 
 
 def cpu_report(model: str, cores: int | None, features: dict) -> str:
-    """'MODEL, N cores; AMX no, AVX512-BF16 yes, VNNI yes (AVX-512), AVX2 yes'."""
+    """'MODEL, N cores; AMX no, AVX512-BF16 yes, VNNI yes (AVX-512), AVX2 yes'. AMX that the CPU
+    has but the kernel refused this process reads 'AMX refused' (records from before that check
+    say only what the flags said)."""
     flags = set(features.get("flags", ()))
     yes = (lambda b: "yes" if b else "no")
     vnni = "yes (AVX-512)" if "avx512_vnni" in flags else ("yes (AVX)" if "avx_vnni" in flags else "no")
-    return (f"{model}, {cores} cores; AMX {yes('amx_int8' in flags or 'amx_bf16' in flags)}, "
+    amx = yes("amx_int8" in flags or "amx_bf16" in flags)
+    if amx == "yes" and features.get("amx_usable") is False:
+        amx = "refused (not usable by this process)"
+    return (f"{model}, {cores} cores; AMX {amx}, "
             f"AVX512-BF16 {yes('avx512_bf16' in flags)}, VNNI {vnni}, AVX2 {yes('avx2' in flags)}")
 
 
@@ -257,6 +264,10 @@ def run(args) -> int:
     from morf.bench.common import machine_info, markdown_table, write_results
 
     t0 = time.time()
+    if getattr(args, "no_amx", False):
+        from morf.amx_permission import refuse_amx
+
+        refuse_amx()  # before onnxruntime loads here or in the measuring children (they inherit it)
     from morf.cpu_features import cpu_summary
 
     machine, features = machine_info(), cpu_summary()
