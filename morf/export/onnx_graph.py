@@ -176,8 +176,8 @@ def append_composite(model: onnx.ModelProto, rgba: str = "rgba", background: str
                      image: str = "image") -> onnx.ModelProto:
     """Add the compositing to the graph, in place: a second output ``image`` (1, H, W, 3) uint8 =
     ``round(clip(255 * rgb + (1 - mask) * background, 0, 255))`` (ties to even) from the
-    premultiplied ``rgba`` (1, 4, H, W) output and a new float32 input ``background`` (1, 3, H, W) in 0-255, or
-    (1, 3, 1, 1) for a plain colour (broadcast). The input is required even when only ``rgba``
+    premultiplied ``rgba`` (1, 4, H, W) output and a new float32 input ``background``
+    (1, 3, H, W) in 0-255, or (1, 3, 1, 1) for a plain colour (broadcast). The input is required even when only ``rgba``
     is fetched (feed zeros); an optional input (an initializer of the same name) would do, but
     onnxruntime warns about those on every session it opens.
 
@@ -197,12 +197,13 @@ def append_composite(model: onnx.ModelProto, rgba: str = "rgba", background: str
     # The premultiplied RGB and the mask as the graph makes them, before they are concatenated into
     # ``rgba`` (splitting it again copied four full-resolution planes).
     concat = _producer(model, rgba)
-    if concat is not None and concat.op_type == "Concat" and len(concat.input) == 2 and _attr(concat, "axis") in (1, -3):
+    if concat is not None and concat.op_type == "Concat" and len(concat.input) == 2 \
+            and _attr(concat, "axis") in (1, -3):
         nodes, (rgb, mask) = [], concat.input
     else:
         g.initializer.append(numpy_helper.from_array(np.array([3, 1], np.int64), "composite_split"))
-        nodes, rgb, mask = [helper.make_node("Split", [rgba, "composite_split"], ["composite_rgb", "composite_mask"], axis=1)], \
-            "composite_rgb", "composite_mask"
+        rgb, mask = "composite_rgb", "composite_mask"
+        nodes = [helper.make_node("Split", [rgba, "composite_split"], [rgb, mask], axis=1)]
     # In [0, 1] throughout; QuantizeLinear with scale 1/255 multiplies by 255, rounds and
     # saturates to uint8 in one op (a Clip, an Add of 0.5 and a Cast before; it rounds a tie to
     # even where they rounded it up).

@@ -195,6 +195,27 @@ def test_graph_composites_like_numpy(tmp_path, renderers, precision):
         assert (out[0] != ref).mean() < 0.01
 
 
+def test_the_composite_reads_an_rgba_it_did_not_see_concatenated():
+    """A graph whose ``rgba`` is not a Concat of RGB and mask (here an Identity of an input) is
+    composited through a Split, to the same bytes as the numpy composite."""
+    from onnx import TensorProto, helper
+
+    from morf.export.onnx_graph import append_composite
+
+    g = helper.make_graph([helper.make_node("Identity", ["x"], ["rgba"])], "g",
+                          [helper.make_tensor_value_info("x", TensorProto.FLOAT, [1, 4, 8, 8])],
+                          [helper.make_tensor_value_info("rgba", TensorProto.FLOAT, [1, 4, 8, 8])])
+    model = append_composite(helper.make_model(g, opset_imports=[helper.make_opsetid("", 17)]))
+    assert any(n.op_type == "Split" for n in model.graph.node)
+    rng = np.random.default_rng(1)
+    mask = rng.uniform(0, 1, (1, 1, 8, 8)).astype(np.float32)
+    rgba = np.concatenate([rng.uniform(0, 1, (1, 3, 8, 8)).astype(np.float32) * mask, mask], 1)
+    colour = np.array([20, 200, 90], np.float32)
+    out = ort.InferenceSession(model.SerializeToString(), providers=["CPUExecutionProvider"]).run(
+        ["image"], {"x": rgba, "background": colour.reshape(1, 3, 1, 1)})[0]
+    assert np.abs(out[0].astype(int) - composite(rgba, colour)).max() <= 1
+
+
 def test_the_mask_is_held_at_one_inside_the_body(tmp_path, renderers):
     """Playback holds the mask at 1 a few pixels inside the body mesh (a hole there is never
     right); near the outline and off the body the renderer's own mask stays."""
