@@ -200,10 +200,10 @@ class LiveRenderer:
                     self.note = f"the player failed: {type(e).__name__}: {e}"
                     with self._cond:
                         self._done_key = req.key
-                    self._rasterized.set()
                     self._on_frame()
                     continue
-                self._rasterized.set()  # players without the hook: nobody waits longer than the render
+                finally:  # players without the hook, or a failed render: nobody waits longer than the render
+                    self._rasterized.set()
                 now = time.perf_counter()
                 image.flags.writeable = False
                 finished.append(now)

@@ -177,9 +177,9 @@ def append_composite(model: onnx.ModelProto, rgba: str = "rgba", background: str
     """Add the compositing to the graph, in place: a second output ``image`` (1, H, W, 3) uint8 =
     ``round(clip(255 * rgb + (1 - mask) * background, 0, 255))`` (ties to even) from the
     premultiplied ``rgba`` (1, 4, H, W) output and a new float32 input ``background``
-    (1, 3, H, W) in 0-255, or (1, 3, 1, 1) for a plain colour (broadcast). The input is required even when only ``rgba``
-    is fetched (feed zeros); an optional input (an initializer of the same name) would do, but
-    onnxruntime warns about those on every session it opens.
+    (1, 3, H, W) in 0-255, or (1, 3, 1, 1) for a plain colour (broadcast). The input is required
+    even when only ``rgba`` is fetched (feed zeros); an optional input (an initializer of the same
+    name) would do, but onnxruntime warns about those on every session it opens.
 
     The compositing runs on onnxruntime's threads in channel planes (broadcasting the mask over
     channel planes is a fast path; channels-last it is not), then a uint8 Transpose (0.2 ms at
