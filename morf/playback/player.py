@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import time
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Iterator
 
@@ -21,6 +22,20 @@ from morf.export.avatar_folder import ExportedAvatar, load_exported_avatar
 from morf.playback.onnx_renderer import OnnxRenderer, background_planes
 from morf.raster.gl_context import create_headless_context
 from morf.raster.neural_raster import NUM_CHANNELS, NeuralRasterizer, to_layout
+
+
+@dataclass(frozen=True)
+class PreparedFrame:
+    """One frame between the player's two stages (:meth:`Player.prepare` -> :meth:`Player.complete`).
+
+    Fields:
+        raster: the renderer input (uint8, in the avatar's layout); it lives in the buffer it was
+            prepared into, so it is valid until that buffer is prepared into again.
+        box: the part of the image a close-up enlarges (``morf.raster.view_scale``), or None.
+    """
+
+    raster: np.ndarray
+    box: tuple[float, float, float, float] | None
 
 
 class Player:
@@ -140,16 +155,32 @@ class Player:
         return out
 
     # ---- public entry points -----------------------------------------------------------------
+    def prepare(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera,
+                out: np.ndarray | None = None) -> "PreparedFrame":
+        """The first stage of a frame, the GL work: the renderer input for one pose (into ``out``,
+        a buffer from :meth:`new_input`, when given; else the player's own, reused per call)."""
+        camera, box = self.view(transl, camera)
+        return PreparedFrame(self.rasterize(pose_rotvecs, transl, camera, out=out), box)
+
+    def complete(self, frame: "PreparedFrame") -> np.ndarray:
+        """The second stage, no GL: renderer + composite (+ the close-up's enlargement) ->
+        (size, size, 3) uint8. It may run on another thread than :meth:`prepare` (onnxruntime
+        releases the GIL), as long as ``frame``'s buffer is not prepared into meanwhile."""
+        return self._finish(self.shade(frame.raster), frame.box)
+
+    def new_input(self) -> np.ndarray:
+        """A buffer for :meth:`prepare`'s ``out`` (two let one frame be prepared while the last completes)."""
+        return self._new_input()
+
     def render(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera, on_rasterized=None) -> np.ndarray:
         """One frame: (J, 3) axis-angle pose, (3,) translation, a PinholeCamera -> (size, size, 3) uint8.
 
         ``on_rasterized``: called between the GL rasterization and the renderer, e.g. to tell an
         app's UI thread that this thread's GL work (which holds Python's GIL) is done."""
-        camera, box = self.view(transl, camera)
-        raster = self.rasterize(pose_rotvecs, transl, camera)
+        frame = self.prepare(pose_rotvecs, transl, camera)
         if on_rasterized is not None:
             on_rasterized()
-        return self._finish(self.shade(raster), box)
+        return self.complete(frame)
 
     def render_texture(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera):
         """Like :meth:`render` but leaves the image in a moderngl RGB8 texture (for the studio).
@@ -174,15 +205,14 @@ class Player:
             for rot, tr, cam in frames:
                 yield self.render(rot, tr, cam)
             return
-        buffers = [self._new_input() for _ in range(2)]
+        buffers = [self.new_input() for _ in range(2)]
         with ThreadPoolExecutor(max_workers=1) as pool:
             pending = None
             for i, (rot, tr, cam) in enumerate(frames):
-                cam, box = self.view(tr, cam)
-                x = self.rasterize(rot, tr, cam, out=buffers[i % 2])
+                frame = self.prepare(rot, tr, cam, out=buffers[i % 2])
                 if pending is not None:
                     yield pending.result()
-                pending = pool.submit(lambda x, box: self._finish(self.shade(x), box), x, box)
+                pending = pool.submit(self.complete, frame)
             if pending is not None:
                 yield pending.result()
 

@@ -54,6 +54,19 @@ def test_texture_sequence_and_fp32_agree(tiny_avatar, still_pose):
     assert -10 * np.log10(max(mse, 1e-12)) > 35
 
 
+def test_the_two_stages_make_the_rendered_image_and_a_prepared_frame_keeps_its_own_buffer(tiny_avatar, still_pose):
+    rot, tr = still_pose
+    cams = [front_camera(SIZE, yaw_deg=a) for a in (0, 90)]
+    with Player(tiny_avatar, size=SIZE) as p:
+        single = [p.render(rot, tr, c) for c in cams]
+        bufs = [p.new_input(), p.new_input()]
+        first = p.prepare(rot, tr, cams[0], out=bufs[0])
+        second = p.prepare(rot, tr, cams[1], out=bufs[1])  # prepared before the first completes
+        assert first.raster is bufs[0] and second.raster is bufs[1] and first.box is None
+        np.testing.assert_array_equal(p.complete(first), single[0])
+        np.testing.assert_array_equal(p.complete(second), single[1])
+
+
 def test_bad_size_is_a_user_error(tiny_avatar):
     with pytest.raises(InputError):
         Player(tiny_avatar, size=100)
