@@ -21,7 +21,7 @@ from morf.export.onnx_renderer import OPSET, export_fp32, export_int8
 from morf.export.skeleton import SkinningSkeleton, skeleton_from_body_model
 from morf.pipeline.control import Progress, StageControl
 from morf.raster.gl_context import create_headless_context
-from morf.raster.neural_raster import NUM_CHANNELS, NeuralRasterizer, SkinnedMesh, to_layout
+from morf.raster.neural_raster import COVERAGE_CHANNEL, NUM_CHANNELS, NeuralRasterizer, SkinnedMesh, to_layout
 from morf.raster.texture_quant import QuantizedTexture, quantize_texture
 
 
@@ -192,7 +192,11 @@ def _manifest_fields(qtex, skeleton, mesh, rcfg, image_hw, shape, cfg, quality, 
                  "render_vertices": mesh.num_vertices, "faces": int(mesh.faces.shape[0])},
         "texture": {"channels": qtex.channels, "size": list(qtex.data.shape[:2]), "zero_point": 128,
                     "channel_scales": qtex.scales.tolist()},
-        "renderer": {"input": "raster", "input_layout": cfg.input_layout, "output": "rgba",
+        "renderer": {"input": "raster", "input_layout": cfg.input_layout,
+                     "coverage": {"channel": COVERAGE_CHANNEL,
+                                  "meaning": "on the body this channel's byte is never the zero point (the "
+                                             "rasterizer writes zero point + 1 for it); off it every byte is"},
+                     "output": "rgba",
                      "output_meaning": "RGB premultiplied by the mask, then mask probability",
                      "composite": {"input": "background", "output": "image",
                                    "meaning": "uint8 (1, H, W, 3): rgba over background (float32 (1, 3, H|1, W|1), 0-255)"},

@@ -13,7 +13,7 @@ import numpy as np
 import onnx
 from onnx import TensorProto, helper, numpy_helper
 
-from morf.raster.neural_raster import LAYOUTS
+from morf.raster.neural_raster import COVERAGE_CHANNEL, LAYOUTS
 from morf.raster.texture_quant import ZERO_POINT
 
 
@@ -238,11 +238,22 @@ def _remove_if_unused(model: onnx.ModelProto, node: onnx.NodeProto | None) -> No
         model.graph.node.remove(node)
 
 
-# Where the 16 channels lie in each uint8 layout (morf.raster.neural_raster.LAYOUTS): the axes a
-# pixel's bytes run along, and the axes to unsqueeze the reduced (1, H, W) / (H, W) plane by to
-# get (1, 1, H, W). The reductions drop their axes: onnxruntime's elementwise ops on a tensor
-# whose last axis is 1 broadcast one element at a time (8 ms for a Sub at 640x640).
-_CHANNEL_AXES = {"nchw": ([1], [1]), "nhwc": ([3], [1]), "planes": ([0, 3], [0, 1])}
+def _sort_nodes(model: onnx.ModelProto) -> None:
+    """Put the graph's nodes back in topological order after an edit inserted some out of it,
+    keeping the present order wherever it is already valid."""
+    g = model.graph
+    ready = {i.name for i in g.input} | {t.name for t in g.initializer} | {""}
+    pending, ordered = list(g.node), []
+    while pending:
+        for k, n in enumerate(pending):
+            if all(i in ready for i in n.input):
+                ordered.append(pending.pop(k))
+                ready.update(n.output)
+                break
+        else:
+            raise ValueError(f"the graph has a cycle or a missing input at {pending[0].name}")
+    del g.node[:]
+    g.node.extend(ordered)
 
 
 def uint8_colour_head(model: onnx.ModelProto, layout: str, raster: str = "raster") -> list[str]:
@@ -250,13 +261,15 @@ def uint8_colour_head(model: onnx.ModelProto, layout: str, raster: str = "raster
     bytes, in place, after :func:`uint8_input`. Returns what was rewritten ([] when the graph has
     no colour head).
 
-    * Coverage: the torch graph computes ``sum(|x|, channels) > 0`` on the dequantised float
-      input, 16 float planes at full resolution (10 ms of a 76 ms frame at 640x640 on 2 cores).
-      Off the body every byte is the zero point, so the same mask is ``max(bytes) != zp or
-      min(bytes) != zp`` over the channel axis of the bytes as they arrive (for "nhwc" 16
-      contiguous bytes a pixel): exact, and no float copy of the input.
     * Colour: ``x[:, :3]`` sliced after dequantising all 16 channels becomes the 3 channels
       sliced from the bytes, then dequantised.
+    * Coverage: the torch graph computes ``sum(|x|, channels) > 0`` on the dequantised float
+      input, 16 float planes at full resolution (10 ms of a 76 ms frame at 640x640 on 2 cores).
+      The rasterizer marks its coverage in the bytes instead: on the body channel
+      :data:`~morf.raster.neural_raster.COVERAGE_CHANNEL`'s byte is never the zero point, off it
+      every byte is (:mod:`morf.raster.neural_raster`). So the mask is ``byte0 != zp`` on that
+      one plane, taken from the colour's byte planes (contiguous; 1.6 ms a frame less than a
+      max / min over the 16 bytes of each pixel on 2 cores).
     """
     g = model.graph
     nchw = raster if layout == "nchw" else f"{raster}_nchw"
@@ -275,30 +288,8 @@ def uint8_colour_head(model: onnx.ModelProto, layout: str, raster: str = "raster
         zp = _const_value(model, dq.input[2])
         if zp is None or zp.dtype != np.uint8 or int(zp) != ZERO_POINT:
             continue
-        axes, unsqueeze = _CHANNEL_AXES[layout]
-        p = f"{greater.name}_uint8"
-        g.initializer.extend([numpy_helper.from_array(np.array(ZERO_POINT, np.float32), f"{p}_zp"),
-                              numpy_helper.from_array(np.array(0.0, np.float32), f"{p}_zero"),
-                              numpy_helper.from_array(np.array(unsqueeze, np.int64), f"{p}_axes")])
-        # covered = (max - min) + |max - zp| > 0, on one float plane (onnxruntime's uint8
-        # comparisons with a broadcast scalar took 5 ms each at 640x640; these take tenths)
-        nodes = [helper.make_node("ReduceMax", [raster], [f"{p}_max8"], axes=axes, keepdims=0, name=f"{p}_max8"),
-                 helper.make_node("ReduceMin", [raster], [f"{p}_min8"], axes=axes, keepdims=0, name=f"{p}_min8"),
-                 helper.make_node("Cast", [f"{p}_max8"], [f"{p}_max"], to=TensorProto.FLOAT, name=f"{p}_max"),
-                 helper.make_node("Cast", [f"{p}_min8"], [f"{p}_min"], to=TensorProto.FLOAT, name=f"{p}_min"),
-                 helper.make_node("Sub", [f"{p}_max", f"{p}_min"], [f"{p}_spread"], name=f"{p}_spread"),
-                 helper.make_node("Sub", [f"{p}_max", f"{p}_zp"], [f"{p}_off"], name=f"{p}_off"),
-                 helper.make_node("Abs", [f"{p}_off"], [f"{p}_offabs"], name=f"{p}_offabs"),
-                 helper.make_node("Add", [f"{p}_spread", f"{p}_offabs"], [f"{p}_any"], name=f"{p}_any"),
-                 helper.make_node("Greater", [f"{p}_any", f"{p}_zero"], [f"{p}_covered"], name=f"{p}_covered"),
-                 helper.make_node("Unsqueeze", [f"{p}_covered", f"{p}_axes"], [greater.output[0]], name=f"{p}_nchw")]
-        at = list(g.node).index(greater)
-        g.node.remove(greater)
-        for i, n in enumerate(nodes):
-            g.node.insert(at + i, n)
-        for node in [red, ab]:
-            _remove_if_unused(model, node)
-        done.append(f"coverage {greater.name}")
+        # the colour first: the coverage plane is read from its bytes
+        bytes_from = (nchw, COVERAGE_CHANNEL)  # a (1, C, H, W) uint8 tensor and the coverage byte's channel in it
         readers = [n for t in [dq] + passed for n in _consumers(model, t.output[0])]
         for sl in [n for n in readers if n.op_type == "Slice"]:
             starts, ends = _const_value(model, sl.input[1]), _const_value(model, sl.input[2])
@@ -318,9 +309,34 @@ def uint8_colour_head(model: onnx.ModelProto, layout: str, raster: str = "raster
             for i, n in enumerate(nodes):
                 g.node.insert(at + i, n)
             done.append(f"colour {sl.name}")
+            if int(ends.reshape(-1)[0]) > COVERAGE_CHANNEL:
+                bytes_from = (f"{q}_bytes", COVERAGE_CHANNEL)
+        src, channel = bytes_from
+        p = f"{greater.name}_uint8"
+        g.initializer.extend([numpy_helper.from_array(np.array(ZERO_POINT, np.float32), f"{p}_zp"),
+                              numpy_helper.from_array(np.array(0.0, np.float32), f"{p}_zero"),
+                              numpy_helper.from_array(np.array([channel], np.int64), f"{p}_start"),
+                              numpy_helper.from_array(np.array([channel + 1], np.int64), f"{p}_end"),
+                              numpy_helper.from_array(np.array([1], np.int64), f"{p}_axis")])
+        # covered = |byte - zp| > 0 on one float plane (onnxruntime's uint8 comparisons with a
+        # broadcast scalar took 5 ms each at 640x640; these take tenths)
+        nodes = [helper.make_node("Slice", [src, f"{p}_start", f"{p}_end", f"{p}_axis"], [f"{p}_byte"], name=f"{p}_byte"),
+                 helper.make_node("Cast", [f"{p}_byte"], [f"{p}_value"], to=TensorProto.FLOAT, name=f"{p}_value"),
+                 helper.make_node("Sub", [f"{p}_value", f"{p}_zp"], [f"{p}_off"], name=f"{p}_off"),
+                 helper.make_node("Abs", [f"{p}_off"], [f"{p}_offabs"], name=f"{p}_offabs"),
+                 helper.make_node("Greater", [f"{p}_offabs", f"{p}_zero"], [greater.output[0]], name=f"{p}_covered")]
+        at = list(g.node).index(greater)
+        g.node.remove(greater)
+        for i, n in enumerate(nodes):
+            g.node.insert(at + i, n)
+        for node in [red, ab]:
+            _remove_if_unused(model, node)
+        done.append(f"coverage {greater.name}")
         for node in reversed(passed):
             _remove_if_unused(model, node)
         _remove_if_unused(model, dq)
+    if done:
+        _sort_nodes(model)
     used = {i for n in g.node for i in n.input}  # the replaced nodes' constants (onnxruntime warns about unused ones)
     for n in [n for n in g.node if n.op_type == "Constant" and n.output[0] not in used]:
         g.node.remove(n)
@@ -343,8 +359,8 @@ def opaque_body(model: onnx.ModelProto, margin: int = OPAQUE_MARGIN_PX) -> bool:
     coverage of :func:`uint8_colour_head`; returns False (graph unchanged) without it.
     """
     g = model.graph
-    unsq = [n for n in g.node if n.op_type == "Unsqueeze" and n.name.endswith("_uint8_nchw")]
-    casts = [c for u in unsq for c in _consumers(model, u.output[0])
+    marks = [n for n in g.node if n.op_type == "Greater" and n.name.endswith("_uint8_covered")]
+    casts = [c for u in marks for c in _consumers(model, u.output[0])
              if c.op_type == "Cast" and _attr(c, "to") == TensorProto.FLOAT]
     sigmoids = [n for n in g.node if n.op_type == "Sigmoid"]
     if not casts or not sigmoids:

@@ -4,7 +4,11 @@ What the paper's phone app does per frame: skin the render mesh in the vertex sh
 frame's bone matrices, sample the quantised neural texture (four RGBA8 textures, bilinear) and
 write the 16 channels, still 8-bit, packed into one RGBA32UI colour attachment (16 bytes a pixel)
 cleared to 128 (= 0). Reading it back gives the int8 renderer's channels-last input (H, W, 16)
-without any float conversion or re-layout. (Four RGBA8 attachments were the first design: they
+without any float conversion or re-layout. The bytes also carry the coverage: on the body
+channel :data:`COVERAGE_CHANNEL`'s byte is never 128 (the shader writes 129 for it, one step of
+one channel), so the renderer graph finds the body from that one byte plane instead of all 16
+(:func:`morf.export.onnx_graph.uint8_colour_head`; :func:`mark_coverage` for rasters made
+elsewhere). (Four RGBA8 attachments were the first design: they
 need an interleaving copy on the CPU, and drawing into them was slower on Mesa llvmpipe.)
 
 Torch-free on purpose (numpy + moderngl): an exported avatar plays without torch. Export draws
@@ -33,6 +37,8 @@ LAYOUTS = ("nhwc", "nchw", "planes")
 # moderngl clears every attachment from four floats and hands their bits to integer attachments:
 # the float whose bits are 0x80808080 clears each byte of the RGBA32UI attachment to the zero point.
 _CLEAR_WORD = struct.unpack("<f", bytes([ZERO_POINT] * 4))[0]
+# On the body this channel's byte is never the zero point (neural_raster_fs.glsl); off it every byte is.
+COVERAGE_CHANNEL = 0
 
 
 @dataclass(frozen=True)
@@ -169,3 +175,16 @@ def to_layout(hwc: np.ndarray, layout: str, out: np.ndarray | None = None) -> np
         out = np.empty(shape, np.uint8)
     out[...] = src
     return out
+
+
+def mark_coverage(raster: np.ndarray, channel_axis: int) -> np.ndarray:
+    """The coverage mark of the GL rasterizer on a uint8 raster made elsewhere, in place: where
+    a pixel has any byte off the zero point (on the body) and its :data:`COVERAGE_CHANNEL` byte
+    is the zero point, that byte becomes zero point + 1, as the shader writes it. Returns ``raster``."""
+    covered = (raster != ZERO_POINT).any(axis=channel_axis)
+    byte = np.take(raster, COVERAGE_CHANNEL, axis=channel_axis)
+    fix = covered & (byte == ZERO_POINT)
+    index = [slice(None)] * raster.ndim
+    index[channel_axis] = COVERAGE_CHANNEL
+    raster[tuple(index)] = np.where(fix, ZERO_POINT + 1, byte)
+    return raster

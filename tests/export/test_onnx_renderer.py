@@ -11,20 +11,20 @@ import torch
 from morf.avatar.renderer import RendererConfig, UNetRenderer
 from morf.export.onnx_renderer import export_fp32, export_int8
 from morf.playback.composite import composite
-from morf.raster.neural_raster import to_layout
+from morf.raster.neural_raster import mark_coverage, to_layout
 from morf.raster.texture_quant import quantize_texture, sinusoid_texture
 
 H = W = 32
 
 
 def _rasters(n, seed):
-    """Smooth uint8 rasterizations with a background band (128)."""
+    """Smooth uint8 rasterizations with a background band (128), coverage marked as the GL rasterizer does."""
     q = quantize_texture(sinusoid_texture(16, H, seed=seed))
     out = []
     for k in range(n):
         x = np.roll(q.data, 3 * k, axis=1).transpose(2, 0, 1)[None].copy()
         x[..., : 6 + k, :] = 128
-        out.append(x)
+        out.append(mark_coverage(x, channel_axis=1))
     return out, q.scales
 
 
@@ -65,12 +65,12 @@ def test_fp32_matches_torch(tmp_path, renderers, name, layout):
     assert "Mul" not in [n.op_type for n in model.graph.node[:4]]
     x = rasters[0]
     x[0, :, 1, 2:9] = 128
-    x[0, 5, 1, 2:9] = 129  # on the body through one channel only: the colour head's coverage must see it
+    x[0, 0, 1, 2:9] = 129  # on the body through the coverage byte only: the colour head's coverage must see it
     feed = to_layout(np.ascontiguousarray(x[0].transpose(1, 2, 0)), layout)
     np.testing.assert_allclose(_run(tmp_path / "r.onnx", feed), _torch_reference(renderers[name], x, scales), atol=2e-5)
-    if name in ("skip", "half"):  # the coverage comes from the bytes, not from 16 dequantised float planes
+    if name in ("skip", "half"):  # the coverage comes from one byte plane, not from 16 dequantised float planes
         ops = [n.op_type for n in model.graph.node]
-        assert "ReduceSum" not in ops and "ReduceMax" in ops
+        assert "ReduceSum" not in ops and "ReduceMax" not in ops and "Abs" in ops
 
 
 def test_exported_fill_reaches_across_player_frames(tmp_path, renderers):
@@ -81,6 +81,7 @@ def test_exported_fill_reaches_across_player_frames(tmp_path, renderers):
     q = quantize_texture(sinusoid_texture(16, 640, seed=4))
     x = np.full((1, 16, 640, 640), 128, np.uint8)
     x[0, :, 200:440, :160] = q.data.transpose(2, 0, 1)[:, 200:440, :160]
+    mark_coverage(x, channel_axis=1)
     export_fp32(r, q.scales, tmp_path / "r.onnx", "nchw", opaque=None)
     got, ref = _run(tmp_path / "r.onnx", x), _torch_reference(r, x, q.scales)
     np.testing.assert_allclose(got, ref, atol=2e-5)
@@ -226,6 +227,7 @@ def test_the_mask_is_held_at_one_inside_the_body(tmp_path, renderers):
     x = rasters[0]
     x[:, :, :, :] = 128  # off the body everywhere ...
     x[:, :, 4:28, 4:28] = np.random.default_rng(0).integers(60, 200, (1, 16, 24, 24), dtype=np.uint8)  # ... but a square
+    mark_coverage(x, channel_axis=1)
     bias = float(r.last.bias[3].detach())
     with torch.no_grad():
         r.last.bias[3] = -6.0  # a renderer whose mask is off everywhere

@@ -34,6 +34,7 @@ def test_export_project_writes_the_avatar_folder_and_reports_progress(trained_ca
     on_disk = json.loads((out / "manifest.json").read_text())
     assert on_disk["source"]["run"] == "morf-tiny" == manifest["source"]["run"]
     assert manifest["renderer"]["int8"]["calibration_views"] <= 4
+    assert manifest["renderer"]["coverage"]["channel"] == 0  # the raster contract a third-party player follows
     assert manifest["int8_quality"]["on"] == "heldout"  # 12 frames: every 8th is held out
     q = manifest["int8_quality"]  # which activation ranges were kept, and both scores
     assert q["calibration"] in q["calibration_scores_db"] and set(q["calibration_scores_db"]) == {"percentile", "minmax"}
