@@ -67,7 +67,7 @@ class Player:
         # the largest scale the renderer was trained at; closer views are drawn through it (None: no limit)
         self.max_pixels_per_metre = (self.avatar.manifest.get("trained_scale") or {}).get("max_pixels_per_metre")
         self._hwc = np.empty((size, size, NUM_CHANNELS), np.uint8)
-        self._input = self._new_input()
+        self._input = self.new_input()
         self.output_texture = None
         self.last_timings: dict[str, float] = {}
 
@@ -89,10 +89,6 @@ class Player:
     def background_planes(self) -> np.ndarray:
         """The background as the renderer graph's ``background`` input."""
         return self._background
-
-    def _new_input(self) -> np.ndarray:
-        """A buffer for one renderer input in the avatar's layout (``to_layout`` knows the shapes)."""
-        return np.empty_like(to_layout(self._hwc, self.avatar.input_layout))
 
     # ---- the stages ------------------------------------------------------------------------
     def _camera(self, camera):
@@ -169,8 +165,9 @@ class Player:
         return self._finish(self.shade(frame.raster), frame.box)
 
     def new_input(self) -> np.ndarray:
-        """A buffer for :meth:`prepare`'s ``out`` (two let one frame be prepared while the last completes)."""
-        return self._new_input()
+        """A buffer for one renderer input in the avatar's layout (``to_layout`` knows the shapes),
+        e.g. :meth:`prepare`'s ``out`` (two let one frame be prepared while the last completes)."""
+        return np.empty_like(to_layout(self._hwc, self.avatar.input_layout))
 
     def render(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera, on_rasterized=None) -> np.ndarray:
         """One frame: (J, 3) axis-angle pose, (3,) translation, a PinholeCamera -> (size, size, 3) uint8.
