@@ -152,13 +152,13 @@ class Player:
 
     # ---- public entry points -----------------------------------------------------------------
     def prepare(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera,
-                out: np.ndarray | None = None) -> "PreparedFrame":
+                out: np.ndarray | None = None) -> PreparedFrame:
         """The first stage of a frame, the GL work: the renderer input for one pose (into ``out``,
         a buffer from :meth:`new_input`, when given; else the player's own, reused per call)."""
         camera, box = self.view(transl, camera)
         return PreparedFrame(self.rasterize(pose_rotvecs, transl, camera, out=out), box)
 
-    def complete(self, frame: "PreparedFrame") -> np.ndarray:
+    def complete(self, frame: PreparedFrame) -> np.ndarray:
         """The second stage, no GL: renderer + composite (+ the close-up's enlargement) ->
         (size, size, 3) uint8. It may run on another thread than :meth:`prepare` (onnxruntime
         releases the GIL), as long as ``frame``'s buffer is not prepared into meanwhile."""
