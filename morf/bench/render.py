@@ -130,13 +130,14 @@ def graph_profile(player, raster, runs: int = 10) -> GraphProfile:
     import onnxruntime as ort
 
     from morf.export.onnx_graph import COMPOSITE_PREFIX
-    from morf.playback.onnx_renderer import session_options
+    from morf.playback.onnx_renderer import image_only_graph, session_options
 
     opts = session_options()
     with tempfile.TemporaryDirectory() as tmp:
         opts.enable_profiling = True
         opts.profile_file_prefix = str(Path(tmp) / "profile")
-        s = ort.InferenceSession(str(player.avatar.renderer_path(player.precision)), opts,
+        path = player.avatar.renderer_path(player.precision)
+        s = ort.InferenceSession(image_only_graph(path) or str(path), opts,  # the graph the player runs
                                  providers=["CPUExecutionProvider"])
         feeds = {player.renderer.input_name: raster}
         if player.renderer.composites:

@@ -1,0 +1,85 @@
+"""The player's renderer session: it runs the graph without the ``rgba`` output it never fetches,
+and gives the same image as the whole graph."""
+
+import numpy as np
+import onnx
+import onnxruntime as ort
+import pytest
+
+from morf.errors import InputError
+from morf.playback.onnx_renderer import OnnxRenderer, background_planes, image_only_graph
+
+SIZE = 128  # as in conftest.py
+
+
+def _raster(session, seed=0):
+    shape = [d if isinstance(d, int) else SIZE for d in session.get_inputs()[0].shape]
+    shape[0] = 1
+    return np.random.default_rng(seed).integers(90, 170, shape).astype(np.uint8)
+
+
+@pytest.mark.parametrize("precision", ["int8", "fp32"])
+def test_the_image_only_graph_matches_the_whole_graph(tiny_avatar, precision):
+    path = tiny_avatar / ("renderer_int8.onnx" if precision == "int8" else "renderer.onnx")
+    whole = onnx.load(str(path))
+    lean = onnx.load_from_string(image_only_graph(path))
+    assert [o.name for o in lean.graph.output] == ["image"]
+    assert len(lean.graph.node) <= len(whole.graph.node)
+    full = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    raster = _raster(full)
+    bg = background_planes((10, 200, 30), SIZE)
+    want = full.run(["image"], {full.get_inputs()[0].name: raster, "background": bg})[0][0]
+    r = OnnxRenderer(path)
+    assert [o.name for o in r.session.get_outputs()] == ["image"]
+    assert np.array_equal(r.image(raster, bg), want)
+    # rgba, which playback never asks for, still comes from the whole graph
+    rgba = r(raster)
+    assert rgba.shape == (1, 4, SIZE, SIZE)
+    assert np.array_equal(rgba, full.run(["rgba"], {full.get_inputs()[0].name: raster,
+                                                    "background": np.zeros((1, 3, 1, 1), np.float32)})[0])
+
+
+def test_the_nodes_that_fed_only_rgba_are_dropped(tmp_path):
+    from onnx import TensorProto, helper
+
+    from morf.export.onnx_graph import append_composite
+
+    x = helper.make_tensor_value_info("raster", TensorProto.FLOAT, [1, 4, 2, 2])
+    y = helper.make_tensor_value_info("rgba", TensorProto.FLOAT, [1, 4, 2, 2])
+    split = helper.make_tensor("split", TensorProto.INT64, [2], [3, 1])
+    nodes = [helper.make_node("Split", ["raster", "split"], ["rgb", "mask"], axis=1),
+             helper.make_node("Concat", ["rgb", "mask"], ["rgba"], axis=1)]
+    model = helper.make_model(helper.make_graph(nodes, "g", [x], [y], [split]),
+                              opset_imports=[helper.make_opsetid("", 17)])
+    path = tmp_path / "r.onnx"
+    onnx.save(append_composite(model), str(path))
+    lean = onnx.load_from_string(image_only_graph(path))
+    assert "Concat" not in [n.op_type for n in lean.graph.node] and "Split" in [n.op_type for n in lean.graph.node]
+    raster = np.random.default_rng(1).random((1, 4, 2, 2)).astype(np.float32) * 0.5
+    r = OnnxRenderer(path)
+    bg = background_planes((0, 0, 255), 2)
+    want = np.clip(np.round(255 * raster[0, :3] + (1 - raster[0, 3:]) * bg[0]), 0, 255).transpose(1, 2, 0)
+    assert np.abs(r.image(raster, bg).astype(int) - want).max() <= 1
+    assert np.array_equal(r(raster), raster)
+
+
+def test_a_graph_without_compositing_is_left_whole(tmp_path):
+    from onnx import TensorProto, helper
+
+    x = helper.make_tensor_value_info("raster", TensorProto.FLOAT, [1, 4, 2, 2])
+    y = helper.make_tensor_value_info("rgba", TensorProto.FLOAT, [1, 4, 2, 2])
+    g = helper.make_graph([helper.make_node("Identity", ["raster"], ["rgba"])], "g", [x], [y])
+    path = tmp_path / "r.onnx"
+    onnx.save(helper.make_model(g, opset_imports=[helper.make_opsetid("", 17)]), str(path))
+    assert image_only_graph(path) is None
+    r = OnnxRenderer(path)
+    assert not r.composites
+    x = np.ones((1, 4, 2, 2), np.float32)
+    assert np.array_equal(r(x), x)
+
+
+def test_a_damaged_renderer_is_a_user_error(tmp_path):
+    path = tmp_path / "renderer_int8.onnx"
+    path.write_bytes(b"not a graph")
+    with pytest.raises(InputError, match="cannot load renderer"):
+        OnnxRenderer(path)
