@@ -1,4 +1,5 @@
-"""An exported avatar loads and plays with numpy, onnxruntime and moderngl only."""
+"""An exported avatar loads and plays with numpy, onnxruntime and moderngl only (no torch, and no
+onnx package, whose import costs half a second)."""
 
 import subprocess
 import sys
@@ -7,6 +8,7 @@ import textwrap
 SCRIPT = textwrap.dedent("""
     import sys
     sys.modules["torch"] = None  # any import of torch now fails
+    sys.modules["onnx"] = None  # and of onnx
     import numpy as np
     from morf.export.avatar_folder import load_exported_avatar
     from morf.playback.player import Player

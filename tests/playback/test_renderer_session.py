@@ -1,5 +1,6 @@
-"""The player's renderer session: it runs the graph without the ``rgba`` output it never fetches,
-and gives the same image as the whole graph."""
+"""The player's renderer session: it runs the graph without the ``rgba`` output it never fetches
+(trimmed from the model's bytes by :mod:`morf.playback.graph_outputs`), and gives the same image as
+the whole graph."""
 
 import numpy as np
 import onnx
@@ -7,6 +8,7 @@ import onnxruntime as ort
 import pytest
 
 from morf.errors import InputError
+from morf.playback.graph_outputs import encode_varint, fields, keep_outputs, output_names
 from morf.playback.onnx_renderer import OnnxRenderer, background_planes, image_only_graph
 
 SIZE = 128  # as in conftest.py
@@ -83,3 +85,63 @@ def test_a_damaged_renderer_is_a_user_error(tmp_path):
     path.write_bytes(b"not a graph")
     with pytest.raises(InputError, match="cannot load renderer"):
         OnnxRenderer(path)
+
+
+def _onnx_pruned(model: onnx.ModelProto, keep) -> onnx.ModelProto:
+    """The same trim with the onnx package, as the reference."""
+    g = model.graph
+    outs = [o for o in g.output if o.name in keep]
+    del g.output[:]
+    g.output.extend(outs)
+    while True:
+        used = {i for n in g.node for i in n.input} | {o.name for o in g.output}
+        dead = [n for n in g.node if not any(o in used for o in n.output)]
+        if not dead:
+            return model
+        for n in dead:
+            g.node.remove(n)
+
+
+def test_the_byte_trim_equals_the_onnx_packages(tiny_avatar):
+    path = tiny_avatar / "renderer_int8.onnx"
+    data = path.read_bytes()
+    assert output_names(data) == ["rgba", "image"]
+    ours = onnx.load_from_string(keep_outputs(data, ["image"]))
+    ref = _onnx_pruned(onnx.load(str(path)), ["image"])
+    assert ours.SerializeToString() == ref.SerializeToString()
+    # keeping rgba alone drops the compositing instead
+    alone = onnx.load_from_string(keep_outputs(data, ["rgba"]))
+    assert not any(n.name.startswith("composite_") for n in alone.graph.node)
+    assert alone.SerializeToString() == _onnx_pruned(onnx.load(str(path)), ["rgba"]).SerializeToString()
+
+
+def test_nothing_to_trim_or_no_such_output_leaves_the_model_alone(tiny_avatar):
+    data = (tiny_avatar / "renderer_int8.onnx").read_bytes()
+    assert keep_outputs(data, ["rgba", "image"]) is None
+    assert keep_outputs(data, ["nope"]) is None
+
+
+def test_control_flow_graphs_are_left_whole():
+    from onnx import TensorProto, helper
+
+    x = helper.make_tensor_value_info("x", TensorProto.FLOAT, [1])
+    then = helper.make_graph([helper.make_node("Identity", ["x"], ["t"])], "then", [],
+                             [helper.make_tensor_value_info("t", TensorProto.FLOAT, [1])])
+    cond = helper.make_tensor_value_info("c", TensorProto.BOOL, [])
+    nodes = [helper.make_node("If", ["c"], ["a"], then_branch=then, else_branch=then),
+             helper.make_node("Identity", ["x"], ["b"])]
+    outs = [helper.make_tensor_value_info(n, TensorProto.FLOAT, [1]) for n in ("a", "b")]
+    data = helper.make_model(helper.make_graph(nodes, "g", [x, cond], outs)).SerializeToString()
+    assert keep_outputs(data, ["b"]) is None
+
+
+@pytest.mark.parametrize("data", [b"", b"not a graph", encode_varint(7 << 3 | 2) + encode_varint(99) + b"short"])
+def test_bytes_that_are_not_a_model_raise(data):
+    with pytest.raises(ValueError):
+        keep_outputs(data, ["image"])
+
+
+def test_varints_round_trip():
+    for v in (0, 1, 127, 128, 300, 2**31, 2**63 - 1):
+        f = fields(encode_varint(1 << 3 | 0) + encode_varint(v))
+        assert len(f) == 1 and f[0].number == 1
