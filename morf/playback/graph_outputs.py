@@ -99,6 +99,13 @@ def _strings(message: bytes, number: int) -> list[str]:
     return [f.payload.decode("utf-8") for f in fields(message) if f.number == number and f.wire_type == LENGTH]
 
 
+def _name(value_info: bytes) -> str:
+    names = _strings(value_info, VALUE_INFO_NAME)
+    if not names:
+        raise ValueError("a graph output without a name")
+    return names[0]
+
+
 def _length_field(number: int, payload: bytes) -> bytes:
     return encode_varint(number << 3 | LENGTH) + encode_varint(len(payload)) + payload
 
@@ -106,7 +113,7 @@ def _length_field(number: int, payload: bytes) -> bytes:
 def output_names(model: bytes) -> list[str]:
     """The graph's output names, in order."""
     graph = _graph(model)
-    return [_strings(f.payload, VALUE_INFO_NAME)[0] for f in fields(graph) if f.number == GRAPH_OUTPUT]
+    return [_name(f.payload) for f in fields(graph) if f.number == GRAPH_OUTPUT]
 
 
 def _graph(model: bytes) -> bytes:
@@ -127,7 +134,7 @@ def keep_outputs(model: bytes, keep: tuple[str, ...] | list[str]) -> bytes | Non
     """
     top = fields(model)
     graph_fields = fields(_graph(model))
-    outputs = {i: _strings(f.payload, VALUE_INFO_NAME)[0] for i, f in enumerate(graph_fields) if f.number == GRAPH_OUTPUT}
+    outputs = {i: _name(f.payload) for i, f in enumerate(graph_fields) if f.number == GRAPH_OUTPUT}
     if not set(keep) <= set(outputs.values()) or set(outputs.values()) <= set(keep):
         return None
     nodes = {}

@@ -135,7 +135,12 @@ def test_control_flow_graphs_are_left_whole():
     assert keep_outputs(data, ["b"]) is None
 
 
-@pytest.mark.parametrize("data", [b"", b"not a graph", encode_varint(7 << 3 | 2) + encode_varint(99) + b"short"])
+_UNNAMED_OUTPUT = encode_varint(12 << 3 | 2) + encode_varint(0)  # GraphProto.output: an empty ValueInfoProto
+_GRAPH = encode_varint(7 << 3 | 2) + encode_varint(len(_UNNAMED_OUTPUT)) + _UNNAMED_OUTPUT
+
+
+@pytest.mark.parametrize("data", [b"", b"not a graph", encode_varint(7 << 3 | 2) + encode_varint(99) + b"short",
+                                  _GRAPH, bytes([0xFF] * 12)])
 def test_bytes_that_are_not_a_model_raise(data):
     with pytest.raises(ValueError):
         keep_outputs(data, ["image"])
