@@ -110,12 +110,6 @@ def _length_field(number: int, payload: bytes) -> bytes:
     return encode_varint(number << 3 | LENGTH) + encode_varint(len(payload)) + payload
 
 
-def output_names(model: bytes) -> list[str]:
-    """The graph's output names, in order."""
-    graph = _graph(model)
-    return [_name(f.payload) for f in fields(graph) if f.number == GRAPH_OUTPUT]
-
-
 def _graph(model: bytes) -> bytes:
     graphs = [f for f in fields(model) if f.number == MODEL_GRAPH and f.wire_type == LENGTH]
     if len(graphs) != 1:
