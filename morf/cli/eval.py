@@ -25,6 +25,10 @@ def add_parser(sub):
                         "$MORF_LPIPS_WEIGHTS; neither: LPIPS is null). Needs the VGG-16 weights too")
     p.add_argument("--vgg", default=None, metavar="PATH",
                    help="torchvision's VGG-16 weights (vgg16-397923af.pth) for LPIPS (default: $MORF_VGG16_WEIGHTS)")
+    p.add_argument("--refine-poses", action="store_true",
+                   help="refine each frame's body pose against the real frame with each run's avatar frozen before "
+                        "scoring (every run alike, the floor included): scores the appearance without the fit's "
+                        "pose error, as monocular-avatar papers evaluate; minutes per run")
     return p
 
 
@@ -50,7 +54,8 @@ def run(args) -> int:
 
     project = CaptureProject.open(args.project)
     cfg = EvalConfig(runs=tuple(args.run), out=args.out, floor=args.floor,
-                     resolution=parse_resolution(args.resolution), lpips=args.lpips, vgg=args.vgg)
+                     resolution=parse_resolution(args.resolution), lpips=args.lpips, vgg=args.vgg,
+                     refine_poses=args.refine_poses)
     result = evaluate_project(project, cfg, say=print)
     print(format_table(result))
     out = Path(args.out) if args.out else Path(project.root) / "eval"

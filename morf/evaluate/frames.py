@@ -13,7 +13,7 @@ import numpy as np
 
 from morf.camera import PinholeCamera
 from morf.errors import InputError
-from morf.train.data import BodyFitArrays, build_holdout_frames, crop_image, crop_of, rasterize_frames
+from morf.train.data import BodyFitArrays, build_holdout_frames, crop_image, crop_of, holdout_poses, rasterize_frames
 from morf.train.frames import UV_SCALE, FrameSet
 
 
@@ -68,3 +68,13 @@ def target_frames(project, model, target, fits: BodyFitArrays | None, shape: np.
     if fs is None:
         raise InputError(f"{project.root} has no hold-out sequence")
     return fs
+
+
+def target_poses(project, target, fits: BodyFitArrays | None, shape: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The poses :func:`target_frames` rasterizes: (rotvecs (N, J, 3), transl (N, 3), shape (1, S))."""
+    if target.kind == "capture":
+        ids = list(target.frame_ids)
+        return fits.rotvecs[ids], fits.transl[ids], np.asarray(fits.shape).reshape(1, -1)
+    rot, tr = holdout_poses(project, fits)
+    return rot, tr, np.asarray(shape).reshape(1, -1)

@@ -22,6 +22,7 @@ import torch
 
 from morf.errors import ProjectError
 from morf.evaluate.results import EvalResult, RunScores, TargetEntry, TargetScores
+from morf.evaluate.pose_refine import RefineConfig
 from morf.evaluate.runs import RunInfo, find_floor, floor_run_name, free_for_floor, read_run, select_runs
 from morf.evaluate.targets import EvalTarget, holdout_target, novel_poses_target, dataset_test_target, trained_on
 
@@ -50,7 +51,9 @@ class EvalConfig:
         sheet_rows: frames per comparison sheet; sheet_runs: the runs given a column on the sheets
         and y-t slices (empty: every scored run; the floors always get one);
         lpips, vgg: the LPIPS linear-layer and VGG-16 weights files (None: ``$MORF_LPIPS_WEIGHTS``,
-        ``$MORF_VGG16_WEIGHTS``; no LPIPS file at all: LPIPS is null).
+        ``$MORF_VGG16_WEIGHTS``; no LPIPS file at all: LPIPS is null);
+        refine_poses: refine every frame's pose against its image with each run's avatar frozen
+        before scoring (:mod:`morf.evaluate.pose_refine`), the floor included; refine: its settings.
     """
 
     runs: tuple[str, ...] = ()
@@ -61,6 +64,8 @@ class EvalConfig:
     sheet_runs: tuple[str, ...] = ()
     lpips: str | None = None
     vgg: str | None = None
+    refine_poses: bool = False
+    refine: RefineConfig = RefineConfig()
 
     def on_sheet(self, run: RunInfo) -> bool:
         return run.is_floor or not self.sheet_runs or run.name in self.sheet_runs
@@ -153,7 +158,8 @@ def evaluate_project(project, cfg: EvalConfig = EvalConfig(), model=None,
     out = Path(cfg.out) if cfg.out else Path(project.root) / "eval"
     order = sorted(targets, key=lambda k: (k == "novel-poses", k))  # capture frames first
     result = EvalResult(str(Path(project.root).resolve()), cfg.resolution or "training", lpips_note(metric),
-                        report_runs, skipped, {k: _write_target(targets[k], out) for k in order})
+                        report_runs, skipped, {k: _write_target(targets[k], out) for k in order},
+                        "refined" if cfg.refine_poses else "given")
     from morf.io import atomic_write_json
 
     atomic_write_json(out / "eval.json", result.to_dict())
@@ -179,6 +185,10 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
     side = eval_side(avatar.camera, project.camera(), cfg.resolution, avatar.renderer.cfg.multiple)
     frames = target_frames(project, model, target, fits, avatar.shape.numpy(), scaled_camera(avatar.camera, side))
     say(f"{run.name}: {tr.target.key}, {frames.num_frames} frames at {side} px")
+    refined = None
+    if cfg.refine_poses:
+        frames, refined = _refine(project, model, avatar, target, fits, frames, scaled_camera(avatar.camera, side),
+                                  cfg.refine, say)
     scores = evaluate_frames(avatar, frames)
     colour = torch.tensor(scores.background, dtype=torch.float32)
     if tr.column is None:
@@ -195,10 +205,28 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
         lpips = lpips_scores(metric, avatar, frames, colour)
     # how many of these frames the run trained on (0 for its own hold-out); None for the novel poses
     seen = trained_on(project, fits, run.holdout, target.frame_ids) if target.kind == "capture" else None
-    result = TargetScores.of(scores, lpips, side, seen)
+    result = TargetScores.of(scores, lpips, side, seen, refined)
     if views is not None:
         tr.scored.append((run, result, views))
     return result
+
+
+def _refine(project, model, avatar, target, fits, frames, camera, rcfg: RefineConfig, say):
+    """``frames`` re-rasterized in poses refined against their images with ``avatar`` frozen; and
+    the mean L1 of the composited render (before, after)."""
+    import time
+
+    from morf.avatar.metrics import background_colour
+    from morf.evaluate.frames import target_poses
+    from morf.evaluate.pose_refine import refine_poses, reposed_frames
+
+    rot, tr, shape = target_poses(project, target, fits, avatar.shape.numpy())
+    sample = frames.batch(list(range(0, frames.num_frames, max(1, frames.num_frames // 16))))
+    colour = background_colour(sample.image, sample.mask)  # as evaluate_frames composites
+    t0 = time.perf_counter()
+    res = refine_poses(avatar, model, frames, rot, tr, shape, camera, colour, rcfg)
+    say(f"  poses refined in {time.perf_counter() - t0:.0f} s: L1 {res.loss_before:.4f} -> {res.loss_after:.4f}")
+    return reposed_frames(frames, model, res, shape, camera), (round(res.loss_before, 5), round(res.loss_after, 5))
 
 
 def _write_target(tr: _TargetResults, out: Path) -> TargetEntry:
@@ -233,7 +261,8 @@ def format_table(result: EvalResult) -> str:
     lpips = any(m.metric(k) is not None for e in result.runs.values() for m in e.targets.values()
                 for k in LPIPS_KEYS)  # LPIPS columns only when computed
     for key, t in result.targets.items():
-        lines.append(f"{key}: {t.title}, {len(t.frame_ids)} frames")
+        lines.append(f"{key}: {t.title}, {len(t.frame_ids)} frames"
+                     + (", poses refined against the frames (--refine-poses)" if result.poses == "refined" else ""))
         lines.append(f"  {'run':<24} {'px':>5} {'PSNR':>7} {'person':>7} {'SSIM':>6} {'person':>6} {'flicker':>8}"
                      + (f" {'LPIPS':>6} {'person':>6}" if lpips else ""))
         for name in result.scored_runs(key):

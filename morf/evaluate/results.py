@@ -25,7 +25,9 @@ class TargetScores:
         lpips, lpips_person: LPIPS over the image and the person (None: not computed);
         resolution: the evaluation side in pixels;
         trained_on: capture targets only, how many of these frames the run trained on (None for the
-            novel poses; then left out of :meth:`to_dict`).
+            novel poses; then left out of :meth:`to_dict`);
+        refined_l1: with refined poses, the mean L1 of the composited render before and after the
+            refinement (None: the poses were scored as given; then left out of :meth:`to_dict`).
     """
 
     psnr: float | None
@@ -39,15 +41,18 @@ class TargetScores:
     lpips_person: float | None
     resolution: int
     trained_on: int | None = None
+    refined_l1: tuple[float, float] | None = None
 
     @staticmethod
-    def of(scores, lpips: dict | None, resolution: int, trained_on: int | None = None) -> TargetScores:
+    def of(scores, lpips: dict | None, resolution: int, trained_on: int | None = None,
+           refined_l1: tuple[float, float] | None = None) -> TargetScores:
         """From a :class:`morf.train.frame_scores.FrameScores` (non-finite values become None) and
         :func:`morf.evaluate.perceptual.lpips_scores` (None: not computed)."""
         lp = lpips or {}
         return TargetScores(_finite(scores.psnr), _finite(scores.ssim), _finite(scores.psnr_person),
                             _finite(scores.ssim_person), _finite(scores.temporal), tuple(scores.background),
-                            scores.frames, lp.get("lpips"), lp.get("lpips_person"), resolution, trained_on)
+                            scores.frames, lp.get("lpips"), lp.get("lpips_person"), resolution, trained_on,
+                            None if refined_l1 is None else tuple(refined_l1))
 
     def metric(self, key: str) -> float | None:
         """A score by name (psnr, psnr_person, ssim, ssim_person, temporal, lpips, lpips_person)."""
@@ -59,13 +64,15 @@ class TargetScores:
              "lpips": self.lpips, "lpips_person": self.lpips_person, "resolution": self.resolution}
         if self.trained_on is not None:
             d["trained_on"] = self.trained_on
+        if self.refined_l1 is not None:
+            d["refined_l1"] = list(self.refined_l1)
         return d
 
     @staticmethod
     def from_dict(d: dict) -> TargetScores:
         return TargetScores(d["psnr"], d["ssim"], d["psnr_person"], d["ssim_person"], d["temporal"],
                             tuple(d["background"]), d["frames"], d["lpips"], d["lpips_person"], d["resolution"],
-                            d.get("trained_on"))
+                            d.get("trained_on"), None if d.get("refined_l1") is None else tuple(d["refined_l1"]))
 
 
 @dataclass(frozen=True)
@@ -142,7 +149,9 @@ class EvalResult:
             ("training": each run's, "native", or pixels); lpips: what LPIPS was computed from, or why
             it was not (:func:`morf.evaluate.project_eval.lpips_note`);
         runs: run name -> RunScores; skipped: run name -> why it was not scored;
-        targets: target key -> TargetEntry, capture frames first.
+        targets: target key -> TargetEntry, capture frames first;
+        poses: "given" (the fits, or the hold-out sequence's poses placed on the fitted body) or
+            "refined" (each run's poses refined against the frames, ``morf eval --refine-poses``).
     """
 
     project: str
@@ -151,6 +160,7 @@ class EvalResult:
     runs: dict[str, RunScores]
     skipped: dict[str, str]
     targets: dict[str, TargetEntry]
+    poses: str = "given"
 
     def scores(self, run: str, key: str) -> TargetScores | None:
         """The scores of ``run`` on target ``key`` (None: not scored there)."""
@@ -165,10 +175,10 @@ class EvalResult:
     def to_dict(self) -> dict:
         return {"project": self.project, "resolution": self.resolution, "lpips": self.lpips,
                 "runs": {n: e.to_dict() for n, e in self.runs.items()}, "skipped": dict(self.skipped),
-                "targets": {k: t.to_dict() for k, t in self.targets.items()}}
+                "targets": {k: t.to_dict() for k, t in self.targets.items()}, "poses": self.poses}
 
     @staticmethod
     def from_dict(d: dict) -> EvalResult:
         return EvalResult(d["project"], d["resolution"], d["lpips"],
                           {n: RunScores.from_dict(e) for n, e in d["runs"].items()}, dict(d["skipped"]),
-                          {k: TargetEntry.from_dict(t) for k, t in d["targets"].items()})
+                          {k: TargetEntry.from_dict(t) for k, t in d["targets"].items()}, d.get("poses", "given"))

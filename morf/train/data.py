@@ -281,6 +281,16 @@ def fitted_frame_offset(project, fits: BodyFitArrays) -> np.ndarray:
     return (fits.transl[:n][ok] - gt[:n][ok]).mean(0).astype(np.float32)
 
 
+def holdout_poses(project, fits: BodyFitArrays | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The synthetic hold-out sequence's poses: rotvecs (M, J, 3) and translations (M, 3), moved
+    into the fitted frame of ``fits`` when given (:func:`fitted_frame_offset`)."""
+    hold = load_holdout(project)
+    rot, tr = hold.rotvecs.astype(np.float32), hold.transl.astype(np.float32)
+    if fits is not None:
+        tr = tr + fitted_frame_offset(project, fits)
+    return rot, tr
+
+
 def build_holdout_frames(project, model, working: PinholeCamera, shape: np.ndarray,
                          fits: BodyFitArrays | None = None) -> FrameSet | None:
     """The synthetic hold-out sequence (``ground_truth/holdout``) as a FrameSet at the training crop.
@@ -292,9 +302,7 @@ def build_holdout_frames(project, model, working: PinholeCamera, shape: np.ndarr
     if not has_holdout(project):
         return None
     hold = load_holdout(project)
-    rot, tr = hold.rotvecs.astype(np.float32), hold.transl.astype(np.float32)
-    if fits is not None:
-        tr = tr + fitted_frame_offset(project, fits)
+    rot, tr = holdout_poses(project, fits)
     if len(rot) == 0:
         return None
     cam = project.camera() if hold.camera is None else hold.camera

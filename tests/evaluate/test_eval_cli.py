@@ -93,6 +93,27 @@ def test_floor_is_reused_and_options_apply(evaluated, tmp_path, body_model):
     assert np.isfinite(ev["runs"][run]["targets"]["holdout-k3"]["psnr"])
 
 
+def test_refined_poses_score_every_run_alike(evaluated, tmp_path, capsys):
+    """--refine-poses refines the poses of every run and of the floor; each target records the
+    render's L1 before and after, and the refinement never leaves it worse."""
+    project, run = evaluated["project"], evaluated["run"]
+    assert main(["eval", str(project.root), "--refine-poses", "--out", str(tmp_path)]) == 0
+    import json
+
+    ev = json.loads((tmp_path / "eval.json").read_text())
+    given = evaluated["eval"]
+    assert ev["poses"] == "refined" and given["poses"] == "given"
+    assert set(ev["runs"]) == {run, "rgb-holdout3"}
+    for name, entry in ev["runs"].items():
+        for key, m in entry["targets"].items():
+            before, after = m["refined_l1"]
+            assert 0 < after <= before, (name, key)
+            assert "refined_l1" not in given["runs"][name]["targets"][key]
+    floor = ev["runs"]["rgb-holdout3"]["targets"]["holdout-k3"]
+    assert floor["refined_l1"][1] < floor["refined_l1"][0]  # the projected colours do pull the poses
+    assert "poses refined" in capsys.readouterr().out
+
+
 def test_lpips_from_weights_on_disk(evaluated, lpips_weights, tmp_path, capsys):
     lin, vgg = lpips_weights
     root = str(evaluated["project"].root)
