@@ -53,6 +53,9 @@ def add_arguments(p):
     p.add_argument("--lpips", default=None, metavar="PATH",
                    help="LPIPS v0.1 linear layers (the lpips package's weights/v0.1/vgg.pth; default "
                         "$MORF_LPIPS_WEIGHTS) to score LPIPS with; needs the VGG-16 weights too (else null)")
+    p.add_argument("--refine-poses", action="store_true",
+                   help="score with each frame's pose refined against the frame, every run alike (morf eval "
+                        "--refine-poses; docs/evaluation.md)")
 
 
 def parse_methods(text: str) -> list[str]:
@@ -78,13 +81,15 @@ def run(args) -> int:
     if args.steps is not None and args.steps < 1:
         raise InputError(f"--steps must be at least 1, got {args.steps}")
     run_quality(Path(args.out), args.preset, methods, seeds=args.seeds, holdout=args.holdout, steps=args.steps,
-                fits=args.fits, vgg=args.vgg, lpips=args.lpips, project_path=args.project)
+                fits=args.fits, vgg=args.vgg, lpips=args.lpips, project_path=args.project,
+                refine_poses=args.refine_poses)
     return 0
 
 
 def run_quality(out: Path, preset: str, methods: list[str], *, seeds: int = 1, holdout: int = 5,
                 steps: int | None = None, fits: str = "fits", vgg: str | None = None,
-                lpips: str | None = None, project_path: str | None = None, model=None) -> dict:
+                lpips: str | None = None, project_path: str | None = None, model=None,
+                refine_poses: bool = False) -> dict:
     """Train, evaluate and write everything into ``out``; returns the quality.json content."""
     from morf.avatar.lpips import find_lpips
     from morf.bench.common import machine_info, write_results
@@ -110,7 +115,8 @@ def run_quality(out: Path, preset: str, methods: list[str], *, seeds: int = 1, h
     for r in scored:
         first.setdefault(r.method, r.name)  # each method's column on the sheets: its first scored seed
     ev = evaluate_project(project, EvalConfig(runs=tuple(r.name for r in scored), out=str(out), floor=False,
-                                              sheet_runs=tuple(first.values()), lpips=lpips, vgg=vgg),
+                                              sheet_runs=tuple(first.values()), lpips=lpips, vgg=vgg,
+                                              refine_poses=refine_poses),
                           model, say=print)
     print(format_table(ev))
     keys = sorted(ev.targets, key=lambda k: k != "novel-poses")  # novel poses first, as before
@@ -119,7 +125,7 @@ def run_quality(out: Path, preset: str, methods: list[str], *, seeds: int = 1, h
     plateaus = [r.plateau_minutes for r in runs if r.method == "morf" and r.plateau_minutes is not None]
     training = training_checks(sum(plateaus) / len(plateaus) if plateaus else None)
     head = {"benchmark": "quality", "preset": preset, "project": str(project.root), "fits": source,
-            "holdout": holdout, "seeds": seeds, "steps": steps, "methods": methods + [FLOOR]}
+            "holdout": holdout, "seeds": seeds, "steps": steps, "methods": methods + [FLOOR], "poses": ev.poses}
     every = [(b.key, c) for b, c in blocks] + [("training", training)]
     result = {**head, "blocks": {b.key: {**b.to_dict(), "checks": c.to_dict()} for b, c in blocks},
               "runs": [r.to_dict() for r in runs], "training_checks": training.to_dict(),

@@ -52,6 +52,9 @@ def quality_markdown(head: dict, blocks: list[tuple[BlockScores, Checks]], runs:
           f"(rgb, no learning) built once; {held}. Means over the seeds; spread = max - min over them. PSNR in "
           "dB, SSIM, both over the image and over the person (higher is better); temporal = flicker (lower is "
           "better).\n")
+    if head.get("poses") == "refined":
+        md += ("Every frame is scored in its pose refined against the frame, each run alike, the floor included "
+               "(`--refine-poses`, docs/evaluation.md): compare with other refined scores only.\n")
     lpips = any(s.mean.get(k) is not None for b, _ in blocks for s in b.methods.values() for k in LPIPS_COLUMNS)
     if lpips:
         md += "LPIPS (v0.1, vgg) over the image and over the person: lower is better.\n"

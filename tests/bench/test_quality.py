@@ -67,6 +67,15 @@ def test_tiny_quality_bench_over_two_seeds(tmp_path, gl, one_torch_thread):
     assert {r: (out / "capture" / "runs" / r / "avatar.pt").stat().st_mtime_ns for r in stamps} == stamps
     assert again["blocks"]["novel-poses"]["checks"]["morf_seed_spread_db"] is None
     assert "novel-poses: morf_seed_spread_db" in again["targets_not_measured"]
+    assert again["poses"] == "given"
+
+    # the same runs scored with refined poses: nothing trained, the protocol said in both files
+    assert main(["bench", "quality", "--preset", "tiny", "--out", str(out), "--steps", "3", "--methods", "morf",
+                 "--refine-poses"]) == 0
+    refined = json.loads((out / "quality.json").read_text())
+    assert {r: (out / "capture" / "runs" / r / "avatar.pt").stat().st_mtime_ns for r in stamps} == stamps
+    assert refined["poses"] == "refined" and json.loads((out / "eval.json").read_text())["poses"] == "refined"
+    assert "refined against the frame" in (out / "quality.md").read_text()
 
 
 @pytest.mark.parametrize("args, words", [
