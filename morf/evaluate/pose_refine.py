@@ -9,8 +9,8 @@ same settings for every run, the RGB floor included, and reports it as its own p
 
 The rasterizer is not differentiable, so the image's dependence on the pose comes through the
 texture coordinates inside each triangle: the GL rasterization gives each pixel its triangle
-(re-rasterized every few steps), and the perspective-correct barycentrics of the pixel centre in
-the projected triangle are computed in torch from the posed vertices. The loss is L1 between the
+(again after every step by default), and the perspective-correct barycentrics of the pixel
+centre in the projected triangle are computed in torch from the posed vertices. The loss is L1 between the
 render and the frame, both composited over the capture's backdrop, summed over a coarse-to-fine
 pyramid, with an L2 penalty on the pose change.
 """
@@ -23,7 +23,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from morf.camera import PinholeCamera
+from morf.camera import PinholeCamera, project_points
 from morf.train.frames import UV_SCALE, FrameSet
 
 
@@ -71,8 +71,8 @@ def interpolate_uv(verts: torch.Tensor, face_id: torch.Tensor, faces: torch.Tens
     triangle covers the pixel)."""
     B, H, W = face_id.shape
     cam_pts = camera.world_to_camera(verts)  # (B, Vr, 3)
+    px = project_points(cam_pts, camera.fx, camera.fy, camera.cx, camera.cy)
     z = cam_pts[..., 2].clamp_min(1e-6)
-    px = torch.stack([cam_pts[..., 0] / z * camera.fx + camera.cx, cam_pts[..., 1] / z * camera.fy + camera.cy], -1)
     b_idx, y_idx, x_idx = torch.nonzero(face_id >= 0, as_tuple=True)
     tri = faces[face_id[b_idx, y_idx, x_idx]]  # (P, 3)
     p = px[b_idx[:, None], tri]  # (P, 3, 2)
@@ -100,17 +100,17 @@ def _pyramid_l1(pred: torch.Tensor, gt: torch.Tensor, levels: int) -> torch.Tens
 
 
 def refine_poses(avatar, model, frames: FrameSet, rotvecs: np.ndarray, transl: np.ndarray, shape: np.ndarray,
-                 camera: PinholeCamera, colour: torch.Tensor, cfg: RefineConfig = RefineConfig(),
-                 progress=None) -> RefinedPoses:
-    """Refine every frame's pose (all bones and the translation) against ``frames``' images with
-    ``avatar`` frozen; ``camera`` is the camera ``frames`` were rasterized through."""
+                 camera: PinholeCamera, colour: torch.Tensor, cfg: RefineConfig = RefineConfig()) -> RefinedPoses:
+    """Refine every frame's root orientation and translation (and the fitter's bones with
+    ``cfg.bones``) against ``frames``' images composited over ``colour``, with ``avatar`` (texture
+    and renderer) frozen: its renderer's parameters stop requiring gradients. ``camera`` is the
+    camera ``frames`` were rasterized through."""
     from morf.avatar.metrics import composite_over
     from morf.avatar.model import render_with_texture
     from morf.body import BodyPose
     from morf.body.render_mesh import render_mesh_for
-    from morf.raster import rasterize_uv_batch
-
     from morf.fitting.params import FIT_BONES
+    from morf.raster import rasterize_uv_batch
 
     rm = render_mesh_for(model)
     names = FIT_BONES if cfg.bones else ()
@@ -170,8 +170,6 @@ def refine_poses(avatar, model, frames: FrameSet, rotvecs: np.ndarray, transl: n
             opt.step()
         after.append(best[0])
         out_rot[idx], out_tr[idx] = best[1].numpy(), best[2].numpy()
-        if progress is not None:
-            progress(len(idx))
     return RefinedPoses(out_rot, out_tr, float(torch.cat(before).mean()), float(torch.cat(after).mean()))
 
 

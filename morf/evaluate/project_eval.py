@@ -216,15 +216,13 @@ def _refine(project, model, avatar, target, fits, frames, camera, rcfg: RefineCo
     the mean L1 of the composited render (before, after)."""
     import time
 
-    from morf.avatar.metrics import background_colour
     from morf.evaluate.frames import target_poses
     from morf.evaluate.pose_refine import refine_poses, reposed_frames
+    from morf.train.project_run import backdrop_colour
 
     rot, tr, shape = target_poses(project, target, fits, avatar.shape.numpy())
-    sample = frames.batch(list(range(0, frames.num_frames, max(1, frames.num_frames // 16))))
-    colour = background_colour(sample.image, sample.mask)  # as evaluate_frames composites
     t0 = time.perf_counter()
-    res = refine_poses(avatar, model, frames, rot, tr, shape, camera, colour, rcfg)
+    res = refine_poses(avatar, model, frames, rot, tr, shape, camera, backdrop_colour(frames), rcfg)
     say(f"  poses refined in {time.perf_counter() - t0:.0f} s: L1 {res.loss_before:.4f} -> {res.loss_after:.4f}")
     return reposed_frames(frames, model, res, shape, camera), (round(res.loss_before, 5), round(res.loss_after, 5))
 

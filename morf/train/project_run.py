@@ -90,6 +90,15 @@ def train_project(project, cfg: TrainConfig, name: str | None = None, control: S
                         shape=torch.from_numpy(pf.fits.shape), camera=pf.camera, notes=notes, zoom_frames=zoom)
 
 
+def backdrop_colour(frames) -> torch.Tensor:
+    """(3,) the capture's backdrop: the median colour outside the person masks of about 16
+    frames spread over ``frames`` (what :func:`evaluate_frames` composites over)."""
+    from morf.avatar.metrics import background_colour
+
+    sample = frames.batch(list(range(0, frames.num_frames, max(1, frames.num_frames // 16))))
+    return background_colour(sample.image, sample.mask)
+
+
 def evaluate_frames(avatar, frames, background: str = "capture") -> FrameScores:
     """Render every frame of a FrameSet with a TrainedAvatar and score it against the frames.
 
@@ -100,15 +109,11 @@ def evaluate_frames(avatar, frames, background: str = "capture") -> FrameScores:
     truth mask), ``temporal`` flicker (frames in order), the background colour and the frame count
     (:class:`~morf.train.frame_scores.FrameScores`).
     """
-    from morf.avatar.metrics import background_colour, composite_over, psnr, ssim, summarize, temporal_flicker
+    from morf.avatar.metrics import composite_over, psnr, ssim, summarize, temporal_flicker
 
     if background not in ("capture", "black"):
         raise ValueError("background must be 'capture' or 'black'")
-    if background == "capture":
-        sample = frames.batch(list(range(0, frames.num_frames, max(1, frames.num_frames // 16))))
-        colour = background_colour(sample.image, sample.mask)
-    else:
-        colour = torch.zeros(3)
+    colour = backdrop_colour(frames) if background == "capture" else torch.zeros(3)
     preds, gts, masks = [], [], []
     p_all, p_person, s_all, s_person = [], [], [], []
     for i in range(frames.num_frames):

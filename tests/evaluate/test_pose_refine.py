@@ -10,7 +10,7 @@ import torch
 pytestmark = [pytest.mark.gl]
 
 
-def _body(body_model, J, rot_root=(0.0, 0.0, 0.0), transl=(0.0, 0.0, 0.0)):
+def _body(J, rot_root=(0.0, 0.0, 0.0), transl=(0.0, 0.0, 0.0)):
     rot = np.zeros((1, J, 3), np.float32)
     rot[0, 0] = rot_root
     return rot, np.asarray([transl], np.float32)
@@ -47,7 +47,7 @@ def test_uvs_match_the_gl_rasterizer(gl, body_model):
 
     cam = front_camera(96, center=(0.0, -0.3, 0.0))
     J = len(body_model.bone_names)
-    rot, tr = _body(body_model, J, (0.0, 0.6, 0.0))
+    rot, tr = _body(J, (0.0, 0.6, 0.0))
     shape = body_model.default_shape().reshape(1, -1)
     rm = render_mesh_for(body_model)
     v = rm.gather(body_model(BodyPose(torch.from_numpy(rot), torch.from_numpy(tr)), shape).vertices).detach()
@@ -70,9 +70,9 @@ def test_a_known_texture_recovers_a_perturbed_pose(gl, body_model):
     shape = body_model.default_shape().reshape(1, -1).numpy()
     avatar = SimpleNamespace(renderer=PassthroughRenderer(), texture=_pattern_texture())
     colour = torch.tensor([0.2, 0.3, 0.4])
-    true_rot, true_tr = _body(body_model, J, (0.0, 0.5, 0.0))
+    true_rot, true_tr = _body(J, (0.0, 0.5, 0.0))
     frames = _frames(body_model, cam, avatar, true_rot, true_tr, shape, colour)
-    start_rot, start_tr = _body(body_model, J, (0.0, 0.5 + np.radians(5), 0.0), (0.015, 0.0, 0.0))
+    start_rot, start_tr = _body(J, (0.0, 0.5 + np.radians(5), 0.0), (0.015, 0.0, 0.0))
     res = refine_poses(avatar, body_model, frames, start_rot, start_tr, shape, cam, colour,
                        RefineConfig(steps=40, batch=1))
 
