@@ -13,8 +13,9 @@ import numpy as np
 
 from morf.camera import PinholeCamera
 from morf.errors import InputError
+from morf.synth.ground_truth import load_holdout
 from morf.train.data import BodyFitArrays, build_holdout_frames, crop_image, crop_of, holdout_poses, rasterize_frames
-from morf.train.frames import UV_SCALE, FrameSet
+from morf.train.frames import FrameSet, pack_uv
 
 
 def eval_side(working: PinholeCamera, capture: PinholeCamera, resolution: int | str | None, multiple: int) -> int:
@@ -52,7 +53,7 @@ def capture_frames(project, model, fits: BodyFitArrays, ids, working: PinholeCam
             images.append(crop_image(project.load_frame(i), x0, y0, side, R))
             masks.append(crop_image(project.load_mask(i).astype(np.uint8) * 255, x0, y0, side, R) > 127)
         done += len(uv)
-        uvs.append(np.round(np.clip(uv, 0, 1) * UV_SCALE).astype(np.uint16))
+        uvs.append(pack_uv(uv))
         uv_masks.append(uvm)
         facings.append(fac)
     return FrameSet(np.stack(images), np.stack(masks), np.concatenate(uvs), np.concatenate(uv_masks),
@@ -76,5 +77,5 @@ def target_poses(project, target, fits: BodyFitArrays | None, shape: np.ndarray
     if target.kind == "capture":
         ids = list(target.frame_ids)
         return fits.rotvecs[ids], fits.transl[ids], np.asarray(fits.shape).reshape(1, -1)
-    rot, tr = holdout_poses(project, fits)
+    rot, tr = holdout_poses(project, load_holdout(project), fits)
     return rot, tr, np.asarray(shape).reshape(1, -1)

@@ -10,9 +10,9 @@ same settings for every run, the RGB floor included, and reports it as its own p
 The rasterizer is not differentiable, so the image's dependence on the pose comes through the
 texture coordinates inside each triangle: the GL rasterization gives each pixel its triangle
 (again after every step by default), and the perspective-correct barycentrics of the pixel
-centre in the projected triangle are computed in torch from the posed vertices. The loss is L1 between the
-render and the frame, both composited over the capture's backdrop, summed over a coarse-to-fine
-pyramid, with an L2 penalty on the pose change.
+centre in the projected triangle are computed in torch from the posed vertices. The loss is L1
+between the render and the frame, both composited over the capture's backdrop, summed over a
+coarse-to-fine pyramid, with an L2 penalty on the pose change.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import torch
 import torch.nn.functional as F
 
 from morf.camera import PinholeCamera, project_points
-from morf.train.frames import UV_SCALE, FrameSet
+from morf.train.frames import FrameSet, pack_uv
 
 
 @dataclass(frozen=True)
@@ -181,7 +181,7 @@ def reposed_frames(frames: FrameSet, model, refined: RefinedPoses, shape: np.nda
     uvs, uvms, facings = [], [], []
     for uv, uvm, fac in rasterize_frames(model, refined.rotvecs, refined.transl,
                                          np.asarray(shape, np.float32).reshape(1, -1), camera):
-        uvs.append(np.round(np.clip(uv, 0, 1) * UV_SCALE).astype(np.uint16))
+        uvs.append(pack_uv(uv))
         uvms.append(uvm)
         facings.append(fac)
     return replace(frames, uv=np.concatenate(uvs), uv_mask=np.concatenate(uvms), facing=np.concatenate(facings),

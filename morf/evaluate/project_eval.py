@@ -183,12 +183,12 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
     from morf.train.project_run import evaluate_frames
 
     side = eval_side(avatar.camera, project.camera(), cfg.resolution, avatar.renderer.cfg.multiple)
-    frames = target_frames(project, model, target, fits, avatar.shape.numpy(), scaled_camera(avatar.camera, side))
+    camera = scaled_camera(avatar.camera, side)
+    frames = target_frames(project, model, target, fits, avatar.shape.numpy(), camera)
     say(f"{run.name}: {tr.target.key}, {frames.num_frames} frames at {side} px")
     refined = None
     if cfg.refine_poses:
-        frames, refined = _refine(project, model, avatar, target, fits, frames, scaled_camera(avatar.camera, side),
-                                  cfg.refine, say)
+        frames, refined = _refine(project, model, avatar, target, fits, frames, camera, cfg.refine, say)
     scores = evaluate_frames(avatar, frames)
     colour = torch.tensor(scores.background, dtype=torch.float32)
     if tr.column is None:

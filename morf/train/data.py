@@ -23,7 +23,7 @@ from morf.io import load_npz, save_npz
 from morf.pipeline.control import Progress, StageControl
 from morf.synth.ground_truth import (GroundTruth, has_ground_truth, has_holdout, load_ground_truth, load_holdout,
                                      read_holdout_frame, read_holdout_mask)
-from morf.train.frames import UV_SCALE, FrameSet
+from morf.train.frames import FrameSet, pack_uv
 
 CACHE_VERSION = 1
 FIT_SOURCES = ("auto", "fits", "ground-truth")
@@ -244,7 +244,7 @@ def build_frames(project, model, resolution: int, fits_source: str = "auto",
             m = crop_image(project.load_mask(i).astype(np.uint8) * 255, x0, y0, side, resolution)
             masks.append(m > 127)
         done += len(uv)
-        uvs.append(np.round(np.clip(uv, 0, 1) * UV_SCALE).astype(np.uint16))
+        uvs.append(pack_uv(uv))
         uv_masks.append(uvm)
         facings.append(fac)
         control.report(Progress("train", 0, None, f"preparing training frames {done}/{len(ids)}"))
@@ -281,10 +281,10 @@ def fitted_frame_offset(project, fits: BodyFitArrays) -> np.ndarray:
     return (fits.transl[:n][ok] - gt[:n][ok]).mean(0).astype(np.float32)
 
 
-def holdout_poses(project, fits: BodyFitArrays | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """The synthetic hold-out sequence's poses: rotvecs (M, J, 3) and translations (M, 3), moved
-    into the fitted frame of ``fits`` when given (:func:`fitted_frame_offset`)."""
-    hold = load_holdout(project)
+def holdout_poses(project, hold, fits: BodyFitArrays | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The poses of ``hold``, the project's hold-out sequence (:func:`load_holdout`): rotvecs
+    (M, J, 3) and translations (M, 3), moved into the fitted frame of ``fits`` when given
+    (:func:`fitted_frame_offset`)."""
     rot, tr = hold.rotvecs.astype(np.float32), hold.transl.astype(np.float32)
     if fits is not None:
         tr = tr + fitted_frame_offset(project, fits)
@@ -302,7 +302,7 @@ def build_holdout_frames(project, model, working: PinholeCamera, shape: np.ndarr
     if not has_holdout(project):
         return None
     hold = load_holdout(project)
-    rot, tr = holdout_poses(project, fits)
+    rot, tr = holdout_poses(project, hold, fits)
     if len(rot) == 0:
         return None
     cam = project.camera() if hold.camera is None else hold.camera
@@ -317,7 +317,7 @@ def build_holdout_frames(project, model, working: PinholeCamera, shape: np.ndarr
             m = read_holdout_mask(project, i)
             masks.append(crop_image(m, x0, y0, side, R) > 127)
         done += len(uv)
-        uvs.append(np.round(np.clip(uv, 0, 1) * UV_SCALE).astype(np.uint16))
+        uvs.append(pack_uv(uv))
         uvms.append(uvm)
         facings.append(fac)
     return FrameSet(np.stack(images), np.stack(masks), np.concatenate(uvs), np.concatenate(uvms),

@@ -14,6 +14,11 @@ import torch
 UV_SCALE = 65535.0  # UVs are stored as uint16 fixed point: 1.5e-5 precision, 4x smaller than float32
 
 
+def pack_uv(uv: np.ndarray) -> np.ndarray:
+    """Float UVs in [0, 1] (clipped) -> the uint16 fixed point a :class:`FrameSet` stores."""
+    return np.round(np.clip(uv, 0, 1) * UV_SCALE).astype(np.uint16)
+
+
 @dataclass(frozen=True)
 class FrameSet:
     """N training frames at the working resolution (H = W = resolution).
@@ -59,7 +64,7 @@ class FrameSet:
         N = uv.shape[0]
         return FrameSet(
             images=np.asarray(images, np.uint8), masks=np.asarray(masks, bool),
-            uv=np.round(np.clip(uv, 0, 1) * UV_SCALE).astype(np.uint16), uv_mask=np.asarray(uv_mask, bool),
+            uv=pack_uv(uv), uv_mask=np.asarray(uv_mask, bool),
             facing=np.full(uv.shape[:3], 255, np.uint8) if facing is None else np.asarray(facing, np.uint8),
             rotvecs=np.asarray(rotvecs, np.float32),
             frame_ids=np.arange(N, dtype=np.int64) if frame_ids is None else np.asarray(frame_ids, np.int64))
