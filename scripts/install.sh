@@ -4,11 +4,14 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-if ! ldconfig -p 2>/dev/null | grep -q "libEGL.so.1" || ! ldconfig -p 2>/dev/null | grep -q "libGL.so.1"; then
-  echo "[install] Debian packages: libegl1 libgl1"
+# libgomp1: OpenMP threads for the player's compiled full-resolution pass (numba's omp layer,
+# twice as fast as its fallback)
+if ! ldconfig -p 2>/dev/null | grep -q "libEGL.so.1" || ! ldconfig -p 2>/dev/null | grep -q "libGL.so.1" \
+    || ! ldconfig -p 2>/dev/null | grep -q "libgomp.so.1"; then
+  echo "[install] Debian packages: libegl1 libgl1 libgomp1"
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq libegl1 libgl1 >/dev/null
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq libegl1 libgl1 libgomp1 >/dev/null
 fi
 
 PY=${PYTHON:-python3}

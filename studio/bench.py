@@ -88,8 +88,9 @@ def cpu_shares(before: dict, after: dict, seconds: float, roles: dict[int, str],
     """Percent of one core per group of threads over ``seconds``.
 
     Threads in ``roles`` (tid -> name) are their own group. The live render's helpers (its
-    onnxruntime pool and its software GL threads) are created by the render thread and inherit
-    its nice value, ``helper_nice``; the other software GL threads draw the UI.
+    onnxruntime pool, numba's threads of the compiled tail and its software GL threads) are
+    created by the render thread and inherit its nice value, ``helper_nice``; the other software
+    GL threads draw the UI.
     """
     shares: dict[str, float] = {}
     for tid, (name, nice, cpu) in after.items():
@@ -98,7 +99,7 @@ def cpu_shares(before: dict, after: dict, seconds: float, roles: dict[int, str],
         if tid in roles:
             group = roles[tid]
         elif helper_nice is not None and nice == helper_nice:
-            group = "live render: software GL" if gl else "live render: onnxruntime threads"
+            group = "live render: software GL" if gl else "live render: onnxruntime and numba threads"
         else:
             group = "UI: software GL" if gl else "other threads"
         shares[group] = shares.get(group, 0.0) + 100.0 * used / seconds

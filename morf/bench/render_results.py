@@ -63,7 +63,11 @@ class PlaybackMeasurement:
             does not composite; then left out of :meth:`to_dict`);
         threads: onnxruntime intra-op threads; frame_ms, fps_end_to_end: sequential, end to end;
         frame_ms_pipelined, fps_pipelined: through ``render_sequence``;
-        int8_psnr_vs_fp32_image_db: the int8 player's frames against the fp32 player's.
+        int8_psnr_vs_fp32_image_db: the int8 player's frames against the fp32 player's;
+        tail: "compiled:LAYER" when the graph's full-resolution tail ran as the player's compiled pass
+            (LAYER: numba's threading layer)
+            (``renderer_only_ms`` and the breakdown's ``renderer_ms`` then include it; ``graph_ms``
+            and ``tail_ms`` split them), "graph" when onnxruntime ran the whole graph.
     """
 
     breakdown_ms: dict[str, float]
@@ -77,6 +81,7 @@ class PlaybackMeasurement:
     fps_pipelined: float
     int8_psnr_vs_fp32_image_db: float
     composite_share_of_graph: float | None = None
+    tail: str = "graph"
 
     def to_dict(self) -> dict:
         d = {"breakdown_ms": dict(self.breakdown_ms), "renderer_only_ms": self.renderer_only_ms,
@@ -85,7 +90,7 @@ class PlaybackMeasurement:
             d["composite_share_of_graph"] = self.composite_share_of_graph
         d.update(threads=self.threads, frame_ms=self.frame_ms, fps_end_to_end=self.fps_end_to_end,
                  frame_ms_pipelined=self.frame_ms_pipelined, fps_pipelined=self.fps_pipelined,
-                 int8_psnr_vs_fp32_image_db=self.int8_psnr_vs_fp32_image_db)
+                 int8_psnr_vs_fp32_image_db=self.int8_psnr_vs_fp32_image_db, tail=self.tail)
         return d
 
     @staticmethod
@@ -95,7 +100,7 @@ class PlaybackMeasurement:
             kernels=GraphProfile.from_dict(d["kernels"]), threads=d["threads"], frame_ms=d["frame_ms"],
             fps_end_to_end=d["fps_end_to_end"], frame_ms_pipelined=d["frame_ms_pipelined"],
             fps_pipelined=d["fps_pipelined"], int8_psnr_vs_fp32_image_db=d["int8_psnr_vs_fp32_image_db"],
-            composite_share_of_graph=d.get("composite_share_of_graph"))
+            composite_share_of_graph=d.get("composite_share_of_graph"), tail=d.get("tail", "graph"))
 
 
 TABLE_COLUMNS = ["avatar", "renderer ms", "frame ms", "fps", "fps pipelined", "int8 PSNR dB", "peak RSS MB"]

@@ -4,7 +4,9 @@ Layout (format "morf-avatar", version 1)::
 
     AVATAR/
       manifest.json        versions, image size, channel scales, renderer graph contract, int8
-                           quality, and size + sha256 of every file below
+                           quality, where the player may cut each graph before its compiled
+                           full-resolution tail (renderer.native_tail, see
+                           morf.export.compiled_tail), and size + sha256 of every file below
       texture.npz          texture (Ht, Wt, 16) uint8 (zero point 128), scales (16,) float32
       mesh.npz             rest_vertices (Vr, 3), uvs (Vr, 2), faces (F, 3), bone_indices (Vr, 8),
                            bone_weights (Vr, 8): the shaped render mesh, seams split

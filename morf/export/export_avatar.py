@@ -108,6 +108,16 @@ def int8_quality(fp32_path: Path, int8_path: Path, rasters: Sequence[np.ndarray]
             "psnr_person_db": float(np.mean(ps_person))}
 
 
+def native_tails(folder: Path, layout: str, rasters: Sequence[np.ndarray]) -> dict:
+    """The player's compiled full-resolution tail for each graph in ``folder`` that has one and
+    passes the check against the whole graph (:mod:`morf.export.native_tail_spec`)."""
+    from morf.export.native_tail_spec import native_tail_entry
+
+    views = [nchw_to_layout(r, layout) for r in rasters]
+    entries = {p: native_tail_entry(folder / name, layout, views) for p, name in RENDERERS.items()}
+    return {p: e for p, e in entries.items() if e is not None}
+
+
 def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, calibration: Sequence[View],
                   heldout: Sequence[View], cfg: ExportConfig = ExportConfig(), ctx=None,
                   control: StageControl | None = None) -> dict:
@@ -166,8 +176,11 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
     quality["calibration"] = chosen["calibration"]  # the activation ranges kept, and why
     quality["calibration_scores_db"] = chosen["scores_db"]
     rcfg = getattr(renderer, "cfg", None)
-    manifest = write_manifest(tmp, _manifest_fields(qtex, skeleton, mesh, rcfg, (H, W), shape, cfg, quality,
-                                                    len(calib), time.time() - t0))
+    fields = _manifest_fields(qtex, skeleton, mesh, rcfg, (H, W), shape, cfg, quality, len(calib), time.time() - t0)
+    tails = native_tails(tmp, cfg.input_layout, held or calib[:4])
+    if tails:
+        fields["renderer"]["native_tail"] = tails
+    manifest = write_manifest(tmp, fields)
     replace_folder(tmp, out_dir)
     step(5, "done")
     return manifest

@@ -10,9 +10,9 @@ needs. Only the fields below are read; every other field is copied through byte 
 order (field numbers from onnx.proto3):
 
     ModelProto.graph = 7
-    GraphProto.node = 1, GraphProto.output = 12
+    GraphProto.node = 1, GraphProto.initializer = 5, GraphProto.input = 11, GraphProto.output = 12
     NodeProto.input = 1, NodeProto.output = 2, NodeProto.op_type = 4
-    ValueInfoProto.name = 1
+    TensorProto.name = 8, ValueInfoProto.name = 1
 
 Graphs with control-flow nodes (If, Loop, Scan) are left whole: their subgraphs read tensors of
 the outer graph without naming them as node inputs.
@@ -23,7 +23,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 MODEL_GRAPH = 7
-GRAPH_NODE, GRAPH_OUTPUT = 1, 12
+GRAPH_NODE, GRAPH_INITIALIZER, GRAPH_INPUT, GRAPH_OUTPUT = 1, 5, 11, 12
+TENSOR_NAME = 8
 NODE_INPUT, NODE_OUTPUT, NODE_OP_TYPE = 1, 2, 4
 VALUE_INFO_NAME = 1
 CONTROL_FLOW = frozenset({"If", "Loop", "Scan"})
@@ -117,6 +118,20 @@ def _graph(model: bytes) -> bytes:
     return graphs[0].payload
 
 
+def _nodes(graph_fields: list[Field]) -> dict[int, tuple[list[str], list[str]]] | None:
+    """Field index -> (inputs, outputs) of each node of a graph, or None when it has control flow."""
+    nodes = {}
+    for i, f in enumerate(graph_fields):
+        if f.number == GRAPH_NODE:
+            parts = fields(f.payload)
+            op = [p.payload.decode("utf-8") for p in parts if p.number == NODE_OP_TYPE]
+            if op and op[0] in CONTROL_FLOW:
+                return None
+            nodes[i] = ([p.payload.decode("utf-8") for p in parts if p.number == NODE_INPUT],
+                        [p.payload.decode("utf-8") for p in parts if p.number == NODE_OUTPUT])
+    return nodes
+
+
 def keep_outputs(model: bytes, keep: tuple[str, ...] | list[str]) -> bytes | None:
     """``model`` with only the outputs named in ``keep`` and the nodes they need, or None when
     that would change nothing (no other output, a name in ``keep`` missing, no node to drop) or
@@ -131,15 +146,9 @@ def keep_outputs(model: bytes, keep: tuple[str, ...] | list[str]) -> bytes | Non
     outputs = {i: _name(f.payload) for i, f in enumerate(graph_fields) if f.number == GRAPH_OUTPUT}
     if not set(keep) <= set(outputs.values()) or set(outputs.values()) <= set(keep):
         return None
-    nodes = {}
-    for i, f in enumerate(graph_fields):
-        if f.number == GRAPH_NODE:
-            parts = fields(f.payload)
-            op = [p.payload.decode("utf-8") for p in parts if p.number == NODE_OP_TYPE]
-            if op and op[0] in CONTROL_FLOW:
-                return None
-            nodes[i] = ([p.payload.decode("utf-8") for p in parts if p.number == NODE_INPUT],
-                        [p.payload.decode("utf-8") for p in parts if p.number == NODE_OUTPUT])
+    nodes = _nodes(graph_fields)
+    if nodes is None:
+        return None
     dropped = {i for i, name in outputs.items() if name not in keep}
     while True:
         used = set(keep)
@@ -152,3 +161,39 @@ def keep_outputs(model: bytes, keep: tuple[str, ...] | list[str]) -> bytes | Non
         dropped |= dead
     graph = b"".join(f.raw for i, f in enumerate(graph_fields) if i not in dropped)
     return b"".join(_length_field(MODEL_GRAPH, graph) if f.number == MODEL_GRAPH else f.raw for f in top)
+
+
+def cut_graph(model: bytes, outputs: tuple[str, ...] | list[str]) -> bytes:
+    """``model`` with exactly ``outputs`` as its outputs (tensors the graph makes; those that were
+    not outputs are added by name, onnxruntime infers their types), the nodes they need, and the
+    initializers and graph inputs those nodes read. Raises ValueError when a name is not made by
+    the graph or the graph has control flow."""
+    graph_fields = fields(_graph(model))
+    nodes = _nodes(graph_fields)
+    if nodes is None:
+        raise ValueError("the graph has control flow")
+    made = {o for _, outs in nodes.values() for o in outs}
+    missing = [o for o in outputs if o not in made]
+    if missing:
+        raise ValueError(f"the graph makes no tensor named {missing[0]!r}")
+    needed, keep_nodes = set(outputs), set()
+    for i in sorted(nodes, reverse=True):  # nodes are stored in topological order
+        ins, outs = nodes[i]
+        if needed.intersection(outs):
+            keep_nodes.add(i)
+            needed.update(ins)
+    parts = []
+    for i, f in enumerate(graph_fields):
+        if f.number == GRAPH_NODE and i not in keep_nodes:
+            continue
+        if f.number == GRAPH_OUTPUT:
+            continue
+        if f.number == GRAPH_INITIALIZER and _strings(f.payload, TENSOR_NAME)[:1] and \
+                _strings(f.payload, TENSOR_NAME)[0] not in needed:
+            continue
+        if f.number == GRAPH_INPUT and _name(f.payload) not in needed:
+            continue
+        parts.append(f.raw)
+    parts += [_length_field(GRAPH_OUTPUT, _length_field(VALUE_INFO_NAME, name.encode("utf-8"))) for name in outputs]
+    graph = b"".join(parts)
+    return b"".join(_length_field(MODEL_GRAPH, graph) if f.number == MODEL_GRAPH else f.raw for f in fields(model))

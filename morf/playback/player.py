@@ -48,10 +48,12 @@ class Player:
         precision: "int8" (default) or "fp32" renderer.
         background: RGB colour triple or (size, size, 3) uint8 image.
         threads: onnxruntime intra-op threads; spinning: let idle ORT threads spin (benchmarks only).
+        native: run the graph's full-resolution tail as one compiled pass where the avatar folder
+            has one (:mod:`morf.playback.native_tail`; ``MORF_NATIVE_TAIL=0`` turns it off too).
     """
 
     def __init__(self, avatar_dir, size: int = 640, ctx=None, precision: str = "int8",
-                 background=(255, 255, 255), threads: int = 2, spinning: bool = False):
+                 background=(255, 255, 255), threads: int = 2, spinning: bool = False, native: bool = True):
         self.avatar = avatar_dir if isinstance(avatar_dir, ExportedAvatar) else load_exported_avatar(avatar_dir)
         mult = self.avatar.size_multiple
         if size <= 0 or size % mult:
@@ -62,7 +64,7 @@ class Player:
         self.raster = NeuralRasterizer(self.ctx, self.avatar.mesh, self.avatar.texture, size, size,
                                        self.avatar.skeleton.num_bones)
         self.precision = precision
-        self.renderer = OnnxRenderer(self.avatar.renderer_path(precision), threads=threads, spinning=spinning)
+        self.renderer = open_renderer(self.avatar, precision, threads=threads, spinning=spinning, native=native)
         self.background = background
         # the largest scale the renderer was trained at; closer views are drawn through it (None: no limit)
         self.max_pixels_per_metre = (self.avatar.manifest.get("trained_scale") or {}).get("max_pixels_per_metre")
@@ -125,6 +127,7 @@ class Player:
         img = self.renderer.image(raster, self._background)
         t1 = time.perf_counter()
         self.last_timings.update(renderer_ms=(t1 - t0) * 1e3)  # the composite runs inside the renderer's graph
+        self.last_timings.update(getattr(self.renderer, "last_timings", {}))  # the native tail's split
         return img
 
     def view(self, transl: np.ndarray, camera) -> tuple[object, tuple[float, float, float, float] | None]:
@@ -225,6 +228,18 @@ class Player:
 
     def __exit__(self, *exc) -> None:
         self.release()
+
+
+def open_renderer(avatar: ExportedAvatar, precision: str, threads: int = 2, spinning: bool = False,
+                  native: bool = True):
+    """The avatar's renderer: its graph cut before the full-resolution tail + the compiled tail
+    where the folder has one and it may be used, else the whole graph."""
+    from morf.playback.native_tail import TailRenderer, enabled, spec_for
+
+    spec = spec_for(avatar.manifest, precision) if native else None
+    if spec is not None and enabled():
+        return TailRenderer(avatar.renderer_path(precision), spec, threads=threads, spinning=spinning)
+    return OnnxRenderer(avatar.renderer_path(precision), threads=threads, spinning=spinning)
 
 
 def open_player(avatar_dir: str | Path, **kwargs) -> Player:

@@ -23,7 +23,7 @@ def test_cpu_shares_group_threads_by_role_then_by_whose_helpers_they_are():
     shares = bench.cpu_shares(before, after, 1.0, {1: "UI thread", 5: "live render thread"}, helper_nice=10)
     assert shares == pytest.approx({"UI thread": 50.0, "UI: software GL": 25.0, "other threads": 25.0,
                                     "live render: software GL": 25.0, "live render thread": 50.0,
-                                    "live render: onnxruntime threads": 10.0})
+                                    "live render: onnxruntime and numba threads": 10.0})
     assert bench.thread_cpu_seconds()  # this process's own threads (Linux)
 
 
