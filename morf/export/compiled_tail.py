@@ -39,6 +39,33 @@ _LOCK = threading.Lock()  # numba's thread pool must not be entered from two thr
 
 
 @dataclass(frozen=True)
+class HeadStage:
+    """The half-resolution head's last layers, when the pass computes them too (int8 graphs):
+    ``HEAD = weight @ leaky_relu(up(low) + (skip - skip_zero_point) * skip_scale, alpha) + bias``.
+
+    Fields:
+        low: the (1, C, H/4, W/4) float tensor upsampled 2x; skip: the (1, C, H/2, W/2) tensor added
+            to it (uint8 with its scale and zero point, or float with 1 and 0); alpha: the
+            LeakyReLU slope; weight: (4, C); bias: (4,).
+    """
+
+    low: str
+    skip: str
+    skip_scale: float
+    skip_zero_point: int
+    alpha: float
+    weight: tuple[tuple[float, ...], ...]
+    bias: tuple[float, ...]
+
+    @staticmethod
+    def from_dict(d: dict) -> "HeadStage":
+        return HeadStage(low=str(d["low"]), skip=str(d["skip"]), skip_scale=float(d["skip_scale"]),
+                         skip_zero_point=int(d["skip_zero_point"]), alpha=float(d["alpha"]),
+                         weight=tuple(tuple(float(v) for v in row) for row in d["weight"]),
+                         bias=tuple(float(v) for v in d["bias"]))
+
+
+@dataclass(frozen=True)
 class TailSpec:
     """Where the exporter cut the graph and the tail's constants (see the module docstring).
 
@@ -50,6 +77,8 @@ class TailSpec:
         weight_min: the fill weight's floor; opaque_margin: pixels (0: no opaque body).
         check: the exporter's comparison with the whole graph (max difference in levels, share
             of differing pixel channels, views).
+        head_stage: the head's last layers computed by the pass too (the graph is then cut at
+            ``head_stage.low`` and ``.skip`` instead of ``head``), or None.
     """
 
     head: str
@@ -63,6 +92,14 @@ class TailSpec:
     opaque_margin: int
     check: dict | None = None
     kind: str = KIND
+    head_stage: HeadStage | None = None
+
+    @property
+    def cut(self) -> tuple[str, ...]:
+        """The tensors the graph is cut at, in the order :meth:`TailShader.run` takes them."""
+        if self.head_stage is not None:
+            return (self.head_stage.low, self.head_stage.skip, self.fill)
+        return (self.head, self.fill)
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -78,7 +115,8 @@ class TailSpec:
                             zero_point=int(d["zero_point"]), coverage_channel=int(d["coverage_channel"]),
                             logit_scale=float(d["logit_scale"]), logit_offset=float(d["logit_offset"]),
                             weight_min=float(d["weight_min"]), opaque_margin=int(d["opaque_margin"]),
-                            check=d.get("check"))
+                            check=d.get("check"),
+                            head_stage=HeadStage.from_dict(d["head_stage"]) if d.get("head_stage") else None)
         except (KeyError, TypeError, ValueError):
             return None
 
@@ -104,6 +142,7 @@ class TailShader:
         self._scale = np.asarray(spec.colour_scale, np.float32)
         self._rows = np.empty((0, 0), np.uint8)
         self._out = np.empty((0, 0, 3), np.uint8)
+        self._weight = self._bias = None
 
     def __call__(self, raster: np.ndarray, head: np.ndarray, fill: np.ndarray, background: np.ndarray,
                  out: np.ndarray | None = None) -> np.ndarray:
@@ -131,26 +170,65 @@ class TailShader:
                     self._table, out)
         return out
 
+    def head(self, low: np.ndarray, skip: np.ndarray) -> np.ndarray:
+        """HEAD from the head stage's two tensors (:class:`HeadStage`): (1, 4, 2h, 2w) float32."""
+        import numba
+
+        st = self.spec.head_stage
+        if st is None:
+            raise ValueError("this tail has no head stage")
+        if skip.shape[2] != 2 * low.shape[2] or skip.shape[3] != 2 * low.shape[3] or skip.shape[1] != low.shape[1]:
+            raise ValueError(f"head tensors {low.shape} / {skip.shape} do not match")
+        if self._weight is None:
+            self._weight = np.asarray(st.weight, np.float32)
+            self._bias = np.asarray(st.bias, np.float32)
+        out = np.empty((1, self._weight.shape[0], *skip.shape[2:]), np.float32)
+        with _LOCK:
+            numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))
+            self._k.head_stage(low, skip, np.float32(st.skip_scale), st.skip_zero_point, np.float32(st.alpha),
+                               self._weight, self._bias, out)
+        return out
+
+    def run(self, cut: list[np.ndarray], raster: np.ndarray, background: np.ndarray,
+            out: np.ndarray | None = None) -> np.ndarray:
+        """The image from the cut graph's outputs (in the order of :attr:`TailSpec.cut`)."""
+        if self.spec.head_stage is not None:
+            low, skip, fill = cut
+            return self(raster, self.head(low, skip), fill, background, out=out)
+        head, fill = cut
+        return self(raster, head, fill, background, out=out)
+
+
+def _up_reference(t: np.ndarray) -> np.ndarray:
+    """(C, h, w) -> (C, 2h, 2w) bilinear, half-pixel centres, clamped edges (float64)."""
+    h, w = t.shape[1:]
+
+    def taps(n_out, n_in):
+        s = np.clip((np.arange(n_out) + 0.5) / 2 - 0.5, 0, n_in - 1)
+        a = np.floor(s).astype(int)
+        return a, np.minimum(a + 1, n_in - 1), s - a
+
+    ya, yb, fy = taps(2 * h, h)
+    xa, xb, fx = taps(2 * w, w)
+    rows = t[:, ya] * (1 - fy)[None, :, None] + t[:, yb] * fy[None, :, None]
+    return rows[:, :, xa] * (1 - fx) + rows[:, :, xb] * fx
+
+
+def reference_head(stage: HeadStage, low: np.ndarray, skip: np.ndarray) -> np.ndarray:
+    """:meth:`TailShader.head` in plain numpy (float64)."""
+    h = _up_reference(low[0].astype(np.float64)) + (skip[0].astype(np.float64) - stage.skip_zero_point) * stage.skip_scale
+    h = np.where(h < 0, h * stage.alpha, h)
+    out = np.einsum("kc,chw->khw", np.asarray(stage.weight), h) + np.asarray(stage.bias)[:, None, None]
+    return out[None].astype(np.float32)
+
 
 def reference_tail(spec: TailSpec, raster: np.ndarray, head: np.ndarray, fill: np.ndarray,
                    background: np.ndarray) -> np.ndarray:
     """The same function in plain numpy (float64, slow): what tests hold the compiled pass to."""
     import scipy.ndimage as ndi
 
-    def up(t):  # (4, h, w) -> (4, 2h, 2w), half-pixel centres, clamped edges
-        h, w = t.shape[1:]
-        def taps(n_out, n_in):
-            s = np.clip((np.arange(n_out) + 0.5) / 2 - 0.5, 0, n_in - 1)
-            a = np.floor(s).astype(int)
-            b = np.minimum(a + 1, n_in - 1)
-            return a, b, s - a
-        ya, yb, fy = taps(2 * h, h)
-        xa, xb, fx = taps(2 * w, w)
-        rows = t[:, ya] * (1 - fy)[None, :, None] + t[:, yb] * fy[None, :, None]
-        return rows[:, :, xa] * (1 - fx) + rows[:, :, xb] * fx
-
     b = raster[0].astype(np.float64)
-    hd, fl = up(head[0].astype(np.float64)), up(fill[0].astype(np.float64))
+    hd, fl = _up_reference(head[0].astype(np.float64)), _up_reference(fill[0].astype(np.float64))
     covered = raster[0, :, :, spec.coverage_channel] != spec.zero_point
     tex = (b[:, :, :3] - spec.zero_point) * np.asarray(spec.colour_scale)
     colour = tex + np.where(covered, 0.0, 1.0)[..., None] * (fl[:3] / np.maximum(fl[3], spec.weight_min)).transpose(1, 2, 0)

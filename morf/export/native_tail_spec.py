@@ -17,7 +17,7 @@ import numpy as np
 import onnx
 
 from morf.export.onnx_graph import COMPOSITE_PREFIX, OPAQUE_PREFIX, _attr, _const_value, _producer
-from morf.export.compiled_tail import TailShader, TailSpec, numba_available
+from morf.export.compiled_tail import HeadStage, TailShader, TailSpec, numba_available
 
 MAX_LEVELS = 2  # the most a pixel channel may differ from the whole graph's (rounding)
 MAX_SHARE = 1e-3  # the share of pixel channels allowed to differ at all
@@ -50,26 +50,66 @@ def _scalar(model, name: str) -> float | None:
     return None if v is None or v.size != 1 else float(v.reshape(-1)[0])
 
 
-def _upsampled(model, name: str) -> str | None:
-    """The input of the 2x bilinear half-pixel Resize that makes ``name`` (through a Split)."""
-    split = _producer(model, name)
-    if split is None or split.op_type != "Split" or list(split.input[:1]) == [] or _attr(split, "axis") not in (1, -3):
-        return None
-    sizes = _const_value(model, split.input[1]) if len(split.input) > 1 else None
-    if sizes is None or list(sizes.reshape(-1)) != [3, 1]:
-        return None
-    rs = _node(model, split.input[0], "Resize")
+def _resized(model, name: str, sizes_ok: bool = False) -> str | None:
+    """The input of the 2x bilinear half-pixel Resize that makes ``name``, or None. ``sizes_ok``:
+    also a Resize to computed ``sizes`` (the fill's last pull step resizes to the frame's size:
+    twice its input's side on the even sides the player renders; the pass checks the shapes each
+    frame)."""
+    rs = _node(model, name, "Resize")
     if rs is None or _attr(rs, "mode") not in (b"linear", "linear") \
             or _attr(rs, "coordinate_transformation_mode") not in (b"half_pixel", "half_pixel", b"pytorch_half_pixel", "pytorch_half_pixel"):
         return None
     scales = _const_value(model, rs.input[2]) if len(rs.input) > 2 and rs.input[2] else None
     if scales is not None and list(scales.reshape(-1)) == [1.0, 1.0, 2.0, 2.0]:
         return rs.input[0]
-    # the fill's last pull step resizes to the frame's size (``sizes``, computed in the graph): twice
-    # its input's side on the even sides the player renders; the pass checks the shapes each frame
-    if scales is None and len(rs.input) > 3 and rs.input[3]:
+    if sizes_ok and scales is None and len(rs.input) > 3 and rs.input[3]:
         return rs.input[0]
     return None
+
+
+def _upsampled(model, name: str) -> str | None:
+    """The input of the 2x Resize that makes ``name`` through a Split of 3 + 1 channels."""
+    split = _producer(model, name)
+    if split is None or split.op_type != "Split" or list(split.input[:1]) == [] or _attr(split, "axis") not in (1, -3):
+        return None
+    sizes = _const_value(model, split.input[1]) if len(split.input) > 1 else None
+    if sizes is None or list(sizes.reshape(-1)) != [3, 1]:
+        return None
+    return _resized(model, split.input[0], sizes_ok=True)
+
+
+def _head_stage(model, head: str) -> HeadStage | None:
+    """The int8 graph's half-resolution head before ``head``: ``Reshape(Add(MatMul(weight,
+    Reshape(LeakyRelu(Add(Resize2x(low), DequantizeLinear(skip))))), bias))``; None otherwise
+    (the fp32 graph's last 1x1 convolution has weights computed in the graph, so it stays there)."""
+    out = _node(model, head, "Reshape")
+    add = _node(model, out.input[0], "Add") if out is not None else None
+    mm_out = next((i for i in add.input if _node(model, i, "MatMul") is not None), None) if add is not None else None
+    if mm_out is None:
+        return None
+    mm, bias = _producer(model, mm_out), _const_value(model, _other(add, mm_out))
+    weight = _const_value(model, mm.input[0])
+    flat = _node(model, mm.input[1], "Reshape")
+    act = _node(model, flat.input[0], "LeakyRelu") if flat is not None else None
+    total = _node(model, act.input[0], "Add") if act is not None else None
+    if weight is None or bias is None or weight.ndim != 2 or bias.size != weight.shape[0] or total is None:
+        return None
+    low = next((_resized(model, i) for i in total.input if _resized(model, i) is not None), None)
+    if low is None:
+        return None
+    skip = next(i for i in total.input if _resized(model, i) is None)
+    scale, zp = 1.0, 0
+    dq = _node(model, skip, "DequantizeLinear")
+    if dq is not None:
+        scale, zero = _scalar(model, dq.input[1]), _const_value(model, dq.input[2])
+        if scale is None or zero is None or zero.size != 1:
+            return None
+        skip, zp = dq.input[0], int(zero.reshape(-1)[0])
+    alpha = _attr(act, "alpha")
+    return HeadStage(low=low, skip=skip, skip_scale=float(scale), skip_zero_point=zp,
+                     alpha=float(0.01 if alpha is None else alpha),
+                     weight=tuple(tuple(float(v) for v in row) for row in weight),
+                     bias=tuple(float(v) for v in bias.reshape(-1)))
 
 
 def tail_spec(model: onnx.ModelProto, layout: str) -> TailSpec | None:
@@ -168,7 +208,7 @@ def tail_spec(model: onnx.ModelProto, layout: str) -> TailSpec | None:
                     colour_scale=tuple(float(v) * dq_scale for v in scale.reshape(-1)),
                     zero_point=int(zp.reshape(-1)[0]), coverage_channel=COVERAGE_CHANNEL,
                     logit_scale=float(k), logit_offset=float(c), weight_min=float(weight_min),
-                    opaque_margin=int(margin))
+                    opaque_margin=int(margin), head_stage=_head_stage(model, head))
 
 
 def check_tail(path: Path, spec: TailSpec, rasters: Sequence[np.ndarray]) -> dict:
@@ -179,7 +219,7 @@ def check_tail(path: Path, spec: TailSpec, rasters: Sequence[np.ndarray]) -> dic
     import onnxruntime as ort
 
     model = onnx.load(str(path))
-    model.graph.output.extend([onnx.helper.make_empty_tensor_value_info(n) for n in (spec.head, spec.fill)])
+    model.graph.output.extend([onnx.helper.make_empty_tensor_value_info(n) for n in spec.cut])
     opts = ort.SessionOptions()
     opts.intra_op_num_threads = 2
     whole = ort.InferenceSession(model.SerializeToString(), opts, providers=["CPUExecutionProvider"])
@@ -188,8 +228,8 @@ def check_tail(path: Path, spec: TailSpec, rasters: Sequence[np.ndarray]) -> dic
     for r in rasters:
         for value in (255.0, 0.0):
             bg = np.full((1, 3, 1, 1), value, np.float32)
-            image, head, fill = whole.run(["image", spec.head, spec.fill], {"raster": r, "background": bg})
-            d = np.abs(shader(r, head, fill, bg).astype(np.int16) - image[0].astype(np.int16))
+            image, *cut = whole.run(["image", *spec.cut], {"raster": r, "background": bg})
+            d = np.abs(shader.run(cut, r, bg).astype(np.int16) - image[0].astype(np.int16))
             worst, differing, total = max(worst, int(d.max())), differing + int((d > 0).sum()), total + d.size
     return {"max_levels": worst, "share_differing": differing / max(total, 1), "views": len(rasters)}
 

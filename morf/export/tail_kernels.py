@@ -111,3 +111,44 @@ def shade(raster, head, fill, colour_scale, zero_point, channel, logit_scale, lo
                 col = (res + tex + fill_c * q) * mask + (np.float32(1.0) - mask) * background[ch, by, bx] * unit
                 v = np.rint(col * np.float32(255.0))
                 out[y, x, ch] = np.uint8(min(max(v, np.float32(0.0)), np.float32(255.0)))
+
+
+@nb.njit(parallel=True, fastmath=True, cache=True)
+def head_stage(low, skip, skip_scale, skip_zero_point, alpha, weight, bias, out):
+    """The half-resolution head's last layers: ``out = weight @ leaky_relu(up(low) + (skip - zp) *
+    scale) + bias`` per pixel, ``up`` as in :func:`shade` (2x, half-pixel centres, edges clamped).
+    low: (1, C, h, w) float32; skip: (1, C, 2h, 2w) uint8 or float32; weight: (K, C); out: (1, K, 2h, 2w).
+    Each row is done plane by plane (even and odd output columns read fixed taps), so the inner
+    loops run over contiguous columns and vectorise."""
+    C, h, w = low.shape[1], low.shape[2], low.shape[3]
+    H, W = skip.shape[2], skip.shape[3]
+    K = weight.shape[0]
+    zp = np.float32(skip_zero_point)
+    q, t = np.float32(0.25), np.float32(0.75)
+    for y0 in nb.prange(H):
+        y = np.int64(y0)
+        ya = (y >> 1) if y & 1 else (y >> 1) - 1
+        yb = min(ya + 1, h - 1)
+        ya = max(ya, 0)
+        wb = q if y & 1 else t
+        wa = np.float32(1.0) - wb
+        vert = np.empty(w + 2, np.float32)
+        row = np.empty((C, W), np.float32)
+        for c in range(C):
+            for j in range(w):
+                vert[j + 1] = wa * low[0, c, ya, j] + wb * low[0, c, yb, j]
+            vert[0] = vert[1]
+            vert[w + 1] = vert[w]
+            for j in range(w):
+                row[c, 2 * j] = q * vert[j] + t * vert[j + 1]
+                row[c, 2 * j + 1] = t * vert[j + 1] + q * vert[j + 2]
+            for x in range(W):
+                v = row[c, x] + (np.float32(skip[0, c, y, x]) - zp) * skip_scale
+                row[c, x] = v if v > np.float32(0.0) else v * alpha
+        for k in range(K):
+            for x in range(W):
+                out[0, k, y, x] = bias[k]
+            for c in range(C):
+                wkc = weight[k, c]
+                for x in range(W):
+                    out[0, k, y, x] += wkc * row[c, x]

@@ -31,7 +31,7 @@ def spec_for(manifest: dict, precision: str) -> TailSpec | None:
 
 
 class TailRenderer:
-    """The renderer graph cut at the tail's two tensors (onnxruntime) + :class:`TailShader`.
+    """The renderer graph cut where the tail starts (onnxruntime) + :class:`TailShader`.
 
     Offers what the player uses of :class:`morf.playback.onnx_renderer.OnnxRenderer`:
     ``input_name``, ``composites`` (True), :meth:`image`, and ``graph`` (the cut graph's bytes,
@@ -51,7 +51,7 @@ class TailRenderer:
 
         self.path, self.spec = Path(path), spec
         try:
-            self.graph = cut_graph(self.path.read_bytes(), (spec.head, spec.fill))
+            self.graph = cut_graph(self.path.read_bytes(), spec.cut)
             self.session = ort.InferenceSession(self.graph, session_options(threads, spinning),
                                                 providers=["CPUExecutionProvider"])
         except Exception as e:  # unreadable file, or names the graph does not have
@@ -64,8 +64,8 @@ class TailRenderer:
     def image(self, raster: np.ndarray, background: np.ndarray) -> np.ndarray:
         """raster (1, H, W, 16) uint8 -> (H, W, 3) uint8 composited over ``background`` planes."""
         t0 = self._clock()
-        head, fill = self.session.run([self.spec.head, self.spec.fill], {self.input_name: raster})
+        cut = self.session.run(list(self.spec.cut), {self.input_name: raster})
         t1 = self._clock()
-        img = self.shader(raster, head, fill, background, out=np.empty((*raster.shape[1:3], 3), np.uint8))
+        img = self.shader.run(cut, raster, background, out=np.empty((*raster.shape[1:3], 3), np.uint8))
         self.last_timings = {"graph_ms": (t1 - t0) * 1e3, "tail_ms": (self._clock() - t1) * 1e3}
         return img

@@ -8,7 +8,7 @@ import onnxruntime as ort
 import pytest
 
 from morf.playback.graph_outputs import cut_graph
-from morf.export.compiled_tail import TailShader, TailSpec, reference_tail
+from morf.export.compiled_tail import HeadStage, TailShader, TailSpec, reference_head, reference_tail
 from morf.playback.native_tail import TailRenderer, spec_for
 from morf.playback.onnx_renderer import OnnxRenderer, background_planes
 from morf.playback.player import Player
@@ -60,6 +60,10 @@ def test_the_exporter_records_a_checked_tail_for_both_graphs(cpu_avatar):
         assert entry["check"]["views"] == 2 and entry["check"]["max_levels"] <= 2
         assert entry["check"]["share_differing"] <= 1e-3
     assert tails["fp32"]["logit_scale"] == 1.0 and tails["int8"]["logit_scale"] != 1.0  # int8 maps the mask channel
+    # the int8 graph's half-resolution head ends in constants the pass can take over; the fp32 graph's does not
+    stage = spec_for(manifest, "int8").head_stage
+    assert stage is not None and len(stage.weight) == 4 and len(stage.weight[0]) == 16 and stage.alpha == pytest.approx(0.2)
+    assert spec_for(manifest, "fp32").head_stage is None
 
 
 @pytest.mark.parametrize("precision", ["int8", "fp32"])
@@ -101,6 +105,23 @@ def test_the_compiled_pass_is_the_documented_function():
         assert worst <= 1 and share < 0.01, (worst, share)
     with pytest.raises(ValueError, match="do not match"):
         TailShader(spec)(raster, head[:, :, :10], fill, bg)
+
+
+@pytest.mark.parametrize("skip_dtype", [np.uint8, np.float32])
+def test_the_compiled_head_stage_is_the_documented_function(skip_dtype):
+    rng = np.random.default_rng(1)
+    low = rng.normal(0, 1, (1, 16, 24, 20)).astype(np.float32)
+    skip = (rng.integers(0, 256, (1, 16, 48, 40)) if skip_dtype == np.uint8 else rng.normal(0, 1, (1, 16, 48, 40)))
+    stage = HeadStage(low="l", skip="s", skip_scale=0.03 if skip_dtype == np.uint8 else 1.0,
+                      skip_zero_point=131 if skip_dtype == np.uint8 else 0, alpha=0.2,
+                      weight=tuple(tuple(r) for r in rng.normal(0, 0.5, (4, 16)).tolist()),
+                      bias=tuple(rng.normal(0, 0.1, 4).tolist()))
+    spec = TailSpec(head="h", fill="f", colour_scale=(0.01,) * 3, zero_point=128, coverage_channel=0, logit_scale=1.0,
+                    logit_offset=0.0, weight_min=1e-4, opaque_margin=0, head_stage=stage)
+    got = TailShader(spec).head(low, skip.astype(skip_dtype))
+    want = reference_head(stage, low, skip.astype(skip_dtype))
+    assert got.shape == (1, 4, 48, 40) and np.allclose(got, want, atol=1e-4)
+    assert TailSpec.from_dict(json.loads(json.dumps(spec.to_dict()))) == spec  # through the manifest and back
 
 
 def test_the_tail_can_be_turned_off(cpu_avatar, monkeypatch):
