@@ -63,6 +63,14 @@ class SkinnedMesh:
         return int(self.rest_vertices.shape[0])
 
 
+def _numba_available() -> bool:
+    try:
+        import numba  # noqa: F401
+    except Exception:  # not installed or broken: the vertex shader skins
+        return False
+    return True
+
+
 def load_shader(name: str) -> str:
     return (SHADER_DIR / name).read_text()
 
@@ -76,26 +84,40 @@ class NeuralRasterizer:
         width, height: framebuffer size in pixels; num_bones: J of the skeleton.
     """
 
-    def __init__(self, ctx, mesh: SkinnedMesh, texture: QuantizedTexture, width: int, height: int, num_bones: int):
+    def __init__(self, ctx, mesh: SkinnedMesh, texture: QuantizedTexture, width: int, height: int, num_bones: int,
+                 cpu_skinning: bool | None = None):
         if texture.channels != NUM_CHANNELS:
             raise ValueError(f"the GL rasterizer expects a {NUM_CHANNELS}-channel texture, got {texture.channels}")
         if mesh.bone_indices.shape[1] != 8:
             raise ValueError("the skinning shader takes exactly 8 bones per vertex")
         self.ctx, self.width, self.height, self.num_bones = ctx, int(width), int(height), int(num_bones)
-        vs = load_shader("neural_raster_vs.glsl").replace("#version 330 core", f"#version 330 core\n#define NUM_BONES {num_bones}", 1)
-        self.program = ctx.program(vertex_shader=vs, fragment_shader=load_shader("neural_raster_fs.glsl"))
-        self._buffers = [
-            ctx.buffer(np.ascontiguousarray(mesh.rest_vertices, np.float32).tobytes()),
-            ctx.buffer(np.ascontiguousarray(mesh.uvs, np.float32).tobytes()),
-            ctx.buffer(np.ascontiguousarray(mesh.bone_indices, np.int32).tobytes()),
-            ctx.buffer(np.ascontiguousarray(mesh.bone_weights, np.float32).tobytes()),
-        ]
+        self.cpu_skinning = _numba_available() if cpu_skinning is None else bool(cpu_skinning)
         self._index = ctx.buffer(np.ascontiguousarray(mesh.faces, np.int32).tobytes())
-        pos, uv, bi, bw = self._buffers
-        self.vao = ctx.vertex_array(self.program, [(pos, "3f", "in_position"), (uv, "2f", "in_uv"),
-                                                   (bi, "4i 4i", "in_bones0", "in_bones1"),
-                                                   (bw, "4f 4f", "in_weights0", "in_weights1")],
-                                    index_buffer=self._index, index_element_size=4)
+        uv = ctx.buffer(np.ascontiguousarray(mesh.uvs, np.float32).tobytes())
+        if self.cpu_skinning:  # skinned by numba each frame; the shader only projects
+            self._rest = np.ascontiguousarray(mesh.rest_vertices, np.float32)
+            self._bone_indices = np.ascontiguousarray(mesh.bone_indices, np.int32)
+            self._bone_weights = np.ascontiguousarray(mesh.bone_weights, np.float32)
+            self._posed = np.empty_like(self._rest)
+            self.program = ctx.program(vertex_shader=load_shader("neural_raster_posed_vs.glsl"),
+                                       fragment_shader=load_shader("neural_raster_fs.glsl"))
+            pos = ctx.buffer(reserve=self._posed.nbytes, dynamic=True)
+            self._buffers = [pos, uv]
+            self.vao = ctx.vertex_array(self.program, [(pos, "3f", "in_position"), (uv, "2f", "in_uv")],
+                                        index_buffer=self._index, index_element_size=4)
+        else:
+            vs = load_shader("neural_raster_vs.glsl").replace("#version 330 core", f"#version 330 core\n#define NUM_BONES {num_bones}", 1)
+            self.program = ctx.program(vertex_shader=vs, fragment_shader=load_shader("neural_raster_fs.glsl"))
+            self._buffers = [
+                ctx.buffer(np.ascontiguousarray(mesh.rest_vertices, np.float32).tobytes()), uv,
+                ctx.buffer(np.ascontiguousarray(mesh.bone_indices, np.int32).tobytes()),
+                ctx.buffer(np.ascontiguousarray(mesh.bone_weights, np.float32).tobytes()),
+            ]
+            pos, uv, bi, bw = self._buffers
+            self.vao = ctx.vertex_array(self.program, [(pos, "3f", "in_position"), (uv, "2f", "in_uv"),
+                                                       (bi, "4i 4i", "in_bones0", "in_bones1"),
+                                                       (bw, "4f 4f", "in_weights0", "in_weights1")],
+                                        index_buffer=self._index, index_element_size=4)
         Ht, Wt, _ = texture.data.shape
         self.textures = []
         for i in range(NUM_CHANNELS // 4):
@@ -122,8 +144,13 @@ class NeuralRasterizer:
         if T.shape != (self.num_bones, 4, 4):
             raise ValueError(f"bone transforms must be ({self.num_bones}, 4, 4), got {T.shape}")
         ctx = self.ctx
-        # GLSL matrices are column-major: write each matrix transposed.
-        self.program["u_bones"].write(np.ascontiguousarray(T.transpose(0, 2, 1)).tobytes())
+        if self.cpu_skinning:
+            from morf.raster.skinning_kernels import skin
+
+            skin(self._rest, self._bone_indices, self._bone_weights, np.ascontiguousarray(T), self._posed)
+            self._buffers[0].write(self._posed)
+        else:  # GLSL matrices are column-major: write each matrix transposed.
+            self.program["u_bones"].write(np.ascontiguousarray(T.transpose(0, 2, 1)).tobytes())
         vp = camera.gl_projection(NEAR, FAR).astype(np.float32) @ camera.view_matrix().astype(np.float32)
         self.program["u_view_proj"].write(np.ascontiguousarray(vp.T, np.float32).tobytes())
         for i, tex in enumerate(self.textures):

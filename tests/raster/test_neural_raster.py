@@ -26,7 +26,9 @@ def still_pose():
     return rot, np.array([0.02, 0.0, 0.0], np.float32)
 
 
-def test_gl_matches_torch_sampling(body_model, still_pose):
+@pytest.mark.parametrize("cpu_skinning", [True, False])
+def test_gl_matches_torch_sampling(body_model, still_pose, cpu_skinning):
+    """Skinned on the CPU (numba, the default) or in the vertex shader (where numba is missing)."""
     shape = body_model.default_shape()
     q = quantize_texture(sinusoid_texture(16, 128, seed=2))
     skel = skeleton_from_body_model(body_model, shape)
@@ -34,7 +36,9 @@ def test_gl_matches_torch_sampling(body_model, still_pose):
     rot, tr = still_pose
     ctx = create_headless_context()
     try:
-        nr = NeuralRasterizer(ctx, skinned_mesh_from_body_model(body_model, shape), q, 128, 128, skel.num_bones)
+        nr = NeuralRasterizer(ctx, skinned_mesh_from_body_model(body_model, shape), q, 128, 128, skel.num_bones,
+                              cpu_skinning=cpu_skinning)
+        assert nr.cpu_skinning == cpu_skinning
         nr.draw(skel.bone_transforms(rot, tr), cam)
         gl = nr.read().transpose(2, 0, 1).astype(np.int32)  # (H, W, 16) channels last
         nr.release()
@@ -86,3 +90,26 @@ def test_the_body_is_marked_in_the_coverage_byte(body_model, still_pose):
     marked = mark_coverage(x.copy(), channel_axis=-1)
     assert marked[0, 0, COVERAGE_CHANNEL] == 129 and marked[0, 1, COVERAGE_CHANNEL] == 90
     assert np.all(marked[1] == 128) and marked[0, 0, 5] == 140
+
+
+def test_cpu_and_shader_skinning_draw_the_same_body(body_model, still_pose):
+    shape = body_model.default_shape()
+    q = quantize_texture(sinusoid_texture(16, 128, seed=4))
+    skel = skeleton_from_body_model(body_model, shape)
+    mesh = skinned_mesh_from_body_model(body_model, shape)
+    rot, tr = still_pose
+    ctx = create_headless_context()
+    try:
+        out = []
+        for cpu in (True, False):
+            nr = NeuralRasterizer(ctx, mesh, q, 160, 160, skel.num_bones, cpu_skinning=cpu)
+            nr.draw(skel.bone_transforms(rot, tr), front_camera(160, yaw_deg=-50))
+            out.append(nr.read().astype(np.int32))
+            nr.release()
+    finally:
+        ctx.release()
+    covered = out[1][..., 0] != 128
+    differ = (out[0] != out[1]).any(-1)
+    assert covered.sum() > 1000
+    assert differ[covered].mean() < 0.01  # float rounding moves a few edge pixels, nothing else
+    assert np.array_equal(out[0][..., 0] != 128, covered) or (out[0][..., 0] != 128)[~covered].mean() < 0.002
