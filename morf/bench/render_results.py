@@ -103,7 +103,7 @@ class PlaybackMeasurement:
             composite_share_of_graph=d.get("composite_share_of_graph"), tail=d.get("tail", "graph"))
 
 
-TABLE_COLUMNS = ["avatar", "renderer ms", "frame ms", "fps", "fps pipelined", "int8 PSNR dB", "peak RSS MB"]
+TABLE_COLUMNS = ["avatar", "renderer ms", "frame ms", "fps", "fps pipelined", "int8 PSNR dB", "peak RSS MB", "tail"]
 
 
 @dataclass(frozen=True)
@@ -137,7 +137,7 @@ class MeasuredAvatar:
         m = self.measurement
         return {"avatar": name, "renderer ms": m.renderer_only_ms, "frame ms": m.frame_ms, "fps": m.fps_end_to_end,
                 "fps pipelined": m.fps_pipelined, "int8 PSNR dB": self.int8_psnr_vs_fp32_db,
-                "peak RSS MB": m.peak_rss_mb}
+                "peak RSS MB": m.peak_rss_mb, "tail": m.tail}
 
 
 @dataclass(frozen=True)

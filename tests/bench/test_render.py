@@ -87,7 +87,8 @@ def test_the_render_result_keeps_its_keys_and_takes_the_headline_from_the_main_a
     fast = MeasuredAvatar.from_manifest(PlaybackMeasurement.from_dict(_measurement(0.25)), manifest)
     assert list(fast.to_dict())[-4:] == ["int8_psnr_vs_fp32_db", "int8_ssim_vs_fp32", "renderer_config", "input_layout"]
     assert fast.table_row("a") == {"avatar": "a", "renderer ms": 5.0, "frame ms": 10.0, "fps": 100.0,
-                                   "fps pipelined": 125.0, "int8 PSNR dB": 38.0, "peak RSS MB": 300.0}
+                                   "fps pipelined": 125.0, "int8 PSNR dB": 38.0, "peak RSS MB": 300.0,
+                                   "tail": "graph"}
     r = RenderResult(size=640, threads=2, frames=60, machine={"cpu": "x"}, cpu_features={}, command="morf bench render",
                      avatar="given", main="given", avatars={"given": fast}, seconds=1.5)
     d = r.to_dict()
