@@ -19,7 +19,7 @@ MORF = Path(__file__).resolve().parents[1] / "morf"
 # shared modules may import each other.
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("foundation", ("morf", "morf.errors", "morf.config_checks", "morf.io", "morf.camera", "morf.progress", "morf.cpu_features",
-                    "morf.pipeline", "morf.resources", "morf.lazy")),  # resources: shipped shaders, font, sample motions; lazy: package attributes on first use
+                    "morf.pipeline", "morf.resources", "morf.lazy", "morf.compiled")),  # resources: shipped shaders, font, sample motions; lazy: package attributes on first use
     ("scale", ("morf.scale",)),  # Ray: where tasks run, what they hold, a list of calls run as tasks
     ("capture", ("morf.capture",)),  # the project folder, video, keypoints, masks
     ("datasets", ("morf.datasets",)),  # standard datasets imported as capture projects

@@ -121,14 +121,6 @@ class TailSpec:
             return None
 
 
-def numba_available() -> bool:
-    try:
-        import numba  # noqa: F401
-    except Exception:  # not installed, or a broken install: the whole graph does the work
-        return False
-    return True
-
-
 class TailShader:
     """The compiled tail on (raster, HEAD, FILL) -> (H, W, 3) uint8, with its buffers."""
 
@@ -142,7 +134,9 @@ class TailShader:
         self._scale = np.asarray(spec.colour_scale, np.float32)
         self._rows = np.empty((0, 0), np.uint8)
         self._out = np.empty((0, 0, 3), np.uint8)
-        self._weight = self._bias = None
+        stage = spec.head_stage
+        self._weight = None if stage is None else np.asarray(stage.weight, np.float32)
+        self._bias = None if stage is None else np.asarray(stage.bias, np.float32)
 
     def __call__(self, raster: np.ndarray, head: np.ndarray, fill: np.ndarray, background: np.ndarray,
                  out: np.ndarray | None = None) -> np.ndarray:
@@ -179,9 +173,6 @@ class TailShader:
             raise ValueError("this tail has no head stage")
         if skip.shape[2] != 2 * low.shape[2] or skip.shape[3] != 2 * low.shape[3] or skip.shape[1] != low.shape[1]:
             raise ValueError(f"head tensors {low.shape} / {skip.shape} do not match")
-        if self._weight is None:
-            self._weight = np.asarray(st.weight, np.float32)
-            self._bias = np.asarray(st.bias, np.float32)
         out = np.empty((1, self._weight.shape[0], *skip.shape[2:]), np.float32)
         with _LOCK:
             numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))

@@ -10,6 +10,7 @@ spec and plays through the whole graph.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Sequence
 
@@ -17,7 +18,8 @@ import numpy as np
 import onnx
 
 from morf.export.onnx_graph import COMPOSITE_PREFIX, OPAQUE_PREFIX, _attr, _const_value, _producer
-from morf.export.compiled_tail import HeadStage, TailShader, TailSpec, numba_available
+from morf.compiled import numba_available
+from morf.export.compiled_tail import HeadStage, TailShader, TailSpec
 
 MAX_LEVELS = 2  # the most a pixel channel may differ from the whole graph's (rounding)
 MAX_SHARE = 1e-3  # the share of pixel channels allowed to differ at all
@@ -211,14 +213,14 @@ def tail_spec(model: onnx.ModelProto, layout: str) -> TailSpec | None:
                     opaque_margin=int(margin), head_stage=_head_stage(model, head))
 
 
-def check_tail(path: Path, spec: TailSpec, rasters: Sequence[np.ndarray]) -> dict:
-    """The compiled tail against the whole graph at ``path`` on ``rasters`` (NHWC uint8), over a
+def check_tail(model: onnx.ModelProto, spec: TailSpec, rasters: Sequence[np.ndarray]) -> dict:
+    """The compiled tail against the whole graph ``model`` on ``rasters`` (NHWC uint8), over a
     white and a black background: the largest difference in levels, the share of pixel channels
     that differ, the number of views. One session of the whole graph gives the image and the
     tail's two inputs."""
     import onnxruntime as ort
 
-    model = onnx.load(str(path))
+    model = onnx.ModelProto.FromString(model.SerializeToString())  # the caller's graph stays as it is
     model.graph.output.extend([onnx.helper.make_empty_tensor_value_info(n) for n in spec.cut])
     opts = ort.SessionOptions()
     opts.intra_op_num_threads = 2
@@ -237,11 +239,12 @@ def check_tail(path: Path, spec: TailSpec, rasters: Sequence[np.ndarray]) -> dic
 def native_tail_entry(path: Path, layout: str, rasters: Sequence[np.ndarray]) -> dict | None:
     """The manifest entry for the graph at ``path``: the spec with its check, or None when the graph
     has no such tail, numba is missing or the check fails (the player then runs the whole graph)."""
-    spec = tail_spec(onnx.load(str(path)), layout)
+    model = onnx.load(str(path))
+    spec = tail_spec(model, layout)
     if spec is None or not numba_available() or not rasters:
         return None
-    check = check_tail(path, spec, rasters)
+    check = check_tail(model, spec, rasters)
     if check["max_levels"] > MAX_LEVELS or check["share_differing"] > MAX_SHARE:
         return None
-    return TailSpec(**{**spec.to_dict(), "check": check}).to_dict()
+    return dataclasses.replace(spec, check=check).to_dict()
 

@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from morf.compiled import numba_available
+
 from morf.camera import GL_FRONT_FACE
 from morf.raster.texture_quant import ZERO_POINT, QuantizedTexture
 from morf.resources import SHADERS
@@ -63,14 +65,6 @@ class SkinnedMesh:
         return int(self.rest_vertices.shape[0])
 
 
-def _numba_available() -> bool:
-    try:
-        import numba  # noqa: F401
-    except Exception:  # not installed or broken: the vertex shader skins
-        return False
-    return True
-
-
 SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "swiftshader")
 
 
@@ -82,7 +76,7 @@ def _skin_on_cpu(ctx) -> bool:
         renderer = str(ctx.info.get("GL_RENDERER", "")).lower()
     except Exception:  # a context without the query: assume software GL, the common case here
         renderer = "llvmpipe"
-    return _numba_available() and any(name in renderer for name in SOFTWARE_GL)
+    return numba_available() and any(name in renderer for name in SOFTWARE_GL)
 
 
 def load_shader(name: str) -> str:
