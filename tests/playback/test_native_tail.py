@@ -187,3 +187,25 @@ def test_the_tail_plays_without_torch_or_onnx(cpu_avatar):
     r = subprocess.run([sys.executable, "-c", script, str(cpu_avatar)], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr[-2000:]
     assert r.stdout.split()[0] == "TailRenderer"
+
+
+def test_the_exporter_records_no_tail_that_disagrees_with_the_graph(cpu_avatar, monkeypatch):
+    """The check is what stands between a wrong pass and the player: a pass off by a few levels on
+    a few pixels gets no manifest entry, and the player then runs the whole graph."""
+    from morf.export import native_tail_spec
+    from morf.export.compiled_tail import TailShader
+
+    raster = np.full((1, SIZE, SIZE, 16), 128, np.uint8)
+    raster[0, 40:90, 50:80] = 150  # a block of body
+    path = cpu_avatar / "renderer_int8.onnx"
+    assert native_tail_spec.native_tail_entry(path, "nhwc", [raster]) is not None
+    right = TailShader.run
+
+    def off(self, cut, raster, background, out=None):
+        img = right(self, cut, raster, background, out=out).copy()
+        img[:4, :4] = img[:4, :4] // 2 + 3  # 48 of 49 152 pixel channels: far beyond rounding
+        return img
+
+    monkeypatch.setattr(TailShader, "run", off)
+    assert native_tail_spec.native_tail_entry(path, "nhwc", [raster]) is None
+    assert native_tail_spec.native_tail_entry(path, "nchw", [raster]) is None  # other layouts: never
