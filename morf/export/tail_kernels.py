@@ -24,7 +24,7 @@ def sigmoid_table() -> np.ndarray:
     return (1.0 / (1.0 + np.exp(-t))).astype(np.float32)
 
 
-@nb.njit(parallel=True, fastmath=True, cache=True)
+@nb.njit(parallel=True, fastmath=True, cache=True, nogil=True)
 def erode_rows(raster, channel, zero_point, margin, rows):
     """rows[y, x] = 1 where the pixels within ``margin`` along the row (clipped to the image) are all
     covered (byte ``channel`` of the NHWC raster is not ``zero_point``), else 0."""
@@ -44,7 +44,7 @@ def erode_rows(raster, channel, zero_point, margin, rows):
                 rows[y, x] = 0
 
 
-@nb.njit(parallel=True, fastmath=True, cache=True)
+@nb.njit(parallel=True, fastmath=True, cache=True, nogil=True)
 def shade(raster, head, fill, colour_scale, zero_point, channel, logit_scale, logit_offset, weight_min,
           margin, rows, background, table, out):
     """The tail, one row of output pixels per task; see :func:`morf.export.compiled_tail.reference_tail`
@@ -113,7 +113,7 @@ def shade(raster, head, fill, colour_scale, zero_point, channel, logit_scale, lo
                 out[y, x, ch] = np.uint8(min(max(v, np.float32(0.0)), np.float32(255.0)))
 
 
-@nb.njit(parallel=True, fastmath=True, cache=True)
+@nb.njit(parallel=True, fastmath=True, cache=True, nogil=True)
 def head_stage(low, skip, skip_scale, skip_zero_point, alpha, weight, bias, out):
     """The half-resolution head's last layers: ``out = weight @ leaky_relu(up(low) + (skip - zp) *
     scale) + bias`` per pixel, ``up`` as in :func:`shade` (2x, half-pixel centres, edges clamped).

@@ -13,7 +13,7 @@ import numba as nb
 import numpy as np
 
 
-@nb.njit(fastmath=True, cache=True)
+@nb.njit(fastmath=True, cache=True, nogil=True)
 def skin(rest, bone_indices, bone_weights, transforms, out):
     """out[v] = sum_k w[v, k] * (T[b[v, k]] @ [rest[v], 1])[:3] (morf.body.lbs.linear_blend_skinning
     with top-k weights). rest, out: (V, 3) float32; bone_indices (V, K) int32; bone_weights (V, K)
