@@ -111,10 +111,15 @@ CONVERSION_OPS = ("QuantizeLinear", "DequantizeLinear", "DynamicQuantizeLinear")
 FLOAT_TYPES = ("float", "float16", "bfloat16", "double")
 
 
+def _compiled_tail(player) -> bool:
+    """Whether the player runs its graph cut before a compiled tail (:mod:`morf.playback.native_tail`)."""
+    return getattr(player.renderer, "shader", None) is not None
+
+
 def _tail_kind(player) -> str:
     """'graph', or 'compiled:LAYER' with numba's threading layer (omp, tbb or workqueue: which one
     numba found decides the pass's speed, 1.5 against 3.1 ms at 640x640 on a 2-core Intel Xeon)."""
-    if getattr(player.renderer, "shader", None) is None:
+    if not _compiled_tail(player):
         return "graph"
     import numba
 
@@ -158,11 +163,11 @@ def graph_profile(player, raster, runs: int = 10) -> GraphProfile:
         opts.enable_profiling = True
         opts.profile_file_prefix = str(Path(tmp) / "profile")
         path = player.avatar.renderer_path(player.precision)
-        native = getattr(player.renderer, "shader", None) is not None  # the graph cut before a compiled tail
+        native = _compiled_tail(player)
         graph = player.renderer.graph if native else (image_only_graph(path) or str(path))
         s = ort.InferenceSession(graph, opts, providers=["CPUExecutionProvider"])  # the graph the player runs
         feeds = {player.renderer.input_name: raster}
-        if player.renderer.composites and not native:
+        if player.renderer.composites:
             feeds["background"] = player.background_planes
         outputs = [o.name for o in s.get_outputs()][:1 if not native else None]
         for _ in range(runs):
@@ -189,8 +194,7 @@ def graph_profile(player, raster, runs: int = 10) -> GraphProfile:
     total_ms = sum(kinds.values()) or 1.0
     return GraphProfile(ops=dict(sorted(timed.items(), key=lambda kv: -kv[1].ms)),
                         kind_share={k: v / total_ms for k, v in sorted(kinds.items(), key=lambda kv: -kv[1])},
-                        composite_share=(comp / total if total else None) if player.renderer.composites and not native
-                        else None)
+                        composite_share=(comp / total if total else None) if player.renderer.composites else None)
 
 
 def cpu_report(model: str, cores: int | None, features: dict) -> str:

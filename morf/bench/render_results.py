@@ -65,9 +65,9 @@ class PlaybackMeasurement:
         frame_ms_pipelined, fps_pipelined: through ``render_sequence``;
         int8_psnr_vs_fp32_image_db: the int8 player's frames against the fp32 player's;
         tail: "compiled:LAYER" when the graph's full-resolution tail ran as the player's compiled pass
-            (LAYER: numba's threading layer)
-            (``renderer_only_ms`` and the breakdown's ``renderer_ms`` then include it; ``graph_ms``
-            and ``tail_ms`` split them), "graph" when onnxruntime ran the whole graph.
+            (LAYER: numba's threading layer; ``renderer_only_ms`` and the breakdown's ``renderer_ms``
+            then include it, ``graph_ms`` and ``tail_ms`` split them), "graph" when onnxruntime ran
+            the whole graph.
     """
 
     breakdown_ms: dict[str, float]

@@ -188,8 +188,7 @@ def cut_graph(model: bytes, outputs: tuple[str, ...] | list[str]) -> bytes:
             continue
         if f.number == GRAPH_OUTPUT:
             continue
-        if f.number == GRAPH_INITIALIZER and _strings(f.payload, TENSOR_NAME)[:1] and \
-                _strings(f.payload, TENSOR_NAME)[0] not in needed:
+        if f.number == GRAPH_INITIALIZER and not set(_strings(f.payload, TENSOR_NAME)[:1]) <= needed:
             continue
         if f.number == GRAPH_INPUT and _name(f.payload) not in needed:
             continue

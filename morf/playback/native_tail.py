@@ -36,11 +36,12 @@ class TailRenderer:
     """The renderer graph cut where the tail starts (onnxruntime) + :class:`TailShader`.
 
     Offers what the player uses of :class:`morf.playback.onnx_renderer.OnnxRenderer`:
-    ``input_name``, ``composites`` (True), :meth:`image`, and ``graph`` (the cut graph's bytes,
-    for the profiler). The timings of the last :meth:`image` are in ``last_timings``.
+    ``input_name``, ``composites`` (False: the cut graph does not composite, the pass does),
+    :meth:`image`, and ``graph`` (the cut graph's bytes, for the profiler). The timings of the last
+    :meth:`image` are in ``last_timings``.
     """
 
-    composites = True
+    composites = False
 
     def __init__(self, path: str | Path, spec: TailSpec, threads: int = 2, spinning: bool = False):
         import onnxruntime as ort
