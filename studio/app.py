@@ -46,6 +46,7 @@ from studio.sizes import parse_window_size  # noqa: E402
 from studio.stages import LIBRARY_STAGES, LoadedStages, cpu_load_stage, load_library_stages  # noqa: E402
 from studio.state import PANELS, AppState, LivePanelState  # noqa: E402
 from studio.sub_buffer import open_sub_buffer  # noqa: E402
+from morf.raster.gl_finish import gil_free_finish  # noqa: E402
 from studio.textures import TextureCache  # noqa: E402
 from studio.ui_cache import UiCache  # noqa: E402
 from studio.worker import StageFn, Worker  # noqa: E402
@@ -86,8 +87,9 @@ class StudioApp:
                  unavailable: dict[str, str] | None = None,
                  player_opener: Callable[[Path], tuple[Any, str | None]] | None = None,
                  motion_dir: str | os.PathLike | None = None, deterministic: bool | None = None,
-                 max_fps: float = MAX_FPS, idle_fps: float = IDLE_FPS):
+                 max_fps: float = MAX_FPS, idle_fps: float = IDLE_FPS, live_pipelined: bool = True):
         self._headless = headless
+        self._live_pipelined = live_pipelined
         self._fixed_dt = FIXED_DT if (headless if deterministic is None else deterministic) else None
         self.pacer = FramePacer(max_fps, idle_fps)
         self._inputs = 0  # input events seen (callbacks), and how many the last full frame had seen
@@ -163,6 +165,7 @@ class StudioApp:
         self.ctx = moderngl.get_context()
         if self.ctx.version_code < 330:
             raise GLUnavailable(f"OpenGL 3.3 is needed, the window got {self.ctx.version_code}")
+        self._gl_finish = gil_free_finish(self.ctx)  # the live render's threads run while it waits
         self._window_addr = ctypes.cast(self.window, ctypes.c_void_p).value
 
     def _init_imgui(self) -> None:
@@ -238,7 +241,7 @@ class StudioApp:
         """
         self._close_live()
         opener = player if callable(player) and not hasattr(player, "render") else (lambda: (player, None))
-        self.live = LiveRenderer(opener, on_frame=self._wakeup.notify).start()
+        self.live = LiveRenderer(opener, on_frame=self._wakeup.notify, pipelined=self._live_pipelined).start()
 
     def _close_live(self) -> None:
         if self.live is not None and not self.live.close(timeout=10.0):
@@ -294,7 +297,7 @@ class StudioApp:
             self._ui_cache.store((fw, fh), rect)  # the picture light frames start from
         else:
             self._ui_cache.forget()
-        self.ctx.finish()
+        self._gl_finish()
         self.frame_times.append(time.perf_counter() - t0)
         shot = None
         if capture:  # read before swapping: the back buffer is undefined afterwards
@@ -332,12 +335,16 @@ class StudioApp:
         rect = self._ui_cache.rect
         post_live_request(self.state, self.live_panel, self.live, self._wakeup.notify, rect.render_side,
                           t0 - self._last_frame_t)
+        frame = self.live.latest()
+        if frame is None:
+            return False
+        if frame.seq == self._live_seq:  # on screen already: this wake-up only asked for the next pose
+            self._last_frame_t = t0
+            return True
         # let the render thread rasterize the next frame first: its GL work holds the GIL, ours would
         # hold it off; we then draw while its renderer runs (studio/live_render.py)
         self.live.wait_rasterized(RASTER_WAIT_S)
         frame = self.live.latest()
-        if frame is None:
-            return False
         if frame.seq != self._live_seq:
             self._live_seq = frame.seq
             self.live_stats.append((frame.fps, frame.render_ms))
@@ -346,7 +353,7 @@ class StudioApp:
             self._ui_cache.draw_image(image)  # the rest of the back buffer is still the stored UI
         else:
             self._ui_cache.show(image)
-        self.ctx.finish()
+        self._gl_finish()
         self._last_frame_t = t0
         self.light_frame_count += 1
         self.frame_times.append(time.perf_counter() - t0)

@@ -50,6 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="onnxruntime threads of the live render (default: the studio's)")
     p.add_argument("--full-frames", action="store_true",
                    help="redraw the whole UI for every live frame (no light frames: studio.ui_cache), for comparison")
+    p.add_argument("--serial-live", action="store_true",
+                   help="the live render one frame after the other (no overlap of a frame's GL work "
+                        "with the last frame's renderer), for comparison")
     p.add_argument("--headless", action="store_true", help="off-screen (EGL) even when DISPLAY is set")
     p.add_argument("--screenshot", metavar="PNG", default=None, help="save the window's last frame")
     p.add_argument("--no-compare", action="store_true", help="skip the 'morf bench render' measurement")
@@ -207,6 +210,7 @@ def run_studio(args, avatar: Path, tmp: Path, between=None) -> tuple[list[Window
     motion = Path(args.motion).resolve()
     headless = args.headless or not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
     kw = {} if args.max_fps is None else {"max_fps": args.max_fps}
+    kw["live_pipelined"] = not args.serial_live
     if args.live_threads is not None:
         from studio.player import open_live_player
 

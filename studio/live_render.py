@@ -22,6 +22,7 @@ import sys
 import threading
 import time
 import traceback
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Callable, Hashable
 
@@ -58,8 +59,10 @@ class LiveFrame:
 
     Fields:
         image: (H, W, 3) uint8 RGB, read-only; key: the request's key; seq: 1, 2, ... per frame;
-        render_ms: this frame's time on the render thread; fps: frames finished per second
-        over the last second (None until two frames finished in it).
+        render_ms: the work of this frame (its GL work and its renderer, each on its thread);
+        fps: frames finished per second over the last second (None until two frames finished in
+        it); latency_ms: from the render thread taking the request to the frame being ready
+        (longer than ``render_ms`` when the frame waited for the one before it to shade).
     """
 
     image: np.ndarray
@@ -67,6 +70,7 @@ class LiveFrame:
     seq: int
     render_ms: float
     fps: float | None
+    latency_ms: float = 0.0
 
 
 def lower_thread_priority(niceness: int = RENDER_NICENESS) -> None:
@@ -87,13 +91,19 @@ class LiveRenderer:
             finished frame, a failure, the player opened or not): the UI's frame loop wakes on it.
     """
 
-    def __init__(self, open_player: PlayerOpener, on_frame: Callable[[], None] | None = None):
+    def __init__(self, open_player: PlayerOpener, on_frame: Callable[[], None] | None = None,
+                 pipelined: bool = True):
         self._open_player = open_player
+        self._want_pipelined = pipelined
         self._on_frame = on_frame or (lambda: None)
         self._cond = threading.Condition()
         self._pending: LiveRequest | None = None  # newest request (UI writes, render thread reads)
         self._frame: LiveFrame | None = None  # newest finished frame (render thread writes)
         self._done_key: Hashable = object()  # key of the last request rendered (or failed)
+        self._taken_key: Hashable = object()  # key of the last request the render thread took
+        self._finished: collections.deque[float] = collections.deque()  # times of recent frames
+        self._seq = 0
+        self._in_flight = 0  # pipelined: frames prepared and not yet shown (at most 2)
         self._closing = False
         self._opened = threading.Event()
         self._rasterized = threading.Event()  # cleared by a new request, set once its GL work is done
@@ -103,6 +113,7 @@ class LiveRenderer:
         self.note: str | None = None  # why there is no player, or the last render error
         self.size = 0  # side of the player's square images (once ready)
         self.num_bones = 0
+        self.pipelined = False  # frames overlap (set once the player opened: it must offer two stages)
 
     # ---- UI side ------------------------------------------------------------------------
     def start(self) -> "LiveRenderer":
@@ -122,7 +133,8 @@ class LiveRenderer:
             if self._pending is not None and self._pending.key == req.key:
                 return False
             self._pending = req
-            self._rasterized.clear()
+            if self._in_flight < 2:  # else the thread takes it once a frame is shown: nobody should wait
+                self._rasterized.clear()
             self._cond.notify()
         return True
 
@@ -179,44 +191,105 @@ class LiveRenderer:
             player.on_rasterized = self._rasterized.set
         self.size = int(getattr(player, "size", 0) or 0)
         self.num_bones = int(getattr(player, "num_bones", 0) or 0)
+        staged = callable(getattr(player, "prepare", None)) and callable(getattr(player, "complete", None))
+        self.pipelined = self._want_pipelined and staged
         self.ready = True
         self._opened.set()
         self._on_frame()
-        finished: collections.deque[float] = collections.deque()
-        seq = 0
         try:
-            while True:
-                with self._cond:
-                    while not self._closing and (self._pending is None or self._pending.key == self._done_key):
-                        self._cond.wait()
-                    if self._closing:
-                        self._rasterized.set()
-                        return
-                    req = self._pending
-                t0 = time.perf_counter()
-                try:
-                    image = as_rgb(player.render(req.pose, req.camera))
-                except Exception as e:  # shown under the render; the next pose may work
-                    self.note = f"the player failed: {type(e).__name__}: {e}"
-                    with self._cond:
-                        self._done_key = req.key
-                    self._on_frame()
-                    continue
-                finally:  # players without the hook, or a failed render: nobody waits longer than the render
-                    self._rasterized.set()
-                now = time.perf_counter()
-                image.flags.writeable = False
-                finished.append(now)
-                while finished and now - finished[0] > FPS_WINDOW_S:
-                    finished.popleft()
-                fps = (len(finished) - 1) / (now - finished[0]) if len(finished) >= 2 else None
-                seq += 1
-                self.note = None
-                self._frame = LiveFrame(image, req.key, seq, (now - t0) * 1e3, fps)
-                with self._cond:
-                    self._done_key = req.key
-                self._on_frame()
+            self._run_pipelined(player) if self.pipelined else self._run_serial(player)
         finally:
             release = getattr(player, "release", None)
             if callable(release):
                 release()
+
+    def _next_request(self, free: Callable[[], bool] = lambda: True) -> LiveRequest | None:
+        """Wait for a request not taken yet while ``free()`` (returned, and marked taken), or for
+        closing (None)."""
+        with self._cond:
+            while not self._closing and (self._pending is None or self._pending.key == self._taken_key
+                                         or not free()):
+                self._cond.wait()
+            if self._closing:
+                return None
+            self._taken_key = self._pending.key
+            return self._pending
+
+    def _publish(self, image: np.ndarray, req: LiveRequest, work_ms: float, t_taken: float) -> None:
+        now = time.perf_counter()
+        image.flags.writeable = False
+        self._finished.append(now)
+        while self._finished and now - self._finished[0] > FPS_WINDOW_S:
+            self._finished.popleft()
+        fps = (len(self._finished) - 1) / (now - self._finished[0]) if len(self._finished) >= 2 else None
+        self._seq += 1
+        self.note = None
+        self._frame = LiveFrame(image, req.key, self._seq, work_ms, fps, (now - t_taken) * 1e3)
+        with self._cond:
+            self._done_key = req.key
+        self._on_frame()
+
+    def _failed(self, req: LiveRequest, e: Exception) -> None:
+        self.note = f"the player failed: {type(e).__name__}: {e}"  # shown under the render; the next pose may work
+        with self._cond:
+            self._done_key = req.key
+        self._on_frame()
+
+    def _run_serial(self, player: PoseRenderer) -> None:
+        """One frame after the other: rasterize, shade, show."""
+        while True:
+            req = self._next_request()
+            if req is None:  # closing
+                self._rasterized.set()
+                return
+            t0 = time.perf_counter()
+            try:
+                image = as_rgb(player.render(req.pose, req.camera))
+            except Exception as e:
+                self._failed(req, e)
+                continue
+            finally:  # players without the hook, or a failed render: nobody waits longer than the render
+                self._rasterized.set()
+            self._publish(image, req, (time.perf_counter() - t0) * 1e3, t0)
+
+    def _run_pipelined(self, player: Any) -> None:
+        """Frame t+1's GL work on this thread while frame t's renderer runs on a helper thread, as
+        ``Player.render_sequence`` does. The helper shows each frame as soon as it is shaded; this
+        thread takes the next pose as soon as it comes and a buffer is free (two: one frame shades
+        while the next is prepared)."""
+
+        def shade(prepared: Any, req: LiveRequest, prepare_ms: float, t_taken: float) -> None:
+            try:
+                t = time.perf_counter()
+                image = as_rgb(player.complete(prepared))
+                self._publish(image, req, prepare_ms + (time.perf_counter() - t) * 1e3, t_taken)
+            except Exception as e:
+                self._failed(req, e)
+            finally:
+                with self._cond:
+                    self._in_flight -= 1
+                    self._cond.notify_all()
+
+        pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="morf-live-shade",
+                                  initializer=lower_thread_priority)
+        slot = 0
+        try:
+            while True:
+                req = self._next_request(free=lambda: self._in_flight < 2)
+                if req is None:  # closing
+                    self._rasterized.set()
+                    return
+                t0 = time.perf_counter()
+                try:
+                    prepared = player.prepare(req.pose, req.camera, slot)
+                except Exception as e:
+                    self._failed(req, e)
+                    continue
+                finally:
+                    self._rasterized.set()
+                with self._cond:
+                    self._in_flight += 1
+                pool.submit(shade, prepared, req, (time.perf_counter() - t0) * 1e3, t0)
+                slot ^= 1  # the next frame is prepared while this one shades
+        finally:
+            pool.shutdown(wait=True)

@@ -57,18 +57,39 @@ class PlaybackPlayer:
         self.size = int(player.size)
         self.num_bones = int(player.avatar.skeleton.num_bones)
         self.on_rasterized: Callable[[], None] | None = None  # called between GL work and the renderer
+        self._buffers: list[np.ndarray] | None = None  # prepare()'s two input buffers
+
+    def _pose(self, pose: Any) -> tuple[np.ndarray, np.ndarray]:
+        if pose is None:
+            return np.zeros((self.num_bones, 3), np.float32), np.zeros(3, np.float32)
+        return pose
 
     def render(self, pose: Any, camera: PinholeCamera) -> np.ndarray:
-        if pose is None:
-            rotvecs, transl = np.zeros((self.num_bones, 3), np.float32), np.zeros(3, np.float32)
-        else:
-            rotvecs, transl = pose
+        rotvecs, transl = self._pose(pose)
         if self._gl is None:
             return self._player.render(rotvecs, transl, camera, on_rasterized=self.on_rasterized)
         from morf.raster.gl_context import current
 
         with current(self._gl):
             return self._player.render(rotvecs, transl, camera, on_rasterized=self.on_rasterized)
+
+    # ---- the two stages of a frame, for a pipelined render thread (studio.live_render) ----------
+    def prepare(self, pose: Any, camera: PinholeCamera, slot: int) -> Any:
+        """The frame's GL work, into input buffer ``slot`` (0 or 1): a frame may be prepared
+        into one slot while the frame in the other completes on another thread."""
+        if self._buffers is None:
+            self._buffers = [self._player.new_input() for _ in range(2)]
+        rotvecs, transl = self._pose(pose)
+        if self._gl is None:
+            return self._player.prepare(rotvecs, transl, camera, out=self._buffers[slot])
+        from morf.raster.gl_context import current
+
+        with current(self._gl):
+            return self._player.prepare(rotvecs, transl, camera, out=self._buffers[slot])
+
+    def complete(self, prepared: Any) -> np.ndarray:
+        """The frame's renderer and compositing (no GL: any thread)."""
+        return self._player.complete(prepared)
 
     def release(self) -> None:
         if self._gl is None:

@@ -21,6 +21,7 @@ from morf.errors import InputError
 from morf.export.avatar_folder import ExportedAvatar, load_exported_avatar
 from morf.playback.onnx_renderer import OnnxRenderer, background_planes
 from morf.raster.gl_context import create_headless_context
+from morf.raster.gl_finish import gil_free_finish
 from morf.raster.neural_raster import NUM_CHANNELS, NeuralRasterizer, to_layout
 
 
@@ -61,6 +62,7 @@ class Player:
         self.size = int(size)
         self._own_ctx = ctx is None
         self.ctx = ctx or create_headless_context()
+        self._gl_finish = gil_free_finish(self.ctx)  # other threads run while llvmpipe rasterizes
         self.raster = NeuralRasterizer(self.ctx, self.avatar.mesh, self.avatar.texture, size, size,
                                        self.avatar.skeleton.num_bones)
         self.precision = precision
@@ -106,7 +108,7 @@ class Player:
         T = self.avatar.skeleton.bone_transforms(pose_rotvecs, transl)
         t1 = time.perf_counter()
         self.raster.draw(T, self._camera(camera))
-        self.ctx.finish()
+        self._gl_finish()
         t2 = time.perf_counter()
         layout = self.avatar.input_layout
         if layout == "nhwc":  # the read-back is the renderer input: read into the caller's buffer

@@ -95,9 +95,11 @@ def post_request(state: AppState, live: LivePanelState, lr: LiveRenderer, redraw
     camera = o.camera(side, side)
     key = (state.motion_file if pose is not None else None, index, o.yaw_deg, o.pitch_deg, o.distance_m,
            tuple(o.target), o.fov_y_deg, side)
-    if not lr.request(LiveRequest(pose, camera, key)) and state.playing and clip is not None and len(clip):
-        # this motion frame is on its way or on screen: the next one is due at the clip's rate
-        # (a new request wakes the UI through the render thread's finished frame instead)
+    posted = lr.request(LiveRequest(pose, camera, key))
+    if state.playing and clip is not None and len(clip) and (not posted or lr.pipelined):
+        # the next motion frame is due at the clip's rate. A serial render thread wakes the UI with
+        # the frame it finishes, which is when it can take a new pose; a pipelined one takes the
+        # next pose while this one shades, so the UI asks for it on the clip's clock.
         redraw_within((math.floor(state.motion_time * clip.fps) + 1) / clip.fps - state.motion_time)
     return index
 

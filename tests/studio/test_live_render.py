@@ -123,6 +123,92 @@ def test_the_ui_can_wait_for_the_next_frames_rasterization_only():
     lr.close()
 
 
+class StagedPlayer:
+    """Offers the player's two stages; ``complete`` waits for ``shade_gate`` and records what
+    overlapped: whether a prepare ran while a frame was shading."""
+
+    size, num_bones = 32, 104
+
+    def __init__(self):
+        self.shade_gate = threading.Event()
+        self.shading = threading.Event()
+        self.prepared, self.completed, self.slots = [], [], []
+        self.prepared_while_shading = []
+        self.fail_on = None
+        self.released = False
+
+    def render(self, pose, camera):  # unused when the thread pipelines
+        raise AssertionError("render() called on a staged player")
+
+    def prepare(self, pose, camera, slot):
+        self.prepared_while_shading.append((pose, self.shading.is_set()))
+        self.prepared.append(pose)
+        self.slots.append(slot)
+        return pose
+
+    def complete(self, prepared):
+        self.shading.set()
+        self.shade_gate.wait(10)
+        self.shading.clear()
+        if prepared == self.fail_on:
+            raise RuntimeError("renderer broke")
+        self.completed.append(prepared)
+        return np.full((32, 32, 3), len(self.completed), np.uint8)
+
+    def release(self):
+        self.released = True
+
+
+def test_a_staged_player_prepares_the_next_frame_while_the_last_one_shades():
+    player = StagedPlayer()
+    shown = []
+    lr = LiveRenderer(lambda: (player, None), on_frame=lambda: shown.append(lr.latest()))
+    assert lr.start().wait_open(5) and lr.pipelined
+    assert lr.request(LiveRequest("a", CAM, "a"))
+    assert _wait(player.shading.is_set)  # "a" shades (gated)
+    assert lr.request(LiveRequest("b", CAM, "b"))
+    assert lr.wait_rasterized(5)  # "b" is prepared at once, while "a" still shades
+    assert player.prepared_while_shading[-1] == ("b", True) and lr.latest() is None
+    # both buffers are taken ("a" shading, "b" waiting): "c" waits, and the UI is not made to wait for it
+    assert lr.request(LiveRequest("c", CAM, "c"))
+    assert lr.wait_rasterized(0.0) and player.prepared == ["a", "b"]
+    lr.request(LiveRequest("d", CAM, "d"))  # newest wins over "c"
+    player.shade_gate.set()
+    assert _wait(lambda: lr.idle() and lr.latest() is not None and lr.latest().key == "d")
+    assert player.prepared == ["a", "b", "d"] and player.completed == ["a", "b", "d"]
+    assert player.slots == [0, 1, 0]  # "d" reused "a"'s buffer, which had been shown
+    keys = [f.key for f in shown if f is not None]
+    assert keys == sorted(set(keys)) and keys[-3:] == ["a", "b", "d"]  # each frame shown, in order
+    frame = lr.latest()
+    assert frame.seq == 3 and frame.latency_ms >= frame.render_ms * 0.5 and not frame.image.flags.writeable
+    assert lr.close() and player.released and not lr.alive
+
+
+def test_a_pipelined_frame_that_fails_is_reported_and_the_next_one_shown():
+    player = StagedPlayer()
+    player.fail_on = "a"
+    player.shade_gate.set()
+    lr = LiveRenderer(lambda: (player, None)).start()
+    lr.wait_open(5)
+    lr.request(LiveRequest("a", CAM, "a"))
+    assert _wait(lr.idle)
+    assert lr.note == "the player failed: RuntimeError: renderer broke" and lr.latest() is None
+    lr.request(LiveRequest("b", CAM, "b"))
+    assert _wait(lambda: lr.latest() is not None and lr.latest().key == "b") and lr.note is None
+    lr.close()
+
+
+def test_pipelining_can_be_turned_off():
+    player = StagedPlayer()
+    player.shade_gate.set()
+    player.render = lambda pose, camera: np.zeros((32, 32, 3), np.uint8)
+    lr = LiveRenderer(lambda: (player, None), pipelined=False).start()
+    lr.wait_open(5)
+    lr.request(LiveRequest("a", CAM, "a"))
+    assert _wait(lambda: lr.latest() is not None) and not lr.pipelined and player.prepared == []
+    lr.close()
+
+
 @pytest.mark.gl
 def test_live_panel_golden_with_a_tiny_exported_avatar(make_app, tiny_project, tiny_avatar_dir):
     import shutil
@@ -141,3 +227,21 @@ def test_live_panel_golden_with_a_tiny_exported_avatar(make_app, tiny_project, t
     # the fps overlay and the timing line vary from run to run: blank them
     check_golden("studio_live_avatar", img, ignore=((0, 60, 960, 90), (0, 692, 960, 714)))
     assert frame.image.std() > 5.0  # the avatar is on screen, not a flat image
+
+
+@pytest.mark.gl
+def test_the_playback_players_two_stages_give_its_render(tiny_avatar_dir):
+    from studio.orbit import OrbitCamera
+    from studio.player import open_live_player
+
+    player, note = open_live_player(tiny_avatar_dir)
+    assert player is not None, note
+    try:
+        cam = OrbitCamera().camera(640, 640)
+        whole = player.render(None, cam)
+        first = player.prepare(None, cam, 0)
+        second = player.prepare(None, cam, 1)  # the other buffer: the first stays valid
+        assert np.array_equal(player.complete(first), whole) and np.array_equal(player.complete(second), whole)
+        assert whole.std() > 5.0
+    finally:
+        player.release()
