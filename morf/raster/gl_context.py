@@ -67,6 +67,19 @@ class GLState:
             self.ctx.release()
 
 
+SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "swiftshader")
+
+
+def software_gl(ctx) -> bool:
+    """Whether ``ctx`` rasterizes on the CPU (Mesa's llvmpipe and kin), from its ``GL_RENDERER``;
+    True for a context that cannot say (the common case without a GPU)."""
+    try:
+        renderer = str(ctx.info.get("GL_RENDERER", "")).lower()
+    except Exception:
+        return True
+    return any(name in renderer for name in SOFTWARE_GL)
+
+
 def _release(obj) -> None:
     if obj is None:
         return

@@ -26,6 +26,7 @@ import numpy as np
 from morf.compiled import numba_available
 
 from morf.camera import GL_FRONT_FACE
+from morf.raster.gl_context import software_gl
 from morf.raster.texture_quant import ZERO_POINT, QuantizedTexture
 from morf.resources import SHADERS
 
@@ -65,18 +66,11 @@ class SkinnedMesh:
         return int(self.rest_vertices.shape[0])
 
 
-SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "swiftshader")
-
-
 def _skin_on_cpu(ctx) -> bool:
     """Skin with numba on the CPU where GL itself runs on the CPU (Mesa's llvmpipe runs vertex
     shaders on one thread: 2 ms of a 640x640 frame against 0.12 ms for the loop); on a GPU the
     vertex shader skins for free."""
-    try:
-        renderer = str(ctx.info.get("GL_RENDERER", "")).lower()
-    except Exception:  # a context without the query: assume software GL, the common case here
-        renderer = "llvmpipe"
-    return numba_available() and any(name in renderer for name in SOFTWARE_GL)
+    return numba_available() and software_gl(ctx)
 
 
 def load_shader(name: str) -> str:
