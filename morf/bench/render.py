@@ -158,7 +158,7 @@ def graph_profile(player, raster, runs: int = 10) -> GraphProfile:
     from morf.export.onnx_graph import COMPOSITE_PREFIX
     from morf.playback.onnx_renderer import image_only_graph, session_options
 
-    opts = session_options()
+    opts = session_options(size=player.size)  # as the player opens it
     with tempfile.TemporaryDirectory() as tmp:
         opts.enable_profiling = True
         opts.profile_file_prefix = str(Path(tmp) / "profile")

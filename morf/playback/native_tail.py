@@ -43,7 +43,8 @@ class TailRenderer:
 
     composites = False
 
-    def __init__(self, path: str | Path, spec: TailSpec, threads: int = 2, spinning: bool = False):
+    def __init__(self, path: str | Path, spec: TailSpec, threads: int = 2, spinning: bool = False,
+                 size: int | None = None):
         import onnxruntime as ort
 
         from morf.errors import InputError
@@ -53,7 +54,7 @@ class TailRenderer:
         self.path, self.spec = Path(path), spec
         try:
             self.graph = cut_graph(self.path.read_bytes(), spec.cut)
-            self.session = ort.InferenceSession(self.graph, session_options(threads, spinning),
+            self.session = ort.InferenceSession(self.graph, session_options(threads, spinning, size),
                                                 providers=["CPUExecutionProvider"])
         except Exception as e:  # unreadable file, or names the graph does not have
             raise InputError(f"cannot load renderer {path} with its native tail: {e}") from None

@@ -7,12 +7,19 @@ from pathlib import Path
 import numpy as np
 
 
-def session_options(threads: int = 2, spinning: bool = False):
+def session_options(threads: int = 2, spinning: bool = False, size: int | None = None):
     """ORT options for playback: ``threads`` intra-op threads; no spinning (idle cores stay idle
-    between frames, which costs almost no latency and matters inside an interactive app)."""
+    between frames, which costs almost no latency and matters inside an interactive app).
+
+    ``size``: the side of every image the session will see. The exported graphs name their image
+    dimensions ``height`` and ``width``; fixed, onnxruntime folds the shape arithmetic of the
+    resizes into constants (0.2 ms of a 10.3 ms cut graph at 640 x 640 on a 2-core Intel Xeon)."""
     import onnxruntime as ort
 
     opts = ort.SessionOptions()
+    if size is not None:
+        for dim in ("height", "width"):
+            opts.add_free_dimension_override_by_name(dim, int(size))
     opts.intra_op_num_threads = threads
     opts.inter_op_num_threads = 1
     opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
@@ -45,9 +52,9 @@ class OnnxRenderer:
     ``rgba`` opens on the first call that asks for it.
     """
 
-    def __init__(self, path: str | Path, threads: int = 2, spinning: bool = False):
+    def __init__(self, path: str | Path, threads: int = 2, spinning: bool = False, size: int | None = None):
         self.path = Path(path)
-        self._options = (threads, spinning)
+        self._options = (threads, spinning, size)
         try:
             lean = image_only_graph(self.path)
         except (OSError, ValueError) as e:  # unreadable, or not a serialized model

@@ -66,7 +66,8 @@ class Player:
         self.raster = NeuralRasterizer(self.ctx, self.avatar.mesh, self.avatar.texture, size, size,
                                        self.avatar.skeleton.num_bones)
         self.precision = precision
-        self.renderer = open_renderer(self.avatar, precision, threads=threads, spinning=spinning, native=native)
+        self.renderer = open_renderer(self.avatar, precision, threads=threads, spinning=spinning, native=native,
+                                      size=self.size)
         self.background = background
         # the largest scale the renderer was trained at; closer views are drawn through it (None: no limit)
         self.max_pixels_per_metre = (self.avatar.manifest.get("trained_scale") or {}).get("max_pixels_per_metre")
@@ -233,15 +234,15 @@ class Player:
 
 
 def open_renderer(avatar: ExportedAvatar, precision: str, threads: int = 2, spinning: bool = False,
-                  native: bool = True):
+                  native: bool = True, size: int | None = None):
     """The avatar's renderer: its graph cut before the full-resolution tail + the compiled tail
     where the folder has one and it may be used, else the whole graph."""
     from morf.playback.native_tail import TailRenderer, enabled, spec_for
 
     spec = spec_for(avatar.manifest, precision) if native else None
     if spec is not None and enabled():
-        return TailRenderer(avatar.renderer_path(precision), spec, threads=threads, spinning=spinning)
-    return OnnxRenderer(avatar.renderer_path(precision), threads=threads, spinning=spinning)
+        return TailRenderer(avatar.renderer_path(precision), spec, threads=threads, spinning=spinning, size=size)
+    return OnnxRenderer(avatar.renderer_path(precision), threads=threads, spinning=spinning, size=size)
 
 
 def open_player(avatar_dir: str | Path, **kwargs) -> Player:

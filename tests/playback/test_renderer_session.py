@@ -41,6 +41,21 @@ def test_the_image_only_graph_matches_the_whole_graph(tiny_avatar, precision):
                                                     "background": np.zeros((1, 3, 1, 1), np.float32)})[0])
 
 
+@pytest.mark.parametrize("precision", ["int8", "fp32"])
+def test_a_session_for_one_image_size_gives_the_same_image(tiny_avatar, precision):
+    """The player fixes the graph's image dimensions to its size (onnxruntime then folds the
+    resizes' shape arithmetic); the image stays the same."""
+    path = tiny_avatar / ("renderer_int8.onnx" if precision == "int8" else "renderer.onnx")
+    free, fixed = OnnxRenderer(path), OnnxRenderer(path, size=SIZE)
+    assert fixed.session.get_inputs()[0].shape[1:3] == [SIZE, SIZE]
+    assert free.session.get_inputs()[0].shape[1:3] == ["height", "width"]
+    raster = _raster(free.session, seed=2)
+    bg = background_planes((10, 200, 30), SIZE)
+    assert np.array_equal(fixed.image(raster, bg), free.image(raster, bg))
+    with pytest.raises(Exception):  # another size no longer fits the session
+        fixed.image(np.zeros((1, SIZE // 2, SIZE // 2, raster.shape[3]), np.uint8), background_planes((0, 0, 0), SIZE // 2))
+
+
 def test_the_nodes_that_fed_only_rgba_are_dropped(tmp_path):
     from onnx import TensorProto, helper
 
