@@ -7,11 +7,12 @@ thread). The UI posts the pose and camera it wants into a one-slot box and picks
 finished image from another; both are newest-wins, so a slow renderer skips poses instead of
 falling behind, and neither lock is held for more than swapping a reference.
 
-A player's GL rasterization holds Python's GIL (moderngl does not release it), the renderer
-after it does not. The UI, having asked for the next frame, can wait for that rasterization
-(:meth:`LiveRenderer.wait_rasterized`) before drawing the frame it has: its own GL calls then
-run while the renderer runs instead of holding the render thread off the GIL (measured in
-docs/studio.md).
+A player that offers its two stages (``prepare``: the GL rasterization; ``complete``: the
+renderer) is pipelined: this thread rasterizes frame t+1 while a helper thread shades frame t and
+shows it, two input buffers taking turns. Otherwise frames run one after the other, and the UI,
+having asked for the next one, can wait for its rasterization (:meth:`LiveRenderer.wait_rasterized`)
+before drawing the frame it has: moderngl's GL calls hold Python's GIL, so the UI's own GL work
+would otherwise hold the render thread off (measured in docs/studio.md).
 """
 
 from __future__ import annotations
