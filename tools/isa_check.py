@@ -1,0 +1,100 @@
+"""int8 playback on another x86 CPU's instruction set: the renderer graph run under QEMU's user-mode
+emulation of that CPU, compared with this machine's run and with fp32.
+
+onnxruntime picks its int8 kernels from CPUID: AMX, AVX-512 VNNI, AVX-VNNI or plain AVX2, whose
+u8 x s8 products go through different instructions (AVX2's ``vpmaddubsw`` saturates 16-bit sums).
+``qemu-x86_64 -cpu MODEL`` reports MODEL's CPUID to the process, so the graph takes that CPU's
+kernels; timings under emulation mean nothing, the images are what this checks.
+
+    apt-get install qemu-user
+    python tools/isa_check.py AVATAR_DIR [--cpu EPYC-Rome] [--frames 4]
+
+EPYC-Rome (AMD Zen 2) reports AVX2 without AVX-512 or VNNI; QEMU 7.2 emulates no AVX-512, so the
+AVX2 kernels are the ones this can reach.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+CHILD = """
+import sys, numpy as np, onnxruntime as ort
+import llvmlite.binding as llvm
+graph, rasters, out = sys.argv[1:4]
+f = llvm.get_host_cpu_features()
+print("emulated CPU:", llvm.get_host_cpu_name(), "avx2" if f.get("avx2") else "no avx2",
+      "avx512f" if f.get("avx512f") else "no avx512f", "avx512vnni" if f.get("avx512vnni") else "no avx512vnni",
+      "amx-int8" if f.get("amx-int8") else "no amx-int8")
+opts = ort.SessionOptions()
+opts.intra_op_num_threads = 1
+s = ort.InferenceSession(graph, opts, providers=["CPUExecutionProvider"])
+bg = np.full((1, 3, 1, 1), 255, np.float32)
+np.save(out, np.stack([s.run(["image"], {s.get_inputs()[0].name: x[None], "background": bg})[0][0]
+                       for x in np.load(rasters)]))
+"""
+
+
+def psnr(a: np.ndarray, b: np.ndarray) -> float:
+    mse = np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2)
+    return float("inf") if mse == 0 else float(10 * np.log10(255.0 ** 2 / mse))
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("avatar", help="an exported avatar folder")
+    p.add_argument("--cpu", default="EPYC-Rome", help="a QEMU CPU model (qemu-x86_64 -cpu help)")
+    p.add_argument("--frames", type=int, default=4)
+    args = p.parse_args()
+    qemu = shutil.which("qemu-x86_64")
+    if qemu is None:
+        print("isa_check: qemu-x86_64 not found (apt-get install qemu-user)", file=sys.stderr)
+        return 2
+    import onnxruntime as ort
+
+    from morf.bench.render import bench_motion
+    from morf.playback.player import Player
+    from morf.raster.camera_paths import front_camera
+
+    avatar = Path(args.avatar)
+    rot, tr = bench_motion(10 * args.frames + 5, 104)
+    idx = [5 + 10 * i for i in range(args.frames)]
+    with Player(avatar, size=640, native=False) as player:
+        rasters = np.stack([player.rasterize(rot[i], tr[i], front_camera(640, yaw_deg=10.0 * i))[0].copy()
+                            for i in idx])
+    bg = np.full((1, 3, 1, 1), 255, np.float32)
+    images = {}
+    for name, graph in (("int8", "renderer_int8.onnx"), ("fp32", "renderer.onnx")):
+        s = ort.InferenceSession(str(avatar / graph), providers=["CPUExecutionProvider"])
+        images[name] = np.stack([s.run(["image"], {s.get_inputs()[0].name: x[None], "background": bg})[0][0]
+                                 for x in rasters])
+    with tempfile.TemporaryDirectory() as tmp:
+        np.save(Path(tmp) / "rasters.npy", rasters)
+        site = [q for q in sys.path if q.endswith("site-packages")]
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join(site + [str(Path(__file__).resolve().parents[1])])}
+        run = subprocess.run([qemu, "-cpu", args.cpu, os.path.realpath(sys.executable), "-c", CHILD,
+                              str(avatar / "renderer_int8.onnx"), str(Path(tmp) / "rasters.npy"),
+                              str(Path(tmp) / "out.npy")], env=env, capture_output=True, text=True)
+        if run.returncode != 0:
+            print(run.stderr[-3000:], file=sys.stderr)
+            return 1
+        print(run.stdout.strip())
+        images["emulated"] = np.load(Path(tmp) / "out.npy")
+    print(f"{args.frames} frames at 640 x 640 of {avatar}:")
+    print(f"  int8 on this CPU vs fp32:   {psnr(images['int8'], images['fp32']):.1f} dB")
+    print(f"  int8 on {args.cpu} vs fp32: {psnr(images['emulated'], images['fp32']):.1f} dB")
+    diff = np.abs(images["emulated"].astype(int) - images["int8"].astype(int)).max(-1)
+    print(f"  int8 on {args.cpu} vs this CPU: {psnr(images['emulated'], images['int8']):.1f} dB, "
+          f"{int((diff > 4).sum())} of {diff.size} pixels differ by more than 4 levels (max {int(diff.max())})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
