@@ -109,6 +109,16 @@ def test_int8_close_to_fp32(tmp_path, renderers, name):
         produced = {o for n in matmuls for o in n.output}
         produced |= {o for n in nodes if produced.intersection(n.input) for o in n.output}  # + the bias Adds
         assert not any(n.op_type == "QuantizeLinear" and n.input[0] in produced for n in nodes)
+    # the decoder's deepest block stays float: its convolutions read float weights, its outputs are not quantised
+    deepest = [n for n in nodes if n.name.startswith("/up.0/") and n.op_type == "Conv"]
+    assert deepest, [n.name for n in nodes if "up" in n.name][:10]
+    model = onnx.load(tmp_path / "q.onnx")
+    floats = {t.name for t in model.graph.initializer if t.data_type == onnx.TensorProto.FLOAT}
+    assert all(n.input[1] in floats for n in deepest)
+    assert not any(n.op_type == "QuantizeLinear" and n.input[0] in {d.output[0] for d in deepest} for n in nodes)
+    dequantized = {n.output[0] for n in nodes if n.op_type == "DequantizeLinear"}
+    next_block = [n for n in nodes if n.name.startswith("/up.1/") and n.op_type == "Conv"]
+    assert next_block and all(n.input[1] in dequantized for n in next_block)  # quantised as before
     for x in held:
         a, b = _run(tmp_path / "f.onnx", x), _run(tmp_path / "q.onnx", x)
         psnr = -10 * np.log10(np.mean((a - b) ** 2))
