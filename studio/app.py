@@ -351,15 +351,12 @@ class StudioApp:
         # against 37-38 with the wait, docs/studio.md).
         if not self.live.pipelined:
             self.live.wait_rasterized(RASTER_WAIT_S)
-        frame = self.live.latest()
-        if frame.seq != self._live_seq:
-            self._live_seq = frame.seq
-            self.live_stats.append((frame.fps, frame.render_ms))
+            frame = self.live.latest()
+        self._live_seq = frame.seq
+        self.live_stats.append((frame.fps, frame.render_ms))
         if self._x_image is not None and round(rect.side) == rect.render_side == frame.image.shape[0]:
             self._x_image.present(frame.image, round(rect.x), round(rect.y))  # pixel for pixel, no GL
-            self._last_frame_t = t0
-            self.light_frame_count += 1
-            self.frame_times.append(time.perf_counter() - t0)
+            self._light_frame_done(t0)
             return True
         image = self.textures.preview("live", frame.image, frame.seq, ring=3)
         if self._sub_buffer is not None and self._back_is_ui:
@@ -367,15 +364,18 @@ class StudioApp:
         else:
             self._ui_cache.show(image)
         self._gl_finish()
-        self._last_frame_t = t0
-        self.light_frame_count += 1
-        self.frame_times.append(time.perf_counter() - t0)
+        self._light_frame_done(t0)
         if self._sub_buffer is not None:
             self._sub_buffer.present(*self._ui_cache.image_viewport())
             self._back_is_ui = True
         else:
             glfw.swap_buffers(self.window)
         return True
+
+    def _light_frame_done(self, t0: float) -> None:
+        self._last_frame_t = t0
+        self.light_frame_count += 1
+        self.frame_times.append(time.perf_counter() - t0)
 
     def _ui_context(self) -> UiContext:
         snap = self.worker.latest()

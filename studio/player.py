@@ -64,14 +64,18 @@ class PlaybackPlayer:
             return np.zeros((self.num_bones, 3), np.float32), np.zeros(3, np.float32)
         return pose
 
-    def render(self, pose: Any, camera: PinholeCamera) -> np.ndarray:
-        rotvecs, transl = self._pose(pose)
+    def _in_context(self, fn: Callable, *args, **kwargs):
+        """``fn(*args, **kwargs)`` with this player's GL context current (where it has its own)."""
         if self._gl is None:
-            return self._player.render(rotvecs, transl, camera, on_rasterized=self.on_rasterized)
+            return fn(*args, **kwargs)
         from morf.raster.gl_context import current
 
         with current(self._gl):
-            return self._player.render(rotvecs, transl, camera, on_rasterized=self.on_rasterized)
+            return fn(*args, **kwargs)
+
+    def render(self, pose: Any, camera: PinholeCamera) -> np.ndarray:
+        rotvecs, transl = self._pose(pose)
+        return self._in_context(self._player.render, rotvecs, transl, camera, on_rasterized=self.on_rasterized)
 
     # ---- the two stages of a frame, for a pipelined render thread (studio.live_render) ----------
     def prepare(self, pose: Any, camera: PinholeCamera, slot: int) -> Any:
@@ -80,12 +84,7 @@ class PlaybackPlayer:
         if self._buffers is None:
             self._buffers = [self._player.new_input() for _ in range(2)]
         rotvecs, transl = self._pose(pose)
-        if self._gl is None:
-            return self._player.prepare(rotvecs, transl, camera, out=self._buffers[slot])
-        from morf.raster.gl_context import current
-
-        with current(self._gl):
-            return self._player.prepare(rotvecs, transl, camera, out=self._buffers[slot])
+        return self._in_context(self._player.prepare, rotvecs, transl, camera, out=self._buffers[slot])
 
     def complete(self, prepared: Any) -> np.ndarray:
         """The frame's renderer and compositing (no GL: any thread)."""
