@@ -12,10 +12,28 @@ import pytest
 
 pytestmark = pytest.mark.skipif(shutil.which("Xvfb") is None, reason="needs Xvfb (apt-get install xvfb)")
 
-SCRIPT = textwrap.dedent("""
-    import ctypes, ctypes.util, sys
+READ_BACK = textwrap.dedent("""
+    import ctypes, ctypes.util
     import glfw, numpy as np
-    from studio.x_image import _XImage, open_x_image
+    from studio.x_image import _XImage
+
+    def read_window(window, x, y, n):
+        # the (n, n, 3) RGB pixels the X server holds at window pixel (x, y)
+        x11 = ctypes.CDLL(ctypes.util.find_library("X11"))
+        x11.XSync.argtypes = [ctypes.c_void_p, ctypes.c_int]
+        x11.XGetImage.restype = ctypes.POINTER(_XImage)
+        x11.XGetImage.argtypes = [ctypes.c_void_p, ctypes.c_ulong, ctypes.c_int, ctypes.c_int, ctypes.c_uint,
+                                  ctypes.c_uint, ctypes.c_ulong, ctypes.c_int]
+        display, xwindow = glfw.get_x11_display(), glfw.get_x11_window(window)
+        x11.XSync(display, 0)
+        got = x11.XGetImage(display, xwindow, x, y, n, n, 0xFFFFFFFF, 2).contents
+        raw = np.ctypeslib.as_array(ctypes.cast(got.data, ctypes.POINTER(ctypes.c_uint8)), (n, got.bytes_per_line))
+        return raw[:, :4 * n].reshape(n, n, 4)[..., [2, 1, 0]]
+""")
+
+SCRIPT = READ_BACK + textwrap.dedent("""
+    import sys
+    from studio.x_image import open_x_image
 
     assert glfw.init()
     glfw.window_hint(glfw.VISIBLE, glfw.TRUE)
@@ -29,28 +47,17 @@ SCRIPT = textwrap.dedent("""
     rng = np.random.default_rng(0)
     image = rng.integers(0, 256, (64, 64, 3), dtype=np.uint8)
     presenter.present(image, 10, 20)
-    x11 = ctypes.CDLL(ctypes.util.find_library("X11"))
-    x11.XSync.argtypes = [ctypes.c_void_p, ctypes.c_int]
-    x11.XGetImage.restype = ctypes.POINTER(_XImage)
-    x11.XGetImage.argtypes = [ctypes.c_void_p, ctypes.c_ulong, ctypes.c_int, ctypes.c_int, ctypes.c_uint,
-                              ctypes.c_uint, ctypes.c_ulong, ctypes.c_int]
-    display, xwindow = glfw.get_x11_display(), glfw.get_x11_window(window)
-    x11.XSync(display, 0)
-    got = x11.XGetImage(display, xwindow, 10, 20, 64, 64, 0xFFFFFFFF, 2).contents
-    raw = np.ctypeslib.as_array(ctypes.cast(got.data, ctypes.POINTER(ctypes.c_uint8)), (64, got.bytes_per_line))
-    rgb = raw[:, :256].reshape(64, 64, 4)[..., [2, 1, 0]]
+    rgb = read_window(window, 10, 20, 64)
     presenter.close()
     print("EQUAL" if np.array_equal(rgb, image) else "DIFFER %d" % int((rgb != image).sum()))
 """)
 
 
-APP_SCRIPT = textwrap.dedent("""
-    import ctypes, ctypes.util, sys, tempfile
+APP_SCRIPT = READ_BACK + textwrap.dedent("""
+    import sys, tempfile
     from pathlib import Path
-    import glfw, numpy as np
     from studio.app import StudioApp
     from studio.bench import DEFAULT_MOTION, LIVE_PANEL, _playing, _prepare_project
-    from studio.x_image import _XImage
 
     project = _prepare_project(Path(tempfile.mkdtemp()), Path(sys.argv[1]), None)
     with StudioApp(project, size=(1280, 800), headless=False, deterministic=False,
@@ -70,17 +77,7 @@ APP_SCRIPT = textwrap.dedent("""
         image, x, y = shown[-1]
         rect = app._ui_cache.rect
         assert (x, y) == (round(rect.x), round(rect.y)) and image.shape[0] == rect.render_side
-        n = image.shape[0]
-        x11 = ctypes.CDLL(ctypes.util.find_library("X11"))
-        x11.XSync.argtypes = [ctypes.c_void_p, ctypes.c_int]
-        x11.XGetImage.restype = ctypes.POINTER(_XImage)
-        x11.XGetImage.argtypes = [ctypes.c_void_p, ctypes.c_ulong, ctypes.c_int, ctypes.c_int, ctypes.c_uint,
-                                  ctypes.c_uint, ctypes.c_ulong, ctypes.c_int]
-        display, xwindow = glfw.get_x11_display(), glfw.get_x11_window(app.window)
-        x11.XSync(display, 0)
-        got = x11.XGetImage(display, xwindow, x, y, n, n, 0xFFFFFFFF, 2).contents
-        raw = np.ctypeslib.as_array(ctypes.cast(got.data, ctypes.POINTER(ctypes.c_uint8)), (n, got.bytes_per_line))
-        rgb = raw[:, :4 * n].reshape(n, n, 4)[..., [2, 1, 0]]
+        rgb = read_window(app.window, x, y, image.shape[0])
         assert image.std() > 5.0
         print("EQUAL" if np.array_equal(rgb, image) else "DIFFER %d" % int((rgb != image).sum()))
 """)
