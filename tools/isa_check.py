@@ -25,21 +25,25 @@ from pathlib import Path
 
 import numpy as np
 
-CHILD = """
-import sys, numpy as np, onnxruntime as ort
-import llvmlite.binding as llvm
-graph, rasters, out = sys.argv[1:4]
-f = llvm.get_host_cpu_features()
-print("emulated CPU:", llvm.get_host_cpu_name(), "avx2" if f.get("avx2") else "no avx2",
-      "avx512f" if f.get("avx512f") else "no avx512f", "avx512vnni" if f.get("avx512vnni") else "no avx512vnni",
-      "amx-int8" if f.get("amx-int8") else "no amx-int8")
-opts = ort.SessionOptions()
-opts.intra_op_num_threads = 1
-s = ort.InferenceSession(graph, opts, providers=["CPUExecutionProvider"])
-bg = np.full((1, 3, 1, 1), 255, np.float32)
-np.save(out, np.stack([s.run(["image"], {s.get_inputs()[0].name: x[None], "background": bg})[0][0]
-                       for x in np.load(rasters)]))
-"""
+def images(graph: str | Path, rasters: np.ndarray, threads: int = 0) -> np.ndarray:
+    """The graph's ``image`` output over white for each (H, W, 16) raster (``threads`` 0: onnxruntime's default)."""
+    import onnxruntime as ort
+
+    opts = ort.SessionOptions()
+    opts.intra_op_num_threads = threads
+    s = ort.InferenceSession(str(graph), opts, providers=["CPUExecutionProvider"])
+    bg = np.full((1, 3, 1, 1), 255, np.float32)
+    return np.stack([s.run(["image"], {s.get_inputs()[0].name: x[None], "background": bg})[0][0] for x in rasters])
+
+
+def child(graph: str, rasters: str, out: str) -> None:
+    """The emulated side: say which CPU the process sees, and write the int8 graph's images."""
+    import llvmlite.binding as llvm
+
+    f = llvm.get_host_cpu_features()
+    print("emulated CPU:", llvm.get_host_cpu_name(), *(name if f.get(name) else f"no {name}"
+                                                       for name in ("avx2", "avx512f", "avx512vnni", "amx-int8")))
+    np.save(out, images(graph, np.load(rasters), threads=1))
 
 
 def psnr(a: np.ndarray, b: np.ndarray) -> float:
@@ -48,6 +52,9 @@ def psnr(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def main() -> int:
+    if sys.argv[1:2] == ["--child"]:  # run by the parent under qemu-x86_64
+        child(*sys.argv[2:5])
+        return 0
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("avatar", help="an exported avatar folder")
     p.add_argument("--cpu", default="EPYC-Rome", help="a QEMU CPU model (qemu-x86_64 -cpu help)")
@@ -57,8 +64,6 @@ def main() -> int:
     if qemu is None:
         print("isa_check: qemu-x86_64 not found (apt-get install qemu-user)", file=sys.stderr)
         return 2
-    import onnxruntime as ort
-
     from morf.bench.render import bench_motion
     from morf.playback.player import Player
     from morf.raster.camera_paths import front_camera
@@ -69,29 +74,24 @@ def main() -> int:
     with Player(avatar, size=640, native=False) as player:
         rasters = np.stack([player.rasterize(rot[i], tr[i], front_camera(640, yaw_deg=10.0 * i))[0].copy()
                             for i in idx])
-    bg = np.full((1, 3, 1, 1), 255, np.float32)
-    images = {}
-    for name, graph in (("int8", "renderer_int8.onnx"), ("fp32", "renderer.onnx")):
-        s = ort.InferenceSession(str(avatar / graph), providers=["CPUExecutionProvider"])
-        images[name] = np.stack([s.run(["image"], {s.get_inputs()[0].name: x[None], "background": bg})[0][0]
-                                 for x in rasters])
+    out = {"int8": images(avatar / "renderer_int8.onnx", rasters), "fp32": images(avatar / "renderer.onnx", rasters)}
     with tempfile.TemporaryDirectory() as tmp:
         np.save(Path(tmp) / "rasters.npy", rasters)
         site = [q for q in sys.path if q.endswith("site-packages")]
         env = {**os.environ, "PYTHONPATH": os.pathsep.join(site + [str(Path(__file__).resolve().parents[1])])}
-        run = subprocess.run([qemu, "-cpu", args.cpu, os.path.realpath(sys.executable), "-c", CHILD,
+        run = subprocess.run([qemu, "-cpu", args.cpu, os.path.realpath(sys.executable), os.path.realpath(__file__), "--child",
                               str(avatar / "renderer_int8.onnx"), str(Path(tmp) / "rasters.npy"),
                               str(Path(tmp) / "out.npy")], env=env, capture_output=True, text=True)
         if run.returncode != 0:
             print(run.stderr[-3000:], file=sys.stderr)
             return 1
         print(run.stdout.strip())
-        images["emulated"] = np.load(Path(tmp) / "out.npy")
+        out["emulated"] = np.load(Path(tmp) / "out.npy")
     print(f"{args.frames} frames at 640 x 640 of {avatar}:")
-    print(f"  int8 on this CPU vs fp32:   {psnr(images['int8'], images['fp32']):.1f} dB")
-    print(f"  int8 on {args.cpu} vs fp32: {psnr(images['emulated'], images['fp32']):.1f} dB")
-    diff = np.abs(images["emulated"].astype(int) - images["int8"].astype(int)).max(-1)
-    print(f"  int8 on {args.cpu} vs this CPU: {psnr(images['emulated'], images['int8']):.1f} dB, "
+    print(f"  int8 on this CPU vs fp32:   {psnr(out['int8'], out['fp32']):.1f} dB")
+    print(f"  int8 on {args.cpu} vs fp32: {psnr(out['emulated'], out['fp32']):.1f} dB")
+    diff = np.abs(out["emulated"].astype(int) - out["int8"].astype(int)).max(-1)
+    print(f"  int8 on {args.cpu} vs this CPU: {psnr(out['emulated'], out['int8']):.1f} dB, "
           f"{int((diff > 4).sum())} of {diff.size} pixels differ by more than 4 levels (max {int(diff.max())})")
     return 0
 
