@@ -15,15 +15,30 @@ FLAGS_OF_INTEREST = ("avx2", "fma", "avx512f", "avx512_vnni", "avx_vnni", "avx51
 
 @functools.lru_cache(maxsize=1)
 def cpu_flags() -> frozenset[str]:
-    """The CPU's feature flags (Linux ``/proc/cpuinfo``; empty where it cannot be read)."""
+    """The CPU's feature flags (Linux ``/proc/cpuinfo``; empty where it cannot be read), less
+    those a CPUID mask hides from this process (``morf bench --cpu-as``)."""
+    flags: frozenset[str] = frozenset()
     try:
         with open("/proc/cpuinfo") as f:
             for line in f:
                 if line.startswith("flags"):
-                    return frozenset(line.split(":", 1)[1].split())
+                    flags = frozenset(line.split(":", 1)[1].split())
+                    break
     except OSError:
         pass
-    return frozenset()
+    masked = cpuid_mask_class()
+    if masked:
+        from morf.cpuid_mask import CLASSES
+
+        flags = flags - set(CLASSES[masked][1])
+    return flags
+
+
+def cpuid_mask_class() -> str | None:
+    """The smaller CPU class this process's CPUID answers as (``morf bench --cpu-as``), or None."""
+    from morf.cpuid_mask import active_class
+
+    return active_class()
 
 
 def native_bf16() -> bool:
@@ -43,5 +58,9 @@ def cpu_summary() -> dict:
 
     flags = cpu_flags()
     has_amx = "amx_tile" in flags
-    return {"flags": [f for f in FLAGS_OF_INTEREST if f in flags], "native_bf16": native_bf16(),
-            "amx_usable": bool(has_amx and amx_permitted())}
+    summary = {"flags": [f for f in FLAGS_OF_INTEREST if f in flags], "native_bf16": native_bf16(),
+               "amx_usable": bool(has_amx and amx_permitted())}
+    masked = cpuid_mask_class()
+    if masked:
+        summary["cpuid_masked_to"] = masked
+    return summary

@@ -285,6 +285,9 @@ def report(result: dict) -> str:
              f"  UI: {s['ui_fps']:.1f} redraws/s ({s['ui_light_fps']:.1f} of them the live image alone), frame time p50 {s['ui_frame_ms_p50'] or 0:.1f} ms, "
              f"p95 {s['ui_frame_ms_p95'] or 0:.1f} ms, max {s['ui_frame_ms_max'] or 0:.1f} ms",
              "  CPU (% of one core): " + ", ".join(f"{k} {v:.0f}" for k, v in s["cpu_percent_of_one_core"].items())]
+    masked = result.get("machine", {}).get("cpu_features", {}).get("cpuid_masked_to")
+    if masked:
+        lines.append(f"  CPUID masked to the {masked} class: that class's kernels on {result['machine']['cpu']}")
     if result.get("training"):
         t = result["training"]
         rate = f"{s['train_steps_per_s']:.2f} steps/s; " if s["train_steps_per_s"] is not None else ""
@@ -346,12 +349,15 @@ def run(args) -> int:
     if not args.no_compare and args.with_training:
         measure()
     from morf.bench.common import machine_info
+    from morf.cpuid_mask import active_class
 
+    masked = active_class()  # `morf bench --cpu-as CLASS studio` hands its CPUID mask down to this process
     result: dict = {"benchmark": "studio", "avatar": str(avatar), "motion": str(Path(args.motion).resolve()),
                     "size": args.size, "with_training": args.with_training,
                     "preset": info.pop("train_preset", None),  # before **info: recorded once
                     **info, "studio": summarize(merge_windows(windows)), "machine": machine_info(),
-                    "command": "morf bench studio " + " ".join(sys.argv[1:])}
+                    "command": "morf bench " + (f"--cpu-as {masked} " if masked else "") + "studio "
+                               + " ".join(sys.argv[1:])}
     if refs:
         result.update(compare_rounds(windows, refs))
     ratio, p95 = result.get("live_vs_bench"), result["studio"]["ui_frame_ms_p95"]

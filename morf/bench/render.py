@@ -207,6 +207,8 @@ def cpu_report(model: str, cores: int | None, features: dict) -> str:
     amx = yes("amx_int8" in flags or "amx_bf16" in flags)
     if amx == "yes" and features.get("amx_usable") is False:
         amx = "refused (not usable by this process)"
+    masked = features.get("cpuid_masked_to")
+    model = f"{model} with CPUID masked to the {masked} class (its kernels on this silicon)" if masked else model
     return (f"{model}, {cores} cores; AMX {amx}, "
             f"AVX512-BF16 {yes('avx512_bf16' in flags)}, VNNI {vnni}, AVX2 {yes('avx2' in flags)}")
 
@@ -299,7 +301,7 @@ def run(args) -> int:
     from morf.cpu_features import cpu_summary
 
     machine, features = machine_info(), cpu_summary()
-    command = "morf bench render " + " ".join(sys.argv[3:] if sys.argv[1:3] == ["bench", "render"] else [])
+    command = "morf " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] else "morf bench render"
     with tempfile.TemporaryDirectory() as tmpd:
         if args.avatar:
             avatars = {"given": Path(args.avatar)}

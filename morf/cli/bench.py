@@ -11,6 +11,8 @@ import importlib
 import subprocess
 import sys
 
+from morf.cpuid_mask import CLASSES as CPU_CLASSES
+
 BENCHMARKS = {
     "fitting": "mesh fitting against ground truth, with the paper's ablation",
     "quality": "avatar quality on held-out frames and novel poses, over seeds, against the RGB floor",
@@ -28,6 +30,10 @@ APP_BENCHMARKS = {
 
 def add_parser(sub):
     p = sub.add_parser("bench", help="run a benchmark and write JSON + Markdown results")
+    p.add_argument("--cpu-as", choices=sorted(CPU_CLASSES), default=None, metavar="CLASS",
+                   help="run the benchmark with this CPU's CPUID masked to a smaller class, so onnxruntime, numba and "
+                        "llvmpipe pick that class's kernels (Linux, CPUs with cpuid_fault; needs a C compiler): "
+                        + "; ".join(f"{k}: {v[0]}" for k, v in CPU_CLASSES.items()))
     bsub = p.add_subparsers(dest="bench", metavar="NAME")
     for name, help_text in BENCHMARKS.items():
         try:
@@ -52,4 +58,8 @@ def run(args) -> int:
     if not getattr(args, "_bench_run", None):
         print("usage: morf bench {" + ",".join([*BENCHMARKS, *APP_BENCHMARKS]) + "} --out DIR")
         return 1
+    if args.cpu_as:
+        from morf.cpuid_mask import run_as
+
+        run_as(args.cpu_as)  # re-runs this command under the mask unless it already is
     return int(args._bench_run(args) or 0)
