@@ -287,7 +287,7 @@ def report(result: dict) -> str:
              "  CPU (% of one core): " + ", ".join(f"{k} {v:.0f}" for k, v in s["cpu_percent_of_one_core"].items())]
     masked = result.get("machine", {}).get("cpu_features", {}).get("cpuid_masked_to")
     if masked:
-        lines.append(f"  CPUID masked to the {masked} class: that class's kernels on {result['machine']['cpu']}")
+        lines.append(f"  CPU: {result['machine']['cpu']}")
     if result.get("training"):
         t = result["training"]
         rate = f"{s['train_steps_per_s']:.2f} steps/s; " if s["train_steps_per_s"] is not None else ""

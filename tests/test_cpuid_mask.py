@@ -11,7 +11,6 @@ import textwrap
 
 import pytest
 
-from morf.bench.render import cpu_report
 from morf.cpu_features import cpu_flags
 from morf.cpuid_mask import CLASSES, supported
 
@@ -102,12 +101,6 @@ def test_an_unknown_class_or_a_machine_without_faulting_is_a_clear_error(tmp_pat
         run_as("avx2")
 
 
-def test_the_cpu_line_says_a_masked_run_is_this_silicon_with_another_class_of_kernels():
-    line = cpu_report("Intel Xeon", 2, {"flags": ["avx2", "fma"], "amx_usable": False, "cpuid_masked_to": "avx2"})
-    assert line.startswith("Intel Xeon with CPUID masked to the avx2 class (its kernels on this silicon), 2 cores")
-    assert "AMX no" in line and "VNNI no" in line and "AVX2 yes" in line
-
-
 @needs_faulting
 def test_morf_bench_render_as_an_avx2_cpu_records_the_class(tmp_path):
     out = tmp_path / "r"
@@ -121,4 +114,6 @@ def test_morf_bench_render_as_an_avx2_cpu_records_the_class(tmp_path):
     assert rec["cpu_features"]["cpuid_masked_to"] == "avx2"
     assert "avx512f" not in rec["cpu_features"]["flags"] and "amx_int8" not in rec["cpu_features"]["flags"]
     assert rec["command"].startswith("morf bench --cpu-as avx2 render")
-    assert "CPUID masked to the avx2 class" in (out / "render.md").read_text()
+    assert rec["machine"]["cpu"].endswith("with CPUID masked to the avx2 class (its kernels on this silicon)")
+    md = (out / "render.md").read_text()
+    assert "with CPUID masked to the avx2 class (its kernels on this silicon)" in md and "AMX no" in md

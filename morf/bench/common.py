@@ -34,6 +34,9 @@ def machine_info() -> dict:
     from morf.cpu_features import cpu_summary
 
     info["cpu_features"] = cpu_summary()
+    masked = info["cpu_features"].get("cpuid_masked_to")
+    if masked:  # `morf bench --cpu-as CLASS`: never to be read as this CPU's own number
+        info["cpu"] += f" with CPUID masked to the {masked} class (its kernels on this silicon)"
     return info
 
 

@@ -207,8 +207,6 @@ def cpu_report(model: str, cores: int | None, features: dict) -> str:
     amx = yes("amx_int8" in flags or "amx_bf16" in flags)
     if amx == "yes" and features.get("amx_usable") is False:
         amx = "refused (not usable by this process)"
-    masked = features.get("cpuid_masked_to")
-    model = f"{model} with CPUID masked to the {masked} class (its kernels on this silicon)" if masked else model
     return (f"{model}, {cores} cores; AMX {amx}, "
             f"AVX512-BF16 {yes('avx512_bf16' in flags)}, VNNI {vnni}, AVX2 {yes('avx2' in flags)}")
 
