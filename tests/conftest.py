@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 os.environ.setdefault("MORF_QUIET", "1")
@@ -87,3 +88,12 @@ def local_ray():
     connect(RayOptions(num_cpus=2, object_store_memory=80 * 1024**2))
     yield ray
     ray.shutdown()
+
+
+@pytest.fixture()
+def still_pose():
+    """A fixed, slightly bent pose of Anny's 104 joints, turned 0.4 rad about the vertical."""
+    rng = np.random.default_rng(7)
+    rot = (rng.normal(size=(104, 3)) * 0.1).astype(np.float32)
+    rot[0] = (0, 0, 0.4)
+    return rot, np.array([0.02, 0.0, 0.0], np.float32)

@@ -13,6 +13,7 @@ graph, from its profiler: which op types ran as int8 kernels, which converted, w
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -34,6 +35,9 @@ def add_arguments(p) -> None:
     p.add_argument("--size", type=int, default=640)
     p.add_argument("--frames", type=int, default=60, help="timed frames per measurement")
     p.add_argument("--no-variants", action="store_true", help="only the default renderer (no size variants)")
+    p.add_argument("--raster", choices=("auto", "gl", "cpu"), default="auto",
+                   help="the players' rasterization: GL, the CPU loops (numba), or auto (the CPU loops under "
+                        "software GL, GL on a GPU; MORF_RASTER sets it too)")
     p.add_argument("--no-amx", action="store_true",
                    help="refuse AMX to the measurement (Linux x86-64): what this CPU gets without it")
 
@@ -99,7 +103,7 @@ def measure(avatar_dir: str, size: int, frames: int) -> PlaybackMeasurement:
         breakdown_ms=breakdown, renderer_only_ms=renderer_ms, peak_rss_mb=peak_rss_mb, kernels=profile,
         composite_share_of_graph=share, threads=THREADS, frame_ms=seq * 1e3, fps_end_to_end=1.0 / seq,
         frame_ms_pipelined=piped * 1e3, fps_pipelined=1.0 / piped,
-        tail=_tail_kind(p),
+        tail=_tail_kind(p), raster=p.raster_kind,
         int8_psnr_vs_fp32_image_db=float(-10 * np.log10(max(mse, 1e-12))))
 
 
@@ -114,6 +118,11 @@ FLOAT_TYPES = ("float", "float16", "bfloat16", "double")
 def _compiled_tail(player) -> bool:
     """Whether the player runs its graph cut before a compiled tail (:mod:`morf.playback.native_tail`)."""
     return getattr(player.renderer, "shader", None) is not None
+
+
+def raster_words(kind: str) -> str:
+    return ("rasterized by the CPU loops (numba; raster_ms: skinning, projection, triangle ids; readback_ms: "
+            "texture sampling)" if kind == "cpu" else "rasterized by GL (raster_ms: the draw; readback_ms: its read-back)")
 
 
 def _tail_kind(player) -> str:
@@ -298,6 +307,8 @@ def run(args) -> int:
         refuse_amx()  # before onnxruntime loads here or in the measuring children (they inherit it)
     from morf.cpu_features import cpu_summary
 
+    if getattr(args, "raster", "auto") != "auto":
+        os.environ["MORF_RASTER"] = args.raster  # the measuring children's players read it
     machine, features = machine_info(), cpu_summary()
     command = "morf " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] else "morf bench render"
     with tempfile.TemporaryDirectory() as tmpd:
@@ -333,7 +344,7 @@ def run(args) -> int:
           markdown_table([a.table_row(key) for key, a in per.items()], TABLE_COLUMNS),
           "\nBreakdown of one frame (median ms, sequential, " + main_key + "):\n",
           markdown_table([breakdown], list(breakdown)),
-          f"\nThe renderer's {tail_words(main.measurement.tail)}.\n",
+          f"\nThe renderer's {tail_words(main.measurement.tail)}; {raster_words(main.measurement.raster)}.\n",
           f"\nWhat onnxruntime ran for the renderer graph ({main_key}; share of its kernel time):\n",
           "```\n" + kernels + "\n```\n"]
     if limit:
@@ -346,5 +357,6 @@ def run(args) -> int:
         print(limit_line(limit, main_key))
     tail = tail_words(main.measurement.tail)
     print(f"{main_key}: {main.measurement.fps_end_to_end:.1f} fps end to end, "
-          f"{main.measurement.fps_pipelined:.1f} fps pipelined ({tail}); wrote {path}")
+          f"{main.measurement.fps_pipelined:.1f} fps pipelined ({tail}; {raster_words(main.measurement.raster)}); "
+          f"wrote {path}")
     return 0

@@ -68,6 +68,10 @@ class PlaybackMeasurement:
             (LAYER: numba's threading layer; ``renderer_only_ms`` and the breakdown's ``renderer_ms``
             then include it, ``graph_ms`` and ``tail_ms`` split them), "graph" when onnxruntime ran
             the whole graph.
+        raster: "cpu" when the player rasterized with the numba loops (:mod:`morf.raster.cpu_raster`;
+            the breakdown's ``raster_ms`` is then skinning, projection and triangle ids, its
+            ``readback_ms`` the texture sampling into the renderer's input), "gl" for the GL draw
+            and its read-back.
     """
 
     breakdown_ms: dict[str, float]
@@ -82,6 +86,7 @@ class PlaybackMeasurement:
     int8_psnr_vs_fp32_image_db: float
     composite_share_of_graph: float | None = None
     tail: str = "graph"
+    raster: str = "gl"
 
     def to_dict(self) -> dict:
         d = {"breakdown_ms": dict(self.breakdown_ms), "renderer_only_ms": self.renderer_only_ms,
@@ -90,7 +95,7 @@ class PlaybackMeasurement:
             d["composite_share_of_graph"] = self.composite_share_of_graph
         d.update(threads=self.threads, frame_ms=self.frame_ms, fps_end_to_end=self.fps_end_to_end,
                  frame_ms_pipelined=self.frame_ms_pipelined, fps_pipelined=self.fps_pipelined,
-                 int8_psnr_vs_fp32_image_db=self.int8_psnr_vs_fp32_image_db, tail=self.tail)
+                 int8_psnr_vs_fp32_image_db=self.int8_psnr_vs_fp32_image_db, tail=self.tail, raster=self.raster)
         return d
 
     @staticmethod
@@ -100,7 +105,8 @@ class PlaybackMeasurement:
             kernels=GraphProfile.from_dict(d["kernels"]), threads=d["threads"], frame_ms=d["frame_ms"],
             fps_end_to_end=d["fps_end_to_end"], frame_ms_pipelined=d["frame_ms_pipelined"],
             fps_pipelined=d["fps_pipelined"], int8_psnr_vs_fp32_image_db=d["int8_psnr_vs_fp32_image_db"],
-            composite_share_of_graph=d.get("composite_share_of_graph"), tail=d.get("tail", "graph"))
+            composite_share_of_graph=d.get("composite_share_of_graph"), tail=d.get("tail", "graph"),
+            raster=d.get("raster", "gl"))
 
 
 TABLE_COLUMNS = ["avatar", "renderer ms", "frame ms", "fps", "fps pipelined", "int8 PSNR dB", "peak RSS MB", "tail"]

@@ -1,8 +1,9 @@
 """Real-time playback of an exported avatar: pose in, composited image out (torch-free).
 
-Per frame: numpy forward kinematics (bone matrices) -> GL neural rasterization (skinning in the
-vertex shader, 16 uint8 channels packed into one RGBA32UI attachment) -> read-back straight into
-the renderer's channels-last input -> int8 renderer + composite over the background, both in one
+Per frame: numpy forward kinematics (bone matrices) -> neural rasterization straight into the
+renderer's channels-last input (16 uint8 channels): numba loops on the CPU where GL is software
+(:mod:`morf.raster.cpu_raster`), else GL (skinning in the vertex shader, the channels packed into
+one RGBA32UI attachment, read back) -> int8 renderer + composite over the background, both in one
 onnxruntime graph. :meth:`Player.render_sequence` overlaps the GL work of frame t+1 with the
 renderer on frame t (onnxruntime releases the GIL).
 """
@@ -51,10 +52,13 @@ class Player:
         threads: onnxruntime intra-op threads; spinning: let idle ORT threads spin (benchmarks only).
         native: run the graph's full-resolution tail as one compiled pass where the avatar folder
             has one (:mod:`morf.playback.native_tail`; ``MORF_NATIVE_TAIL=0`` turns it off too).
+        raster: "gl", "cpu" (:mod:`morf.raster.cpu_raster`, numba) or "auto": the CPU loops where
+            GL is software (llvmpipe) and numba imports, GL on a GPU. ``MORF_RASTER`` overrides "auto".
     """
 
     def __init__(self, avatar_dir, size: int = 640, ctx=None, precision: str = "int8",
-                 background=(255, 255, 255), threads: int = 2, spinning: bool = False, native: bool = True):
+                 background=(255, 255, 255), threads: int = 2, spinning: bool = False, native: bool = True,
+                 raster: str = "auto"):
         self.avatar = avatar_dir if isinstance(avatar_dir, ExportedAvatar) else load_exported_avatar(avatar_dir)
         mult = self.avatar.size_multiple
         if size <= 0 or size % mult:
@@ -62,9 +66,16 @@ class Player:
         self.size = int(size)
         self._own_ctx = ctx is None
         self.ctx = ctx or create_headless_context()
-        self._gl_finish = gil_free_finish(self.ctx)  # other threads run while llvmpipe rasterizes
-        self.raster = NeuralRasterizer(self.ctx, self.avatar.mesh, self.avatar.texture, size, size,
-                                       self.avatar.skeleton.num_bones)
+        self.raster_kind = choose_raster(raster, self.ctx)
+        args = (self.ctx, self.avatar.mesh, self.avatar.texture, size, size, self.avatar.skeleton.num_bones)
+        if self.raster_kind == "cpu":
+            from morf.raster.cpu_raster import CpuNeuralRasterizer
+
+            self.raster = CpuNeuralRasterizer(*args)
+            self._gl_finish = _no_gl_work  # its frames that GL draws are read back, which waits for them
+        else:
+            self.raster = NeuralRasterizer(*args)
+            self._gl_finish = gil_free_finish(self.ctx)  # other threads run while llvmpipe rasterizes
         self.precision = precision
         self.renderer = open_renderer(self.avatar, precision, threads=threads, spinning=spinning, native=native,
                                       size=self.size)
@@ -231,6 +242,31 @@ class Player:
 
     def __exit__(self, *exc) -> None:
         self.release()
+
+
+RASTERS = ("auto", "gl", "cpu")
+
+
+def choose_raster(kind: str, ctx) -> str:
+    """"gl" or "cpu" for a player's ``raster`` argument (see :class:`Player`)."""
+    import os
+
+    from morf.compiled import numba_available
+    from morf.raster.gl_context import software_gl
+
+    if kind == "auto":
+        kind = os.environ.get("MORF_RASTER", "auto").strip().lower() or "auto"
+    if kind not in RASTERS:
+        raise InputError(f"raster must be one of {', '.join(RASTERS)}, got {kind!r}")
+    if kind == "cpu" and not numba_available():
+        raise InputError("the CPU rasterizer needs numba, which does not import here")
+    if kind == "auto":
+        kind = "cpu" if numba_available() and software_gl(ctx) else "gl"
+    return kind
+
+
+def _no_gl_work() -> None:
+    pass
 
 
 def open_renderer(avatar: ExportedAvatar, precision: str, threads: int = 2, spinning: bool = False,

@@ -59,7 +59,7 @@ def test_the_profile_finds_the_int8_convolution_and_the_float_compositing(tiny_p
     assert GraphProfile.from_dict(json.loads(json.dumps(prof.to_dict()))) == prof  # as the measuring child sends it
 
 
-def _measurement(composite_share: float | None, tail: str = "graph") -> dict:
+def _measurement(composite_share: float | None, tail: str = "graph", raster: str = "gl") -> dict:
     """A measurement as the measuring child writes it (the keys in its order)."""
     kernels = {"ops": {"QLinearConv": {"kind": "int8", "nodes": 3, "ms": 2.5},
                        "Mul": {"kind": "float", "nodes": 1, "ms": 0.5}},
@@ -69,17 +69,17 @@ def _measurement(composite_share: float | None, tail: str = "graph") -> dict:
     if composite_share is not None:
         d["composite_share_of_graph"] = composite_share
     d.update(threads=2, frame_ms=10.0, fps_end_to_end=100.0, frame_ms_pipelined=8.0, fps_pipelined=125.0,
-             int8_psnr_vs_fp32_image_db=41.5, tail=tail)
+             int8_psnr_vs_fp32_image_db=41.5, tail=tail, raster=raster)
     return d
 
 
-@pytest.mark.parametrize("share,tail", [(None, "compiled:omp"), (0.25, "graph")])
-def test_a_measurement_reads_back_as_the_child_wrote_it(share, tail):
-    d = _measurement(share, tail)
+@pytest.mark.parametrize("share,tail,raster", [(None, "compiled:omp", "cpu"), (0.25, "graph", "gl")])
+def test_a_measurement_reads_back_as_the_child_wrote_it(share, tail, raster):
+    d = _measurement(share, tail, raster)
     m = PlaybackMeasurement.from_dict(json.loads(json.dumps(d)))
     assert json.dumps(m.to_dict()) == json.dumps(d)  # same keys, same order
     assert m.composite_share_of_graph == share and m.kernels.ops["QLinearConv"] == OpTime("int8", 3, 2.5)
-    assert m.kernels.composite_share == share and m.tail == tail
+    assert m.kernels.composite_share == share and m.tail == tail and m.raster == raster
 
 
 def test_the_render_result_keeps_its_keys_and_takes_the_headline_from_the_main_avatar():

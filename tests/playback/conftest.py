@@ -18,11 +18,3 @@ def tiny_avatar(tmp_path_factory, body_model):
                            image_size=64, calibration_views=3, heldout_views=1,
                            renderer_cfg=SimpleNamespace(in_channels=16))
     return out
-
-
-@pytest.fixture()
-def still_pose():
-    rng = np.random.default_rng(7)
-    rot = (rng.normal(size=(104, 3)) * 0.1).astype(np.float32)
-    rot[0] = (0, 0, 0.4)
-    return rot, np.array([0.02, 0.0, 0.0], np.float32)

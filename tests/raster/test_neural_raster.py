@@ -2,28 +2,16 @@
 
 import numpy as np
 import pytest
-import torch
 
-from morf.avatar.texture import sample_texture
-from morf.body import BodyPose
-from morf.body.render_mesh import render_mesh_for
 from morf.export.export_avatar import skinned_mesh_from_body_model
 from morf.export.skeleton import skeleton_from_body_model
-from morf.raster import rasterize_uv
 from morf.raster.camera_paths import front_camera
 from morf.raster.gl_context import create_headless_context
 from morf.raster.neural_raster import NeuralRasterizer
 from morf.raster.texture_quant import quantize_texture, sinusoid_texture
+from raster_reference import training_raster_bytes
 
 pytestmark = pytest.mark.gl
-
-
-@pytest.fixture()
-def still_pose():
-    rng = np.random.default_rng(7)
-    rot = (rng.normal(size=(104, 3)) * 0.1).astype(np.float32)
-    rot[0] = (0, 0, 0.4)
-    return rot, np.array([0.02, 0.0, 0.0], np.float32)
 
 
 @pytest.mark.parametrize("cpu_skinning", [True, False])
@@ -44,15 +32,8 @@ def test_gl_matches_torch_sampling(body_model, still_pose, cpu_skinning):
         nr.release()
     finally:
         ctx.release()
-    with torch.no_grad():
-        verts = body_model(BodyPose(torch.from_numpy(rot)[None], torch.from_numpy(tr)[None]), shape).vertices
-    rm = render_mesh_for(body_model)
-    rast = rasterize_uv(rm.gather(verts)[0], rm, cam)
-    feat = sample_texture(torch.from_numpy(q.dequantize()), torch.from_numpy(rast.uv)[None],
-                          torch.from_numpy(rast.mask)[None])[0].numpy()
-    ref = np.rint(feat / q.scales[:, None, None] + 128).astype(np.int32)
+    ref, covered = training_raster_bytes(body_model, shape, q, rot, tr, cam)
     diff = np.abs(gl - ref).max(axis=0)
-    covered = rast.mask
     assert covered.sum() > 800  # enough body pixels for the statistics below
     assert (diff[covered] <= 1).mean() > 0.99  # bilinear filter rounding: at most 1 LSB
     assert (diff[~covered] == 0).mean() > 0.99  # background is exactly the zero point
