@@ -18,10 +18,7 @@ import weakref
 import numpy as np
 
 from morf.raster.neural_raster import FAR, NEAR, NUM_CHANNELS, NeuralRasterizer, SkinnedMesh
-from morf.raster.texture_quant import ZERO_POINT, QuantizedTexture
-
-Box = tuple[int, int, int, int]  # y0, y1, x0, x1: rows y0..y1-1, columns x0..x1-1
-
+from morf.raster.texture_quant import QuantizedTexture
 
 class CpuNeuralRasterizer:
     """Args as :class:`~morf.raster.neural_raster.NeuralRasterizer`'s; ``ctx`` is only used for
@@ -47,46 +44,27 @@ class CpuNeuralRasterizer:
         self._sx, self._sy, self._sz, self._iw = (np.empty(n, np.float32) for _ in range(4))
         self._tri = np.full((self.height, self.width), -1, np.int32)
         self._depth = np.full((self.height, self.width), np.inf, np.float32)
-        self._box: Box | None = None  # the drawn frame's box (None: nothing on screen)
-        self._drawn_box: Box | None = None  # the box the id buffers hold
+        self._box = np.zeros(4, np.int32)  # y0, y1, x0, x1 of the drawn frame (the id buffers hold it)
         self._by_gl = False  # the drawn frame went to GL
         self._gl: NeuralRasterizer | None = None
-        self._buffers: dict[int, tuple[weakref.ref, Box | None]] = {}  # id(buffer) -> (buffer, its last box)
+        self._buffers: dict[int, tuple[weakref.ref, np.ndarray]] = {}  # id(buffer) -> (buffer, its last box)
 
     # ---- drawing -----------------------------------------------------------------------------
     def draw(self, bone_transforms: np.ndarray, camera) -> None:
-        from morf.raster.cpu_raster_kernels import project, raster_ids
-        from morf.raster.skinning_kernels import skin
+        from morf.raster.cpu_raster_kernels import draw_frame
 
         if (camera.width, camera.height) != (self.width, self.height):
             raise ValueError(f"camera is {camera.width}x{camera.height}, rasterizer {self.width}x{self.height}")
         T = np.ascontiguousarray(bone_transforms, np.float32)
         if T.shape != (self.num_bones, 4, 4):
             raise ValueError(f"bone transforms must be ({self.num_bones}, 4, 4), got {T.shape}")
-        skin(self._rest, self._bone_indices, self._bone_weights, T, self._posed)
         vp = camera.gl_projection(NEAR, FAR).astype(np.float32) @ camera.view_matrix().astype(np.float32)
-        vp = np.ascontiguousarray(vp, np.float32)
-        if not project(self._posed, vp, np.float32(self.width), np.float32(self.height), self._sx, self._sy,
-                       self._sz, self._iw):
-            self._by_gl = True
+        self._by_gl = not draw_frame(self._rest, self._bone_indices, self._bone_weights, T, self._posed,
+                                     np.ascontiguousarray(vp, np.float32), np.float32(self.width),
+                                     np.float32(self.height), self._sx, self._sy, self._sz, self._iw, self._faces,
+                                     self._tri, self._depth, self._box)
+        if self._by_gl:
             self._gl_rasterizer().draw(T, camera)
-            return
-        self._by_gl = False
-        box = self._screen_box()
-        if self._drawn_box is not None:  # the id buffers back to empty where the last frame drew
-            y0, y1, x0, x1 = self._drawn_box
-            self._tri[y0:y1, x0:x1] = -1
-            self._depth[y0:y1, x0:x1] = np.inf
-        self._box = self._drawn_box = box
-        if box is not None:
-            raster_ids(self._sx, self._sy, self._sz, self._faces, self._tri, self._depth, *box)
-
-    def _screen_box(self) -> Box | None:
-        x0 = max(0, int(np.floor(self._sx.min())) - 1)
-        x1 = min(self.width, int(np.ceil(self._sx.max())) + 1)
-        y0 = max(0, int(np.floor(self._sy.min())) - 1)
-        y1 = min(self.height, int(np.ceil(self._sy.max())) + 1)
-        return (y0, y1, x0, x1) if x0 < x1 and y0 < y1 else None
 
     def _gl_rasterizer(self) -> NeuralRasterizer:
         if self._gl is None:
@@ -102,28 +80,26 @@ class CpuNeuralRasterizer:
     def read(self, out: np.ndarray | None = None) -> np.ndarray:
         """The drawn frame as (H, W, 16) uint8 channels last, into ``out`` when given (any
         C-contiguous uint8 array of H*W*16 bytes, e.g. the renderer's (1, H, W, 16) input)."""
-        from morf.raster.cpu_raster_kernels import shade
+        from morf.raster.cpu_raster_kernels import read_frame
 
         if out is None:
             out = np.empty((self.height, self.width, NUM_CHANNELS), np.uint8)
         if not (out.flags.c_contiguous and out.dtype == np.uint8 and out.size == self.height * self.width * NUM_CHANNELS):
             raise ValueError("read buffer must be C-contiguous uint8 with H*W*16 elements")
-        hwc = out.reshape(self.height, self.width, NUM_CHANNELS)
         owner = _owner(out)
+        whole = np.array([0, self.height, 0, self.width], np.int32)
         if self._by_gl:
             self._gl.read(out)
-            self._buffers[id(owner)] = (weakref.ref(owner), (0, self.height, 0, self.width))
-            return out
-        known = self._buffers.get(id(owner))
-        if known is None or known[0]() is not owner:
-            hwc.fill(ZERO_POINT)
-        elif known[1] is not None:
-            y0, y1, x0, x1 = known[1]
-            hwc[y0:y1, x0:x1] = ZERO_POINT
-        if self._box is not None:
-            shade(self._tri, self._sx, self._sy, self._iw, self._faces, self._uvs, self._texture, hwc, *self._box)
-        self._buffers = {k: v for k, v in self._buffers.items() if v[0]() is not None}
-        self._buffers[id(owner)] = (weakref.ref(owner), self._box)
+            box = whole  # GL wrote every pixel
+        else:
+            known = self._buffers.get(id(owner))
+            clear = known[1] if known is not None and known[0]() is owner else whole
+            read_frame(self._tri, self._sx, self._sy, self._iw, self._faces, self._uvs, self._texture,
+                       out.reshape(self.height, self.width, NUM_CHANNELS), clear, self._box)
+            box = self._box.copy()
+        if len(self._buffers) > 8:
+            self._buffers = {k: v for k, v in self._buffers.items() if v[0]() is not None}
+        self._buffers[id(owner)] = (weakref.ref(owner), box)
         return out
 
     def release(self) -> None:

@@ -21,6 +21,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from morf.raster.skinning_kernels import skin
+
 ZERO_POINT = 128  # the texture's zero point: the byte of value 0 (morf.raster.texture_quant)
 
 
@@ -130,3 +132,42 @@ def shade(tri, sx, sy, iw, faces, uvs, texture, out, y_lo, y_hi, x_lo, x_hi):
                                  + w11 * np.float32(t11[ch]) + half)
             if o[0] == ZERO_POINT:  # the coverage mark (morf.raster.neural_raster.COVERAGE_CHANNEL)
                 o[0] = ZERO_POINT + 1
+
+
+@nb.njit(cache=True, nogil=True)
+def draw_frame(rest, bone_indices, bone_weights, transforms, posed, view_proj, width, height, sx, sy, sz, iw,
+               faces, tri, depth, box):
+    """One frame's skinning, projection and triangle ids in a single call (one GIL round trip:
+    in the studio the training thread holds the GIL much of the time). ``box`` (4 int32: y0, y1,
+    x0, x1) holds the last drawn box on entry, whose ids are cleared, and this frame's on return
+    (empty: y0 == y1). Returns False when GL has to draw the frame (see :func:`project`)."""
+    skin(rest, bone_indices, bone_weights, transforms, posed)
+    if not project(posed, view_proj, width, height, sx, sy, sz, iw):
+        return False
+    for y in range(box[0], box[1]):
+        for x in range(box[2], box[3]):
+            tri[y, x] = -1
+            depth[y, x] = np.inf
+    h, w = tri.shape
+    x0 = max(0, int(np.floor(sx.min())) - 1)
+    x1 = min(w, int(np.ceil(sx.max())) + 1)
+    y0 = max(0, int(np.floor(sy.min())) - 1)
+    y1 = min(h, int(np.ceil(sy.max())) + 1)
+    if x0 >= x1 or y0 >= y1:
+        x0 = x1 = y0 = y1 = 0
+    box[0], box[1], box[2], box[3] = y0, y1, x0, x1
+    if y0 < y1:
+        raster_ids(sx, sy, sz, faces, tri, depth, y0, y1, x0, x1)
+    return True
+
+
+@nb.njit(cache=True, nogil=True)
+def read_frame(tri, sx, sy, iw, faces, uvs, texture, out, clear_box, box):
+    """The drawn frame into ``out`` (H, W, 16): the zero point over ``clear_box`` (what this buffer
+    held before: its last box, or all of it), then the texture sampled over ``box``."""
+    for y in range(clear_box[0], clear_box[1]):
+        for x in range(clear_box[2], clear_box[3]):
+            for ch in range(out.shape[2]):
+                out[y, x, ch] = ZERO_POINT
+    if box[0] < box[1]:
+        shade(tri, sx, sy, iw, faces, uvs, texture, out, box[0], box[1], box[2], box[3])
