@@ -48,8 +48,13 @@ SCRIPT = READ_BACK + textwrap.dedent("""
     image = rng.integers(0, 256, (64, 64, 3), dtype=np.uint8)
     presenter.present(image, 10, 20)
     rgb = read_window(window, 10, 20, 64)
+    image2 = image[::-1].copy()  # a second frame through the same buffer
+    presenter.present(image2, 10, 20)
+    rgb2 = read_window(window, 10, 20, 64)
+    kind = type(presenter).__name__
     presenter.close()
-    print("EQUAL" if np.array_equal(rgb, image) else "DIFFER %d" % int((rgb != image).sum()))
+    same = np.array_equal(rgb, image) and np.array_equal(rgb2, image2)
+    print(("EQUAL " if same else "DIFFER %d " % int((rgb != image).sum())) + kind)
 """)
 
 
@@ -83,7 +88,8 @@ APP_SCRIPT = READ_BACK + textwrap.dedent("""
 """)
 
 
-def _run_on_xvfb(depth: int, script: str = SCRIPT, args: tuple[str, ...] = (), size: str = "320x240") -> str:
+def _run_on_xvfb(depth: int, script: str = SCRIPT, args: tuple[str, ...] = (), size: str = "320x240",
+                 env: dict | None = None) -> str:
     read, write = os.pipe()
     server = subprocess.Popen(["Xvfb", "-displayfd", str(write), "-screen", "0", f"{size}x{depth}", "-nolisten", "tcp"],
                               pass_fds=[write], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -95,7 +101,7 @@ def _run_on_xvfb(depth: int, script: str = SCRIPT, args: tuple[str, ...] = (), s
             if not chunk:
                 pytest.skip("Xvfb did not start")
             number += chunk
-        env = {**os.environ, "DISPLAY": f":{int(number)}"}
+        env = {**os.environ, **(env or {}), "DISPLAY": f":{int(number)}"}
         env.pop("WAYLAND_DISPLAY", None)
         env.pop("PYOPENGL_PLATFORM", None)
         out = subprocess.run([sys.executable, "-c", script, *args], env=env, capture_output=True, text=True,
@@ -108,8 +114,12 @@ def _run_on_xvfb(depth: int, script: str = SCRIPT, args: tuple[str, ...] = (), s
         server.wait(10)
 
 
-def test_the_image_lands_in_the_window_pixel_for_pixel():
-    assert _run_on_xvfb(24) == "EQUAL"
+def test_the_image_lands_in_the_window_pixel_for_pixel_through_shared_memory():
+    assert _run_on_xvfb(24) == "EQUAL ShmXImagePresenter"  # Xvfb has MIT-SHM, and it is local
+
+
+def test_the_image_lands_in_the_window_pixel_for_pixel_through_plain_requests():
+    assert _run_on_xvfb(24, env={"MORF_XSHM": "0"}) == "EQUAL XImagePresenter"
 
 
 def test_a_server_with_other_pixels_gets_no_presenter():
