@@ -60,8 +60,9 @@ FIXED_DT = 1.0 / 60.0
 CLEAR_RGB = (0.06, 0.06, 0.07)
 LIVE_PANEL = PANELS.index("Live render")
 # while the live panel plays, frames between full UI frames only redraw the live image (studio.ui_cache);
-# a full frame (text, training progress) still comes at least this often
-FULL_FRAME_INTERVAL_S = 0.25
+# a full frame (text, training progress) still comes at least this often. Each costs llvmpipe about
+# as much as a live frame's rasterization: at 0.25 s the UI skipped about one live frame in twenty
+FULL_FRAME_INTERVAL_S = 0.5
 RASTER_WAIT_S = 0.02  # the longest a light frame waits for the live render's rasterization
 
 
