@@ -96,15 +96,34 @@ def measure(avatar_dir: str, size: int, frames: int) -> PlaybackMeasurement:
         if share is not None:  # the renderer graph also composites: split its time by the profile
             breakdown["composite_ms"] = breakdown["renderer_ms"] * share
             breakdown["renderer_ms"] -= breakdown["composite_ms"]
+    compared = range(5, 5 + min(5, frames))
     with Player(avatar_dir, size=size, background=(255, 255, 255), precision="fp32") as p32:
-        ref = [p32.render(rot[i], tr[i], cams[i]) for i in range(5, 5 + min(5, frames))]
-    mse = np.mean([np.mean((a.astype(np.float32) - b) ** 2) for a, b in zip(ref, images)]) / 255.0 ** 2
+        ref = [p32.render(rot[i], tr[i], cams[i]) for i in compared]
+        p32.background = (0, 0, 0)  # the same frames over black: where they differ is the person's coverage
+        over_black = [p32.render(rot[i], tr[i], cams[i]) for i in compared]
+    image_db, person_db = int8_against_fp32(images[:len(ref)], ref, over_black)
     return PlaybackMeasurement(
         breakdown_ms=breakdown, renderer_only_ms=renderer_ms, peak_rss_mb=peak_rss_mb, kernels=profile,
         composite_share_of_graph=share, threads=THREADS, frame_ms=seq * 1e3, fps_end_to_end=1.0 / seq,
         frame_ms_pipelined=piped * 1e3, fps_pipelined=1.0 / piped,
         tail=_tail_kind(p), raster=p.raster_kind,
-        int8_psnr_vs_fp32_image_db=float(-10 * np.log10(max(mse, 1e-12))))
+        int8_psnr_vs_fp32_image_db=image_db, int8_psnr_vs_fp32_person_db=person_db)
+
+
+def int8_against_fp32(int8_images, fp32_over_white, fp32_over_black) -> tuple[float, float]:
+    """PSNR (dB) of the int8 player's frames (over white) against the fp32 player's, over the
+    whole image and over the person: the pixels whose fp32 coverage is above one half (from the
+    fp32 frames over white and over black: coverage = 1 - (white - black) / 255)."""
+    se_image, se_person, n_person = 0.0, 0.0, 0
+    for a, w, b in zip(int8_images, fp32_over_white, fp32_over_black):
+        se = ((a.astype(np.float32) - w.astype(np.float32)) / 255.0) ** 2
+        coverage = 1.0 - (w.astype(np.float32) - b.astype(np.float32)).mean(-1) / 255.0
+        person = coverage > 0.5
+        se_image += float(se.mean())
+        se_person += float(se[person].sum())
+        n_person += int(person.sum()) * 3
+    db = lambda mse: float(-10 * np.log10(max(mse, 1e-12)))  # noqa: E731
+    return db(se_image / len(int8_images)), db(se_person / n_person) if n_person else float("nan")
 
 
 # onnxruntime op types by what they compute in: int8 kernels, the float <-> int8 conversions between them
@@ -118,6 +137,14 @@ FLOAT_TYPES = ("float", "float16", "bfloat16", "double")
 def _compiled_tail(player) -> bool:
     """Whether the player runs its graph cut before a compiled tail (:mod:`morf.playback.native_tail`)."""
     return getattr(player.renderer, "shader", None) is not None
+
+
+def int8_line(avatar: MeasuredAvatar, size: int) -> str:
+    m = avatar.measurement
+    person = ("" if m.int8_psnr_vs_fp32_person_db is None
+              else f", person (fp32 coverage > 0.5) {m.int8_psnr_vs_fp32_person_db:.1f} dB")
+    return (f"int8 against fp32 on the benchmark's frames at {size} x {size}: image {m.int8_psnr_vs_fp32_image_db:.1f} dB"
+            f"{person}; the export's own check on its held-out views: {avatar.int8_psnr_vs_fp32_db:.1f} dB.")
 
 
 def raster_words(kind: str) -> str:
@@ -345,6 +372,7 @@ def run(args) -> int:
           "\nBreakdown of one frame (median ms, sequential, " + main_key + "):\n",
           markdown_table([breakdown], list(breakdown)),
           f"\nThe renderer's {tail_words(main.measurement.tail)}; {raster_words(main.measurement.raster)}.\n",
+          f"\n{int8_line(main, args.size)}\n",
           f"\nWhat onnxruntime ran for the renderer graph ({main_key}; share of its kernel time):\n",
           "```\n" + kernels + "\n```\n"]
     if limit:
@@ -355,6 +383,7 @@ def run(args) -> int:
     print(kernels)
     if limit:
         print(limit_line(limit, main_key))
+    print(int8_line(main, args.size))
     tail = tail_words(main.measurement.tail)
     print(f"{main_key}: {main.measurement.fps_end_to_end:.1f} fps end to end, "
           f"{main.measurement.fps_pipelined:.1f} fps pipelined ({tail}; {raster_words(main.measurement.raster)}); "

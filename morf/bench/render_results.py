@@ -64,6 +64,8 @@ class PlaybackMeasurement:
         threads: onnxruntime intra-op threads; frame_ms, fps_end_to_end: sequential, end to end;
         frame_ms_pipelined, fps_pipelined: through ``render_sequence``;
         int8_psnr_vs_fp32_image_db: the int8 player's frames against the fp32 player's;
+        int8_psnr_vs_fp32_person_db: the same over the person (fp32 coverage above one half; None in
+            records from before it was measured);
         tail: "compiled:LAYER" when the graph's full-resolution tail ran as the player's compiled pass
             (LAYER: numba's threading layer; ``renderer_only_ms`` and the breakdown's ``renderer_ms``
             then include it, ``graph_ms`` and ``tail_ms`` split them), "graph" when onnxruntime ran
@@ -87,6 +89,7 @@ class PlaybackMeasurement:
     composite_share_of_graph: float | None = None
     tail: str = "graph"
     raster: str = "gl"
+    int8_psnr_vs_fp32_person_db: float | None = None
 
     def to_dict(self) -> dict:
         d = {"breakdown_ms": dict(self.breakdown_ms), "renderer_only_ms": self.renderer_only_ms,
@@ -96,6 +99,8 @@ class PlaybackMeasurement:
         d.update(threads=self.threads, frame_ms=self.frame_ms, fps_end_to_end=self.fps_end_to_end,
                  frame_ms_pipelined=self.frame_ms_pipelined, fps_pipelined=self.fps_pipelined,
                  int8_psnr_vs_fp32_image_db=self.int8_psnr_vs_fp32_image_db, tail=self.tail, raster=self.raster)
+        if self.int8_psnr_vs_fp32_person_db is not None:
+            d["int8_psnr_vs_fp32_person_db"] = self.int8_psnr_vs_fp32_person_db
         return d
 
     @staticmethod
@@ -106,7 +111,7 @@ class PlaybackMeasurement:
             fps_end_to_end=d["fps_end_to_end"], frame_ms_pipelined=d["frame_ms_pipelined"],
             fps_pipelined=d["fps_pipelined"], int8_psnr_vs_fp32_image_db=d["int8_psnr_vs_fp32_image_db"],
             composite_share_of_graph=d.get("composite_share_of_graph"), tail=d.get("tail", "graph"),
-            raster=d.get("raster", "gl"))
+            raster=d.get("raster", "gl"), int8_psnr_vs_fp32_person_db=d.get("int8_psnr_vs_fp32_person_db"))
 
 
 TABLE_COLUMNS = ["avatar", "renderer ms", "frame ms", "fps", "fps pipelined", "int8 PSNR dB", "peak RSS MB", "tail"]
@@ -185,6 +190,7 @@ class RenderResult:
              "pipeline_gain_ms": m.frame_ms - m.frame_ms_pipelined, "breakdown_ms": dict(m.breakdown_ms),
              "peak_rss_mb": m.peak_rss_mb, "int8_psnr_vs_fp32": a.int8_psnr_vs_fp32_db,
              "int8_ssim_vs_fp32": a.int8_ssim_vs_fp32, "int8_psnr_vs_fp32_image": m.int8_psnr_vs_fp32_image_db,
+             "int8_psnr_vs_fp32_person": m.int8_psnr_vs_fp32_person_db,
              "kernels": m.kernels.to_dict(), "avatars": {k: v.to_dict() for k, v in self.avatars.items()},
              "seconds": self.seconds}
         if self.compute_limit is not None:

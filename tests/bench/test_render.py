@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
 from morf.bench.render import cpu_report, graph_profile, kernel_summary, op_kind
@@ -70,6 +71,8 @@ def _measurement(composite_share: float | None, tail: str = "graph", raster: str
         d["composite_share_of_graph"] = composite_share
     d.update(threads=2, frame_ms=10.0, fps_end_to_end=100.0, frame_ms_pipelined=8.0, fps_pipelined=125.0,
              int8_psnr_vs_fp32_image_db=41.5, tail=tail, raster=raster)
+    if composite_share is None:  # records from before the person's PSNR was measured have none
+        d["int8_psnr_vs_fp32_person_db"] = 30.5
     return d
 
 
@@ -80,6 +83,22 @@ def test_a_measurement_reads_back_as_the_child_wrote_it(share, tail, raster):
     assert json.dumps(m.to_dict()) == json.dumps(d)  # same keys, same order
     assert m.composite_share_of_graph == share and m.kernels.ops["QLinearConv"] == OpTime("int8", 3, 2.5)
     assert m.kernels.composite_share == share and m.tail == tail and m.raster == raster
+    assert m.int8_psnr_vs_fp32_person_db == (30.5 if share is None else None)
+
+
+def test_int8_against_fp32_scores_the_image_and_the_person_apart():
+    from morf.bench.render import int8_against_fp32
+
+    white = np.full((20, 20, 3), 255, np.uint8)
+    black = np.zeros((20, 20, 3), np.uint8)
+    white[5:15, 5:15] = black[5:15, 5:15] = 100  # an opaque person of 100 pixels
+    white[15, 5:15], black[15, 5:15] = 200, 100  # a half-covered edge row (coverage 0.6): counted
+    white[16, 5:15], black[16, 5:15] = 250, 20  # coverage 0.1: background
+    int8 = white.copy()
+    int8[5:15, 5:15] = 110  # off by 10 levels over the opaque person only
+    image_db, person_db = int8_against_fp32([int8], [white], [black])
+    assert person_db == pytest.approx(-10 * np.log10((10 / 255) ** 2 * 100 / 110), abs=1e-4)
+    assert image_db == pytest.approx(-10 * np.log10((10 / 255) ** 2 * 100 / 400), abs=1e-4)
 
 
 def test_the_render_result_keeps_its_keys_and_takes_the_headline_from_the_main_avatar():
@@ -94,7 +113,8 @@ def test_the_render_result_keeps_its_keys_and_takes_the_headline_from_the_main_a
     d = r.to_dict()
     assert list(d) == ["benchmark", "size", "precision", "threads", "frames", "machine", "cpu_features", "command",
                        "avatar", "fps", "fps_pipelined", "pipeline_gain_ms", "breakdown_ms", "peak_rss_mb",
-                       "int8_psnr_vs_fp32", "int8_ssim_vs_fp32", "int8_psnr_vs_fp32_image", "kernels", "avatars",
+                       "int8_psnr_vs_fp32", "int8_ssim_vs_fp32", "int8_psnr_vs_fp32_image", "int8_psnr_vs_fp32_person",
+                       "kernels", "avatars",
                        "seconds"]  # no compute_limit without a renderer config
     assert d["fps"] == 100.0 and d["pipeline_gain_ms"] == 2.0 and d["int8_psnr_vs_fp32"] == 38.0
     assert d["avatars"]["given"] == fast.to_dict() and d["kernels"] == _measurement(0.25)["kernels"]
