@@ -20,6 +20,7 @@ import numpy as np
 from morf.raster.neural_raster import FAR, NEAR, NUM_CHANNELS, NeuralRasterizer, SkinnedMesh
 from morf.raster.texture_quant import QuantizedTexture
 
+
 class CpuNeuralRasterizer:
     """Args as :class:`~morf.raster.neural_raster.NeuralRasterizer`'s; ``ctx`` is only used for
     the frames GL has to draw (made on first need)."""

@@ -4,7 +4,8 @@ Under Mesa's llvmpipe the draw of the 27 k-triangle body at 640 x 640 cost about
 it triangle setup and binning on one thread (a fragment shader writing a constant took as long),
 and the read-back 0.5 ms more. These loops do the same work straight into the renderer's input:
 project the skinned vertices (:func:`project`), keep the nearest front-facing triangle at each
-pixel centre (:func:`raster_ids`), then sample the 16-channel texture there (:func:`shade`).
+pixel centre (:func:`raster_ids`), then sample the 16-channel texture there (:func:`shade`);
+:func:`draw_frame` and :func:`read_frame` chain them into the rasterizer's two calls.
 
 The sampling is the GL shader's and the training's: perspective-correct texture coordinates,
 bilinear filtering of the texture bytes with clamp-to-edge (``grid_sample``, ``align_corners=False``,
@@ -22,8 +23,7 @@ import numba as nb
 import numpy as np
 
 from morf.raster.skinning_kernels import skin
-
-ZERO_POINT = 128  # the texture's zero point: the byte of value 0 (morf.raster.texture_quant)
+from morf.raster.texture_quant import ZERO_POINT  # the byte of value 0: the background's
 
 
 @nb.njit(cache=True, nogil=True)
