@@ -91,23 +91,30 @@ def supported() -> str | None:
     return None
 
 
+def masked_environ(cpu_class: str) -> dict[str, str]:
+    """This process's environment with the shim preloaded for ``cpu_class``: a process started
+    with it runs as that class. Raises InputError where the class is unknown or this machine
+    cannot mask CPUID."""
+    if cpu_class not in CLASSES:
+        raise InputError(f"--cpu-as: unknown CPU class {cpu_class!r}; choose from {', '.join(CLASSES)}")
+    why = supported()
+    if why:
+        raise InputError(f"--cpu-as {cpu_class}: {why}")
+    env = dict(os.environ)
+    env[ENV] = cpu_class
+    env["LD_PRELOAD"] = " ".join(p for p in (str(build_shim()), env.get("LD_PRELOAD", "")) if p)
+    return env
+
+
 def run_as(cpu_class: str, argv: list[str] | None = None) -> None:
     """Make this command run as ``cpu_class``: returns at once when it already does, else
     replaces this process with the same command under the shim (never returns then)."""
-    if cpu_class not in CLASSES:
-        raise InputError(f"--cpu-as: unknown CPU class {cpu_class!r}; choose from {', '.join(CLASSES)}")
     current = active_class()
     if current == cpu_class:
         return
     if os.environ.get(ENV) == cpu_class:  # the shim was loaded, yet the kernel refused faulting
         raise InputError(f"--cpu-as {cpu_class}: the kernel refused CPUID faulting to this process")
-    why = supported()
-    if why:
-        raise InputError(f"--cpu-as {cpu_class}: {why}")
-    shim = build_shim()
-    env = dict(os.environ)
-    env[ENV] = cpu_class
-    env["LD_PRELOAD"] = " ".join(p for p in (str(shim), env.get("LD_PRELOAD", "")) if p)
+    env = masked_environ(cpu_class)
     sys.stdout.flush()
     sys.stderr.flush()
     args = argv if argv is not None else sys.orig_argv  # the interpreter's own command line, "-m" included

@@ -349,13 +349,13 @@ def run(args) -> int:
     if not args.no_compare and args.with_training:
         measure()
     from morf.bench.common import machine_info
-    from morf.cpuid_mask import active_class
 
-    masked = active_class()  # `morf bench --cpu-as CLASS studio` hands its CPUID mask down to this process
+    machine = machine_info()
+    masked = machine["cpu_features"].get("cpuid_masked_to")  # `morf bench --cpu-as CLASS studio` hands it down
     result: dict = {"benchmark": "studio", "avatar": str(avatar), "motion": str(Path(args.motion).resolve()),
                     "size": args.size, "with_training": args.with_training,
                     "preset": info.pop("train_preset", None),  # before **info: recorded once
-                    **info, "studio": summarize(merge_windows(windows)), "machine": machine_info(),
+                    **info, "studio": summarize(merge_windows(windows)), "machine": machine,
                     "command": "morf bench " + (f"--cpu-as {masked} " if masked else "") + "studio "
                                + " ".join(sys.argv[1:])}
     if refs:

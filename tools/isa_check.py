@@ -70,13 +70,15 @@ def main() -> int:
     args = p.parse_args()
     qemu = shutil.which("qemu-x86_64")
     if args.cpu_as:
-        from morf.cpuid_mask import CLASSES, ENV, build_shim, supported
+        from morf.cpuid_mask import masked_environ
+        from morf.errors import InputError
 
-        why = supported() if args.cpu_as in CLASSES else f"unknown class {args.cpu_as!r}"
-        if why:
-            print(f"isa_check: --cpu-as {args.cpu_as}: {why}", file=sys.stderr)
+        try:
+            masked = masked_environ(args.cpu_as)
+        except InputError as e:
+            print(f"isa_check: {e}", file=sys.stderr)
             return 2
-        prefix, extra, other = [], {ENV: args.cpu_as, "LD_PRELOAD": str(build_shim())}, f"the {args.cpu_as} class"
+        prefix, extra, other = [], masked, f"the {args.cpu_as} class"
     elif qemu is None:
         print("isa_check: qemu-x86_64 not found (apt-get install qemu-user)", file=sys.stderr)
         return 2
