@@ -144,7 +144,10 @@ def int8_line(avatar: MeasuredAvatar, size: int) -> str:
     person = ("" if m.int8_psnr_vs_fp32_person_db is None
               else f", person (fp32 coverage > 0.5) {m.int8_psnr_vs_fp32_person_db:.1f} dB")
     return (f"int8 against fp32 on the benchmark's frames at {size} x {size}: image {m.int8_psnr_vs_fp32_image_db:.1f} dB"
-            f"{person}; the export's own check on its held-out views: {avatar.int8_psnr_vs_fp32_db:.1f} dB.")
+            f"{person}; the export's own check on its held-out views: {avatar.int8_psnr_vs_fp32_db:.1f} dB"
+            + ("" if avatar.int8_check_db is None else
+               f" (the lowest of image and person at every scale it measured, which the player goes by: "
+               f"{avatar.int8_check_db:.1f} dB)") + ".")
 
 
 def raster_words(kind: str) -> str:

@@ -124,7 +124,9 @@ class MeasuredAvatar:
     Fields:
         measurement: the timings; int8_psnr_vs_fp32_db, int8_ssim_vs_fp32: the export's int8 check
         against fp32; renderer_config: the renderer's config (None when the manifest has none);
-        input_layout: the renderer's input layout (nhwc | nchw).
+        input_layout: the renderer's input layout (nhwc | nchw); int8_check_db: the export's check
+        the player goes by, the lowest of image and person at every scale it measured
+        (:func:`morf.export.avatar_folder.int8_check_db`).
     """
 
     measurement: PlaybackMeasurement
@@ -132,16 +134,20 @@ class MeasuredAvatar:
     int8_ssim_vs_fp32: float
     renderer_config: dict | None
     input_layout: str
+    int8_check_db: float | None = None
 
     @staticmethod
     def from_manifest(measurement: PlaybackMeasurement, manifest: dict) -> MeasuredAvatar:
+        from morf.export.avatar_folder import int8_check_db
+
         return MeasuredAvatar(measurement, manifest["int8_quality"]["psnr_db"], manifest["int8_quality"]["ssim"],
-                              manifest["renderer"]["config"], manifest["renderer"]["input_layout"])
+                              manifest["renderer"]["config"], manifest["renderer"]["input_layout"],
+                              int8_check_db(manifest))
 
     def to_dict(self) -> dict:
         return {**self.measurement.to_dict(), "int8_psnr_vs_fp32_db": self.int8_psnr_vs_fp32_db,
                 "int8_ssim_vs_fp32": self.int8_ssim_vs_fp32, "renderer_config": self.renderer_config,
-                "input_layout": self.input_layout}
+                "input_layout": self.input_layout, "int8_check_db": self.int8_check_db}
 
     def table_row(self, name: str) -> dict:
         """This avatar's row of the report's table (:data:`TABLE_COLUMNS`)."""

@@ -66,5 +66,13 @@ def run(args) -> int:
     q = manifest["int8_quality"]
     size = sum(f["bytes"] for f in manifest["files"].values()) / 1e6
     print(f"exported {out} ({size:.1f} MB) from run {manifest['source']['run']}; int8 vs fp32 on "
-          f"{q['views']} {q['on']} views: PSNR {q['psnr_db']:.1f} dB, SSIM {q['ssim']:.4f}")
+          f"{q['views']} {q['on']} views: PSNR {q['psnr_db']:.1f} dB (person {q['psnr_person_db']:.1f}), "
+          f"SSIM {q['ssim']:.4f}" + _closer_check(q))
     return 0
+
+
+def _closer_check(q: dict) -> str:
+    c = q.get("playback_scale")
+    if not isinstance(c, dict):
+        return ""
+    return f"; {c['zoom']:.2f}x closer, as the player draws: {c['psnr_db']:.1f} dB (person {c['psnr_person_db']:.1f})"

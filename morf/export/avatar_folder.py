@@ -132,13 +132,15 @@ def read_manifest(root: str | Path) -> dict:
 
 
 def int8_check_db(manifest: dict) -> float | None:
-    """The export's int8-against-fp32 PSNR on held-out views, the lower of the whole image's and
-    the person's (folders exported before the person's was measured: the whole image's); None
-    when the manifest has no int8 check."""
+    """The export's int8-against-fp32 PSNR on held-out views, the lowest of the whole image's and
+    the person's, at the training views' scale and, where measured, at the player's (folders
+    exported before the person's or the player's scale was measured: what they have); None when
+    the manifest has no int8 check."""
     q = manifest.get("int8_quality")
     if not isinstance(q, dict) or q.get("psnr_db") is None:
         return None
-    values = [float(q["psnr_db"])] + ([float(q["psnr_person_db"])] if q.get("psnr_person_db") is not None else [])
+    checks = [q] + ([q["playback_scale"]] if isinstance(q.get("playback_scale"), dict) else [])
+    values = [float(c[k]) for c in checks for k in ("psnr_db", "psnr_person_db") if c.get(k) is not None]
     return min(values)
 
 

@@ -2,13 +2,15 @@
 
 Steps: quantise the baked neural texture, shape the render mesh and skeleton, rasterize the
 capture's own views with the same GL pipeline the player uses (so int8 calibration sees exactly
-the bytes it will see live), write the fp32 and int8 renderers, measure what int8 costs on views
+the bytes it will see live; with ``playback_zoom`` also as close as the player draws them,
+``calibration_views.py``), write the fp32 and int8 renderers, measure what int8 costs on views
 held out of calibration, and write the manifest. The folder is built beside the target and moved
 into place at the end, so a failed export leaves the previous avatar intact.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,6 +19,7 @@ from typing import Sequence
 import numpy as np
 
 from morf.export.avatar_folder import RENDERERS, replace_folder, write_arrays, write_manifest
+from morf.export.calibration_views import mosaic, zoomed_camera
 from morf.export.onnx_renderer import OPSET, export_fp32, export_int8
 from morf.export.skeleton import SkinningSkeleton, skeleton_from_body_model
 from morf.pipeline.control import Progress, StageControl
@@ -45,6 +48,10 @@ class ExportConfig:
     input_layout: str = "nhwc"  # see morf.raster.neural_raster.LAYOUTS; nhwc is the GL read-back as it is
     max_calibration_views: int = 32  # int8 calibration rasterizations (more: slower export, same ranges)
     max_heldout_views: int = 8  # views for the int8-vs-fp32 quality report
+    # The same poses seen this many times closer, the player's largest scale (calibration_views.py):
+    # int8 is calibrated and checked on them too. 0: the given views only.
+    playback_zoom: float = 0.0
+    max_playback_views: int = 16  # zoomed calibration views (each one canvas of twice the side)
     extra: dict = field(default_factory=dict)  # free-form facts copied into the manifest
 
 
@@ -76,6 +83,10 @@ def rasterize_views(ctx, mesh: SkinnedMesh, texture: QuantizedTexture, skeleton:
         return out
     finally:
         nr.release()
+
+
+def _closer(views: Sequence[View], zoom: float) -> list[View]:
+    return [dataclasses.replace(v, camera=zoomed_camera(v.camera, zoom)) for v in views]
 
 
 def nchw_to_layout(raster: np.ndarray, layout: str) -> np.ndarray:
@@ -148,8 +159,15 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
     step = lambda i, msg: control.report(Progress("export", i, 5, msg))  # noqa: E731
     try:
         step(0, "rasterizing calibration views")
-        calib = rasterize_views(ctx, mesh, qtex, skeleton, list(calibration)[:cfg.max_calibration_views])
-        held = rasterize_views(ctx, mesh, qtex, skeleton, list(heldout)[:cfg.max_heldout_views])
+        calib_views, held_views = list(calibration)[:cfg.max_calibration_views], list(heldout)[:cfg.max_heldout_views]
+        calib = rasterize_views(ctx, mesh, qtex, skeleton, calib_views)
+        held = rasterize_views(ctx, mesh, qtex, skeleton, held_views)
+        close_calib, close_held = [], []
+        if cfg.playback_zoom > 0:
+            step(0, f"rasterizing calibration views {cfg.playback_zoom:.2f}x closer")
+            every = max(1, -(-len(calib_views) // cfg.max_playback_views))
+            close_calib = rasterize_views(ctx, mesh, qtex, skeleton, _closer(calib_views[::every], cfg.playback_zoom))
+            close_held = rasterize_views(ctx, mesh, qtex, skeleton, _closer(held_views, cfg.playback_zoom))
     finally:
         if own_ctx:
             ctx.release()
@@ -168,15 +186,21 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
     export_fp32(renderer, qtex.scales, tmp / RENDERERS["fp32"], cfg.input_layout)
     control.check()
     step(3, "quantising the renderer to int8")
-    chosen = export_int8(renderer, qtex.scales, tmp / RENDERERS["int8"], calib, cfg.input_layout)
+    chosen = export_int8(renderer, qtex.scales, tmp / RENDERERS["int8"], mosaic(calib) + close_calib if close_calib
+                         else calib, cfg.input_layout)
     step(4, "measuring int8 against fp32")
     # With no held-out views the report falls back on calibration views (and says so).
     quality = int8_quality(tmp / RENDERERS["fp32"], tmp / RENDERERS["int8"], held or calib[:4], cfg.input_layout)
     quality["on"] = "heldout" if held else "calibration"
     quality["calibration"] = chosen["calibration"]  # the activation ranges kept, and why
     quality["calibration_scores_db"] = chosen["scores_db"]
+    if close_calib:  # the same check on views as close as the player draws them
+        quality["playback_scale"] = {"zoom": round(float(cfg.playback_zoom), 3),
+                                     **int8_quality(tmp / RENDERERS["fp32"], tmp / RENDERERS["int8"],
+                                                    close_held or close_calib[:4], cfg.input_layout)}
     rcfg = getattr(renderer, "cfg", None)
-    fields = _manifest_fields(qtex, skeleton, mesh, rcfg, (H, W), shape, cfg, quality, len(calib), time.time() - t0)
+    fields = _manifest_fields(qtex, skeleton, mesh, rcfg, (H, W), shape, cfg, quality, len(calib) + len(close_calib),
+                              time.time() - t0)
     tails = native_tails(tmp, cfg.input_layout, held or calib[:4])
     if tails:
         fields["renderer"]["native_tail"] = tails
@@ -187,8 +211,6 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
 
 
 def _manifest_fields(qtex, skeleton, mesh, rcfg, image_hw, shape, cfg, quality, n_calib, seconds) -> dict:
-    import dataclasses
-
     import onnx
     import onnxruntime
     import torch
@@ -216,7 +238,11 @@ def _manifest_fields(qtex, skeleton, mesh, rcfg, image_hw, shape, cfg, quality, 
                      "size_multiple": int(rcfg.multiple) if rcfg is not None else 32,
                      "config": dataclasses.asdict(rcfg) if dataclasses.is_dataclass(rcfg) else None,
                      "int8": {"format": "QDQ", "weights": "int8 per-channel", "activations": "uint8",
-                              "calibration_views": n_calib, "calibration_method": "percentile 99.99",
+                              "calibration_views": n_calib,
+                              "calibration_method": {"percentile": "percentile 99.99", "minmax": "min-max"}.get(
+                                  quality.get("calibration"), quality.get("calibration")),
+                              "calibration_zoom": [1.0] + ([round(float(cfg.playback_zoom), 3)]
+                                                           if "playback_scale" in quality else []),
                               "equalized": True}},
         "int8_quality": quality,
         "export_seconds": round(seconds, 1),

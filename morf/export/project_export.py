@@ -42,6 +42,11 @@ class ProjectExportConfig:
             raise ProjectError(f"heldout_every must be >= 2 (1 would hold out every view), got {self.heldout_every}")
 
 
+# Below this the player's largest scale is about the training views' own, and calibrating int8 on
+# views that much closer adds nothing but time.
+PLAYBACK_ZOOM_MIN = 1.15
+
+
 def is_floor_run(run_dir: Path) -> bool:
     """Whether a run is the RGB floor (``morf train --method rgb``), which has no network to export."""
     try:
@@ -135,6 +140,7 @@ def export_project(project, cfg: ProjectExportConfig = ProjectExportConfig(), co
         control: progress reports and pause / stop points (``morf.pipeline.control``).
         body_model: a loaded body model (optional; loaded on demand).
     """
+    from morf.export.calibration_views import playback_zoom
     from morf.export.export_avatar import ExportConfig, export_avatar
     from morf.train.trained_avatar import load_trained_avatar
 
@@ -155,10 +161,12 @@ def export_project(project, cfg: ProjectExportConfig = ProjectExportConfig(), co
     calib, held = project_views(project, camera, len(body_model.bone_names), cfg.fits, cfg.heldout_every)
     stride = max(1, len(calib) // cfg.calibration_views)  # spread calibration over the whole turn
     out = Path(cfg.out) if cfg.out else Path(project.avatar_dir)
+    scale = trained_scale(camera, calib + held, trained.config)
+    zoom = playback_zoom(camera, [v.transl for v in calib + held], scale["max_pixels_per_metre"])
     ecfg = ExportConfig(input_layout=cfg.input_layout, max_calibration_views=cfg.calibration_views,
+                        playback_zoom=zoom if zoom > PLAYBACK_ZOOM_MIN else 0.0,
                         extra={"source": {"project": str(Path(project.root).resolve()), "run": run_dir.name,
-                                          "method": trained.method},
-                               "trained_scale": trained_scale(camera, calib + held, trained.config)})
+                                          "method": trained.method}, "trained_scale": scale})
     manifest = export_avatar(out, texture=trained.texture, renderer=trained.renderer, body_model=body_model,
                              shape=trained.shape, calibration=calib[::stride], heldout=held, cfg=ecfg,
                              control=control)

@@ -30,12 +30,14 @@ def turntable_views(num: int, size: int, seed: int = 0, num_bones: int = 104, po
 
 def build_synthetic_avatar(out_dir: str | Path, body_model=None, renderer_cfg=None, texture_size: int = 256,
                            image_size: int = 128, calibration_views: int = 6, heldout_views: int = 2,
-                           input_layout: str = "nhwc", seed: int = 0, renderer=None, texture=None) -> dict:
+                           input_layout: str = "nhwc", seed: int = 0, renderer=None, texture=None,
+                           playback_zoom: float = 0.0) -> dict:
     """Export a synthetic avatar to ``out_dir``; returns its manifest.
 
     ``renderer_cfg``: a :class:`morf.avatar.renderer.RendererConfig` (default: the "cpu" training
     preset's renderer). ``renderer`` / ``texture`` replace the random ones (tests use a renderer
-    whose mask follows the coverage, so the person's silhouette is known).
+    whose mask follows the coverage, so the person's silhouette is known). ``playback_zoom``: as
+    :class:`~morf.export.export_avatar.ExportConfig`'s.
     """
     import torch
 
@@ -53,7 +55,7 @@ def build_synthetic_avatar(out_dir: str | Path, body_model=None, renderer_cfg=No
     renderer = UNetRenderer(renderer_cfg).eval() if renderer is None else renderer
     texture = sinusoid_texture(renderer_cfg.in_channels, texture_size, seed) if texture is None else texture
     views = turntable_views(calibration_views + heldout_views, image_size, seed, len(body_model.bone_names))
-    cfg = ExportConfig(input_layout=input_layout, extra={"synthetic": True})
+    cfg = ExportConfig(input_layout=input_layout, playback_zoom=playback_zoom, extra={"synthetic": True})
     return export_avatar(out_dir, texture=texture, renderer=renderer, body_model=body_model,
                          shape=body_model.default_shape(), calibration=views[:calibration_views],
                          heldout=views[calibration_views:], cfg=cfg)

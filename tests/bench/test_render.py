@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from morf.bench.render import cpu_report, graph_profile, kernel_summary, op_kind
+from morf.bench.render import cpu_report, graph_profile, int8_line, kernel_summary, op_kind
 from morf.bench.render_results import GraphProfile, MeasuredAvatar, OpTime, PlaybackMeasurement, RenderResult
 
 
@@ -104,7 +104,13 @@ def test_int8_against_fp32_scores_the_image_and_the_person_apart():
 def test_the_render_result_keeps_its_keys_and_takes_the_headline_from_the_main_avatar():
     manifest = {"int8_quality": {"psnr_db": 38.0, "ssim": 0.97}, "renderer": {"config": None, "input_layout": "nhwc"}}
     fast = MeasuredAvatar.from_manifest(PlaybackMeasurement.from_dict(_measurement(0.25)), manifest)
-    assert list(fast.to_dict())[-4:] == ["int8_psnr_vs_fp32_db", "int8_ssim_vs_fp32", "renderer_config", "input_layout"]
+    assert list(fast.to_dict())[-5:] == ["int8_psnr_vs_fp32_db", "int8_ssim_vs_fp32", "renderer_config", "input_layout",
+                                         "int8_check_db"]
+    assert fast.int8_check_db == 38.0  # the lowest of every check the manifest has
+    closer = {**manifest, "int8_quality": {"psnr_db": 50.0, "ssim": 0.99, "psnr_person_db": 44.0,
+                                           "playback_scale": {"zoom": 2.0, "psnr_db": 47.0, "psnr_person_db": 36.0}}}
+    measured = MeasuredAvatar.from_manifest(PlaybackMeasurement.from_dict(_measurement(0.25)), closer)
+    assert measured.int8_check_db == 36.0 and "which the player goes by: 36.0 dB" in int8_line(measured, 640)
     assert fast.table_row("a") == {"avatar": "a", "renderer ms": 5.0, "frame ms": 10.0, "fps": 100.0,
                                    "fps pipelined": 125.0, "int8 PSNR dB": 38.0, "peak RSS MB": 300.0,
                                    "tail": "graph"}

@@ -76,3 +76,23 @@ def test_bad_runs_and_configs_are_one_line_errors(trained_capture, tmp_path):
     empty = CaptureProject.create(tmp_path / "empty", num_frames=1, width=8, height=8, fps=1.0, source={"kind": "test"})
     with pytest.raises(ProjectError, match="no finished training run"):
         export_project(empty, ProjectExportConfig())
+
+
+def test_a_run_trained_on_zoomed_crops_is_calibrated_as_close_as_the_player_draws(trained_capture, body_model,
+                                                                                   tmp_path):
+    """A run with ``zoom_resolution`` twice its resolution: the player draws the body up to twice as
+    large as the training views show it, so the export calibrates and checks int8 there too."""
+    from morf.train.config import preset
+    from morf.train.project_run import train_project
+
+    train_project(trained_capture, preset("tiny", steps=3, inpaint_steps=0, zoom_resolution=128), name="zoomed",
+                  model=body_model)
+    manifest = export_project(trained_capture, ProjectExportConfig(run="zoomed", out=str(tmp_path / "z"),
+                                                                   calibration_views=4), body_model=body_model)
+    close = manifest["int8_quality"]["playback_scale"]
+    assert 1.9 < close["zoom"] < 2.6  # twice the crops, times the largest over the median training scale
+    assert manifest["renderer"]["int8"]["calibration_zoom"] == [1.0, close["zoom"]]
+    assert close["views"] >= 1 and np.isfinite(close["psnr_person_db"])
+    plain = export_project(trained_capture, ProjectExportConfig(run="morf-tiny", out=str(tmp_path / "p"),
+                                                                calibration_views=4), body_model=body_model)
+    assert "playback_scale" not in plain["int8_quality"]  # no zoomed crops: the training views' scale is the player's
