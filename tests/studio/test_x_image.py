@@ -64,7 +64,8 @@ APP_SCRIPT = READ_BACK + textwrap.dedent("""
     from studio.app import StudioApp
     from studio.bench import DEFAULT_MOTION, LIVE_PANEL, _playing, _prepare_project
 
-    project = _prepare_project(Path(tempfile.mkdtemp()), Path(sys.argv[1]), None)
+    tmp = tempfile.TemporaryDirectory()  # removed when the script ends
+    project = _prepare_project(Path(tmp.name), Path(sys.argv[1]), None)
     with StudioApp(project, size=(1280, 800), headless=False, deterministic=False,
                    motion_dir=DEFAULT_MOTION.parent) as app:
         assert app._x_image is not None
