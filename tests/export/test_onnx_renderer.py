@@ -254,3 +254,28 @@ def test_the_mask_is_held_at_one_inside_the_body(tmp_path, renderers):
     edge = held[0, 3].copy()
     edge[inside[1:]] = plain[0, 3][inside[1:]]
     np.testing.assert_allclose(edge, plain[0, 3], atol=1e-6)  # the outline band and the background: unchanged
+
+
+def test_the_calibrator_is_fed_a_few_views_at_a_time(tmp_path, renderers, monkeypatch):
+    """The percentile calibration keeps every activation of what it is fed in memory, so the views
+    go in equal chunks of at most CALIBRATION_CHUNK; min-max ranges come out as from one pass."""
+    import morf.export.onnx_renderer as onnx_renderer
+
+    assert [onnx_renderer.chunk_size(n) for n in (1, 2, 3, 4, 5, 6, 7, 8, 24)] == [1, 2, 3, 4, 1, 3, 1, 4, 4]
+    calib, scales = _rasters(6, seed=2)
+    fed = []
+    set_range = onnx_renderer._Calibration.set_range
+
+    def spy(self, start_index, end_index):
+        fed.append((start_index, end_index))
+        set_range(self, start_index, end_index)
+
+    monkeypatch.setattr(onnx_renderer._Calibration, "set_range", spy)
+    export_int8(renderers["half"], scales, tmp_path / "q.onnx", calib)
+    assert fed == [(0, 3), (3, 6)] * 2  # both calibrations, two chunks of three views each
+    monkeypatch.setattr(onnx_renderer, "CALIBRATIONS", (("minmax", "MinMax", {}),))
+    export_int8(renderers["half"], scales, tmp_path / "chunked.onnx", calib)
+    monkeypatch.setattr(onnx_renderer, "chunk_size", lambda n: n)
+    export_int8(renderers["half"], scales, tmp_path / "whole.onnx", calib)
+    graphs = [onnx.load(tmp_path / f).graph.SerializeToString() for f in ("chunked.onnx", "whole.onnx")]
+    assert graphs[0] == graphs[1]
