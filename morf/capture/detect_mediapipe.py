@@ -80,11 +80,13 @@ class MediaPipeDetector:
     """Wraps ``mediapipe.solutions.pose.Pose`` with segmentation.
 
     ``static_image_mode=True`` (the default) treats every call independently; that is what
-    crops around a followed person need, since consecutive inputs are different windows.
+    crops around a followed person need, since consecutive inputs are different windows (and what
+    ``mirror_average`` needs: its second pass sees the mirror image).
     Not thread-safe: use one detector per thread. Call :meth:`close` (or use ``with``).
     """
 
-    def __init__(self, static_image_mode: bool = True, min_detection_confidence: float = 0.5):
+    def __init__(self, static_image_mode: bool = True, min_detection_confidence: float = 0.5,
+                 mirror_average: bool = False):
         try:
             with _quiet_native_logs():
                 from mediapipe.python.solutions import pose as mp_pose
@@ -97,12 +99,26 @@ class MediaPipeDetector:
             # The graph opens its models on worker threads, which print start-up notices a
             # moment later; one call on a blank image waits for them inside the quiet window.
             self._pose.process(np.zeros((64, 64, 3), np.uint8))
+        self.mirror_average = mirror_average
 
     def detect(self, rgb: np.ndarray) -> Detection:
-        """(H, W, 3) uint8 RGB -> :class:`Detection` in that image's pixel coordinates."""
+        """(H, W, 3) uint8 RGB -> :class:`Detection` in that image's pixel coordinates. With
+        ``mirror_average`` the keypoints are also detected on the mirrored image and averaged with
+        it where the two agree (:mod:`morf.capture.mirror_average`); the mask is the plain pass's."""
         rgb = np.ascontiguousarray(rgb)
         if rgb.dtype != np.uint8 or rgb.ndim != 3 or rgb.shape[2] != 3:
             raise ValueError(f"detect wants (H, W, 3) uint8 RGB, got {rgb.shape} {rgb.dtype}")
+        found = self._detect(rgb)
+        if not (self.mirror_average and found.found):
+            return found
+        mirrored = self._detect(np.ascontiguousarray(rgb[:, ::-1]))
+        if not mirrored.found:
+            return found
+        from morf.capture.mirror_average import mirror_average
+
+        return Detection(mirror_average(found.points, mirrored.points, rgb.shape[1]), found.mask, True)
+
+    def _detect(self, rgb: np.ndarray) -> Detection:
         h, w = rgb.shape[:2]
         result = self._pose.process(rgb)
         if result.pose_landmarks is None:

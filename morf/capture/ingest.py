@@ -52,6 +52,7 @@ class IngestConfig:
     focal: float | None = None  # focal length in source pixels (else EXIF, else a default)
     frame_format: str = "auto"  # "png" | "jpg" | "auto"
     force: bool = False  # replace a project that already has fits / runs / an avatar
+    mirror_average: bool = True  # MediaPipe's keypoints averaged with its pass on the mirrored frame
     tracker: TrackerConfig = field(default_factory=TrackerConfig)  # person choice and following
 
     def validate(self) -> None:
@@ -145,7 +146,8 @@ def ingest(project: str | Path, config: IngestConfig, control: StageControl | No
     fmt = config.frame_format if config.frame_format != "auto" else ("jpg" if (total or 0) > JPEG_AFTER else "png")
     ext = "." + fmt
 
-    labeller = FrameLabeller(kp_match, mask_match, (source.width, source.height), scale, config.tracker)
+    labeller = FrameLabeller(kp_match, mask_match, (source.width, source.height), scale, config.tracker,
+                             mirror_average=config.mirror_average)
     rows: list[tuple[int, FrameLabel]] = []
     times: list[float | None] = []
     if source.rotation:
@@ -224,6 +226,7 @@ def _write_outputs(staging: Path, rows, labeller: FrameLabeller, scale: float, s
         "source_size": [source.width, source.height], "scale": scale, "every": config.every,
         "max_frames": config.max_frames, "resize": config.resize,
         "keypoints_from": "openpose" if config.keypoints else "mediapipe",
+        "keypoints_mirror_average": bool(config.mirror_average and not config.keypoints),
         "masks_from": "import" if config.masks else "mediapipe",
         "openpose_layouts": sorted(labeller.layouts), "focal_source": focal_source,
         "people": people, "warnings": source.warnings + labeller.warnings,

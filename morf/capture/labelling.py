@@ -57,10 +57,12 @@ class FrameLabeller:
     """Labels frames one after another (it keeps the person-following state)."""
 
     def __init__(self, keypoints: FileMatch | None, masks: FileMatch | None, source_size: tuple[int, int],
-                 scale: float, tracker: TrackerConfig = TrackerConfig()):
+                 scale: float, tracker: TrackerConfig = TrackerConfig(), mirror_average: bool = False):
         self.keypoints, self.masks = keypoints, masks
         self.source_size, self.scale, self.config = source_size, scale, tracker
-        self.detector = MediaPipeDetector() if keypoints is None or masks is None else None
+        # the mirrored pass only where MediaPipe's keypoints are used (not for a mask alone)
+        self.detector = (MediaPipeDetector(mirror_average=mirror_average and keypoints is None)
+                         if keypoints is None or masks is None else None)
         self.tracker = PersonTracker(self.detector, tracker) if keypoints is None and masks is None else None
         self.follower = BoxFollower(tracker.min_iou, tracker.reacquire_after)
         self._people_seen = 0

@@ -28,6 +28,10 @@ def add_parser(sub):
     p.add_argument("--frame-format", choices=("auto", "png", "jpg"), default="auto",
                    help="frame image format (auto: PNG up to 300 frames, JPEG beyond)")
     p.add_argument("--force", action="store_true", help="replace a project that already has fits, runs or an avatar")
+    p.add_argument("--no-mirror-average", dest="mirror_average", action="store_false",
+                   help="detect MediaPipe's keypoints on each frame once; by default they are detected on the "
+                        "mirrored frame too and the two averaged where they agree (twice the detection time for "
+                        "closer keypoints and fits, docs/formats.md)")
     return p
 
 
@@ -36,7 +40,8 @@ def run(args) -> int:
 
     config = IngestConfig(video=args.video, frames=args.frames, keypoints=args.keypoints, masks=args.masks,
                           max_frames=args.max_frames, every=args.every, resize=args.resize, fps=args.fps,
-                          focal=args.focal, frame_format=args.frame_format, force=args.force)
+                          focal=args.focal, frame_format=args.frame_format, force=args.force,
+                          mirror_average=args.mirror_average)
     result = ingest(args.project, config)
     for w in result.warnings:
         print(f"morf ingest: warning: {w}", file=sys.stderr)

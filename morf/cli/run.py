@@ -43,6 +43,9 @@ def add_parser(sub):
     for flag, meta, text in (("--every", "K", "keep every K-th frame"), ("--max-frames", "N", "keep at most N frames"),
                              ("--resize", "PX", "scale frames so the longest side is PX pixels")):
         p.add_argument(flag, type=int, metavar=meta, help=f"with --video: {text} (as 'morf ingest')")
+    p.add_argument("--no-mirror-average", dest="no_mirror_average", action="store_true",
+                   help="with --video: MediaPipe's keypoints from the frame alone, not averaged with the mirrored "
+                        "frame's (as 'morf ingest')")
     return p
 
 
@@ -121,7 +124,9 @@ def _ingest_plan(root: Path, args):
         raise InputError(f"{root} is not a capture project yet; give --video FILE to make one")
     argv = ("ingest", str(root), "--video", str(video))
     for flag, value in _ingest_options(args):
-        if value is not None:
+        if value is True:
+            argv += (flag,)
+        elif value is not None:
             argv += (flag, str(value))
     return Plan("run", argv)
 
@@ -129,7 +134,8 @@ def _ingest_plan(root: Path, args):
 def _ingest_options(args) -> list[tuple[str, object]]:
     """The ``morf ingest`` options given to ``morf run``, as (flag, value or None)."""
     return [("--keypoints", args.keypoints), ("--masks", args.masks), ("--every", args.every),
-            ("--max-frames", args.max_frames), ("--resize", args.resize)]
+            ("--max-frames", args.max_frames), ("--resize", args.resize),
+            ("--no-mirror-average", True if getattr(args, "no_mirror_average", False) else None)]
 
 
 def _recall(root: Path) -> dict:

@@ -61,7 +61,7 @@ class MaskedKeypoints:
     """Keypoints for frames whose person mask is known: MediaPipe on a square crop around it."""
 
     def __init__(self, detect: bool, max_side: int = TrackerConfig().max_side):
-        self.detector = MediaPipeDetector() if detect else None
+        self.detector = MediaPipeDetector(mirror_average=True) if detect else None  # as `morf ingest`
         self.max_side = max_side
 
     def label(self, rgb: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, bool, str]:

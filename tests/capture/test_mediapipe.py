@@ -73,3 +73,30 @@ def test_two_people_video_follows_the_largest(shared_data, tmp_path, capsys):
         assert 450 < cx < 850 and cy < 500, (i, cx, cy)
         ys, xs = np.nonzero(p.load_mask(i))
         assert ys.max() < 560 and xs.min() > 400, i  # no pixels of the woman below the cabinet
+
+
+def test_mirror_average_through_ingest(shared_data, tmp_path, capsys):
+    """``morf ingest`` (mirror average on by default) against ``--no-mirror-average``: the keypoints
+    are the mean of the plain and the mirrored pass where they agree, so they move a little from
+    the plain detection and no further than the agreement tolerance; the manifest says so."""
+    from morf.capture.mirror_average import AGREE, MIN_AGREE_PX, mirror_average
+
+    image = shared_data / "images" / "ryota.png"
+    rc, _, err = ingest(capsys, tmp_path / "plain", "--frames", image, "--no-mirror-average")
+    assert rc == 0, err
+    rc, _, err = ingest(capsys, tmp_path / "mirror", "--frames", image)
+    assert rc == 0, err
+    plain, mirrored = (CaptureProject.open(tmp_path / n) for n in ("plain", "mirror"))
+    assert mirrored.manifest["ingest"]["keypoints_mirror_average"] is True
+    assert plain.manifest["ingest"]["keypoints_mirror_average"] is False
+    a, b = plain.load_keypoints().points[0], mirrored.load_keypoints().points[0]
+    seen = a[:, 2] > 0
+    moved = np.linalg.norm(a[:, :2] - b[:, :2], axis=-1)[seen]
+    tol = max(MIN_AGREE_PX, AGREE * np.ptp(a[seen, 1]))
+    assert 0 < moved.max() <= tol / 2 + 1e-3  # half-way to a point that agreed within the tolerance
+    assert (moved > 0).sum() >= 10  # most points were seen alike in both passes
+    # the same frame detected by hand gives the same points
+    frame = plain.load_frame(0)
+    with MediaPipeDetector() as det:
+        one, other = det.detect(frame), det.detect(np.ascontiguousarray(frame[:, ::-1]))
+    np.testing.assert_allclose(mirror_average(one.points, other.points, frame.shape[1]), b, atol=0.05)
