@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from morf.capture.keypoint_layout import MEDIAPIPE_TO_OURS, NUM_KEYPOINTS
+from morf.capture.mirror_average import mirror_average
 from morf.errors import MorfError
 
 # protobuf 4 warns once per process about an API MediaPipe 0.10.14 still calls
@@ -114,8 +115,6 @@ class MediaPipeDetector:
         mirrored = self._detect(np.ascontiguousarray(rgb[:, ::-1]))
         if not mirrored.found:
             return found
-        from morf.capture.mirror_average import mirror_average
-
         return Detection(mirror_average(found.points, mirrored.points, rgb.shape[1]), found.mask, True)
 
     def _detect(self, rgb: np.ndarray) -> Detection:
