@@ -19,7 +19,7 @@ from typing import Sequence
 import numpy as np
 
 from morf.export.avatar_folder import RENDERERS, replace_folder, write_arrays, write_manifest
-from morf.export.calibration_views import mosaic, zoomed_camera
+from morf.export.calibration_views import closer_scales, mosaic, zoomed_camera
 from morf.export.onnx_renderer import OPSET, export_fp32, export_int8
 from morf.export.skeleton import SkinningSkeleton, skeleton_from_body_model
 from morf.pipeline.control import Progress, StageControl
@@ -51,7 +51,7 @@ class ExportConfig:
     # The same poses seen this many times closer, the player's largest scale (calibration_views.py):
     # int8 is calibrated and checked on them too. 0: the given views only.
     playback_zoom: float = 0.0
-    max_playback_views: int = 16  # zoomed calibration views (each one canvas of twice the side)
+    max_playback_views: int = 16  # calibration views at the player's scale (half as many halfway there)
     extra: dict = field(default_factory=dict)  # free-form facts copied into the manifest
 
 
@@ -164,9 +164,10 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
         held = rasterize_views(ctx, mesh, qtex, skeleton, held_views)
         close_calib, close_held = [], []
         if cfg.playback_zoom > 0:
-            step(0, f"rasterizing calibration views {cfg.playback_zoom:.2f}x closer")
-            every = max(1, -(-len(calib_views) // cfg.max_playback_views))
-            close_calib = rasterize_views(ctx, mesh, qtex, skeleton, _closer(calib_views[::every], cfg.playback_zoom))
+            step(0, f"rasterizing calibration views up to {cfg.playback_zoom:.2f}x closer")
+            for zoom, share in closer_scales(cfg.playback_zoom):
+                every = max(1, -(-len(calib_views) // max(1, round(cfg.max_playback_views * share))))
+                close_calib += rasterize_views(ctx, mesh, qtex, skeleton, _closer(calib_views[::every], zoom))
             close_held = rasterize_views(ctx, mesh, qtex, skeleton, _closer(held_views, cfg.playback_zoom))
     finally:
         if own_ctx:
@@ -241,7 +242,7 @@ def _manifest_fields(qtex, skeleton, mesh, rcfg, image_hw, shape, cfg, quality, 
                               "calibration_views": n_calib,
                               "calibration_method": {"percentile": "percentile 99.99", "minmax": "min-max"}.get(
                                   quality.get("calibration"), quality.get("calibration")),
-                              "calibration_zoom": [1.0] + ([round(float(cfg.playback_zoom), 3)]
+                              "calibration_zoom": [1.0] + ([round(z, 3) for z, _ in closer_scales(cfg.playback_zoom)]
                                                            if "playback_scale" in quality else []),
                               "equalized": True}},
         "int8_quality": quality,

@@ -9,7 +9,7 @@ import pytest
 
 from morf.camera import PinholeCamera
 from morf.export.avatar_folder import int8_check_db
-from morf.export.calibration_views import CANVAS, mosaic, playback_zoom, zoomed_camera
+from morf.export.calibration_views import CANVAS, closer_scales, mosaic, playback_zoom, zoomed_camera
 from morf.raster.texture_quant import ZERO_POINT
 
 
@@ -49,6 +49,10 @@ def test_playback_zoom_is_the_largest_trained_scale_over_the_views_median():
     assert playback_zoom(cam, transls, None) == 1.0 and playback_zoom(cam, [], 100.0) == 1.0
 
 
+def test_the_closer_scales_are_halfway_with_half_the_views_and_all_the_way():
+    assert closer_scales(4.0) == ((2.0, 0.5), (4.0, 1.0))
+
+
 def test_the_int8_check_is_the_lowest_of_every_scale_measured():
     q = {"psnr_db": 50.0, "psnr_person_db": 42.0}
     assert int8_check_db({"int8_quality": q}) == 42.0
@@ -59,8 +63,9 @@ def test_the_int8_check_is_the_lowest_of_every_scale_measured():
 
 def test_the_export_calibrates_and_checks_int8_on_views_as_close_as_the_player_draws(tmp_path, body_model,
                                                                                      monkeypatch):
-    """The calibrator gets the training views four to a canvas plus the same poses twice as close
-    (the body four times the pixels), and the manifest reports the check at both scales."""
+    """The calibrator gets the training views four to a canvas plus the same poses sqrt(2) and twice
+    as close (the body two and four times the pixels), and the manifest reports the check at the
+    training views' scale and the player's."""
     import morf.export.export_avatar as ea
     from morf.export.synthetic import build_synthetic_avatar, coverage_renderer, coverage_texture
 
@@ -75,17 +80,18 @@ def test_the_export_calibrates_and_checks_int8_on_views_as_close_as_the_player_d
     manifest = build_synthetic_avatar(tmp_path / "a", body_model=body_model, renderer=coverage_renderer(),
                                       texture=coverage_texture(), renderer_cfg=SimpleNamespace(in_channels=16),
                                       image_size=64, calibration_views=5, heldout_views=2, playback_zoom=2.0)
-    assert [c.shape for c in seen] == [(1, 16, 128, 128)] * (2 + 5)  # 5 views on 2 canvases, 5 zoomed
+    assert [c.shape for c in seen] == [(1, 16, 128, 128)] * (2 + 5 + 5)  # 5 views on 2 canvases, 5 + 5 closer
     tiles = [c[:, :, y:y + 64, x:x + 64] for c in seen[:2] for y in (0, 64) for x in (0, 64)][:5]
     body = lambda r: int((r[0, 0] != ZERO_POINT).sum())  # noqa: E731  (coverage channel)
-    for tile, close in zip(tiles, seen[2:]):
+    for tile, halfway, close in zip(tiles, seen[2:7], seen[7:]):
+        assert 1.5 < body(halfway) / body(tile) < 2.6  # sqrt(2) times as close: twice the pixels
         assert 3.0 < body(close) / body(tile) < 5.0  # twice as close: four times the pixels
     q = manifest["int8_quality"]
     assert q["playback_scale"]["zoom"] == 2.0 and q["playback_scale"]["views"] == 2
     checks = [q["psnr_db"], q["psnr_person_db"], q["playback_scale"]["psnr_db"], q["playback_scale"]["psnr_person_db"]]
     assert all(np.isfinite(checks)) and int8_check_db(manifest) == min(checks)
-    assert manifest["renderer"]["int8"]["calibration_zoom"] == [1.0, 2.0]
-    assert manifest["renderer"]["int8"]["calibration_views"] == 10
+    assert manifest["renderer"]["int8"]["calibration_zoom"] == [1.0, 1.414, 2.0]
+    assert manifest["renderer"]["int8"]["calibration_views"] == 15
 
 
 def test_without_a_playback_zoom_the_export_calibrates_on_the_views_alone(tmp_path, body_model):
