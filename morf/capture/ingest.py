@@ -226,7 +226,7 @@ def _write_outputs(staging: Path, rows, labeller: FrameLabeller, scale: float, s
         "source_size": [source.width, source.height], "scale": scale, "every": config.every,
         "max_frames": config.max_frames, "resize": config.resize,
         "keypoints_from": "openpose" if config.keypoints else "mediapipe",
-        "keypoints_mirror_average": bool(config.mirror_average and not config.keypoints),
+        "keypoints_mirror_average": labeller.mirror_average,
         "masks_from": "import" if config.masks else "mediapipe",
         "openpose_layouts": sorted(labeller.layouts), "focal_source": focal_source,
         "people": people, "warnings": source.warnings + labeller.warnings,

@@ -71,6 +71,11 @@ class FrameLabeller:
         self.warnings: list[str] = []
 
     @property
+    def mirror_average(self) -> bool:
+        """Whether the keypoints are MediaPipe's averaged with its pass on the mirrored frame."""
+        return self.detector is not None and self.detector.mirror_average
+
+    @property
     def people_seen(self) -> int:
         return max(self._people_seen, self.tracker.people_seen if self.tracker else 0)
 

@@ -135,7 +135,7 @@ def _ingest_options(args) -> list[tuple[str, object]]:
     """The ``morf ingest`` options given to ``morf run``, as (flag, value or None)."""
     return [("--keypoints", args.keypoints), ("--masks", args.masks), ("--every", args.every),
             ("--max-frames", args.max_frames), ("--resize", args.resize),
-            ("--no-mirror-average", True if getattr(args, "no_mirror_average", False) else None)]
+            ("--no-mirror-average", args.no_mirror_average or None)]
 
 
 def _recall(root: Path) -> dict:
