@@ -14,6 +14,7 @@ from pathlib import Path
 from morf.errors import MorfError
 
 DEMO_MOTION = "walk_forward.npz"  # of the motions shipped in the package (morf.resources.MOTIONS)
+DEMO_FILES = ("capture", "animation.mp4")  # what a demo folder holds; the demo writes nothing else there
 
 
 def add_parser(sub):
@@ -39,6 +40,25 @@ def default_motion() -> Path:
     return path
 
 
+def check_demo_folder(root: Path) -> None:
+    """The demo writes only into a new or empty folder, or one an earlier demo made (its capture
+    project and video and nothing else); anything else is refused in one line."""
+    from morf.capture.project import CaptureProject
+    from morf.errors import InputError
+
+    if root.exists() and not root.is_dir():
+        raise InputError(f"{root} is not a folder; give a new folder name for the demo")
+    if not root.is_dir():
+        return
+    other = sorted(p.name for p in root.iterdir() if p.name not in DEMO_FILES)
+    capture = root / "capture"
+    if capture.exists() and not (capture.is_dir() and (CaptureProject.is_project(capture) or not any(capture.iterdir()))):
+        other.insert(0, "capture (not a capture project)")
+    if other:
+        raise InputError(f"{root} holds files the demo did not write ({', '.join(other[:3])}); give a new folder "
+                         "name for the demo (e.g. morf demo demo-2)")
+
+
 def run(args) -> int:
     from morf.capture.project import CaptureProject
     from morf.cli.main import main
@@ -48,14 +68,16 @@ def run(args) -> int:
 
     preset = named_preset("demo", args.preset)
     root = Path(args.dir)
+    check_demo_folder(root)
     project = root / "capture"
     motion = Path(args.motion) if args.motion else default_motion()
     name = f"demo-{args.preset}"
     train = ("train", str(project), "--preset", preset.train, "--name", name)
     if preset.train_steps:
         train += ("--steps", str(preset.train_steps))
+    # --force: the demo folder is the demo's own (check_demo_folder), so its video is replaced on a re-run
     animate = ("animate", str(project), "--motion", str(motion), "--out", str(root / "animation.mp4"),
-               "--size", str(preset.size), "--max-frames", str(preset.max_frames), "--camera", "follow")
+               "--size", str(preset.size), "--max-frames", str(preset.max_frames), "--camera", "follow", "--force")
 
     def synth() -> Plan:
         if CaptureProject.is_project(project):

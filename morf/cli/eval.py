@@ -14,6 +14,8 @@ def add_parser(sub):
     p.add_argument("--run", action="append", default=[], metavar="NAME",
                    help="a run under PROJECT/runs to score (repeatable; default: every finished run)")
     p.add_argument("--out", default=None, help="output folder (default: PROJECT/eval)")
+    p.add_argument("--force", action="store_true",
+                   help="write into an existing non-empty --out folder, replacing only the files morf eval writes")
     p.add_argument("--floor", action="store_true", default=True,
                    help="include the RGB floor of each hold-out setting, built in seconds when missing (default)")
     p.add_argument("--no-floor", dest="floor", action="store_false", help="leave the RGB floor out")
@@ -55,7 +57,7 @@ def run(args) -> int:
     project = CaptureProject.open(args.project)
     cfg = EvalConfig(runs=tuple(args.run), out=args.out, floor=args.floor,
                      resolution=parse_resolution(args.resolution), lpips=args.lpips, vgg=args.vgg,
-                     refine_poses=args.refine_poses)
+                     refine_poses=args.refine_poses, force=args.force)
     result = evaluate_project(project, cfg, say=print)
     print(format_table(result))
     out = Path(args.out) if args.out else Path(project.root) / "eval"

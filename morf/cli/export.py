@@ -26,6 +26,9 @@ def add_parser(sub):
     p.add_argument("--gltf", default=None, metavar="FILE.glb",
                    help="also write a rigged glTF 2.0 binary (mesh, skeleton, skin weights, colour texture baked "
                         "from the renderer); the avatar folder goes beside it (FILE/) unless --out is given")
+    p.add_argument("--force", action="store_true",
+                   help="write into an existing non-empty --out folder (or over an existing .glb), replacing only the "
+                        "files morf export writes; other files there are kept")
     p.add_argument("--motion", default=None, metavar="FILE",
                    help="with --gltf: add this motion (BVH, AMASS or clip .npz) to the .glb as an animation")
     return p
@@ -34,14 +37,18 @@ def add_parser(sub):
 def run(args) -> int:
     from morf.capture.project import CaptureProject
     from morf.errors import InputError
+    from morf.io.names import check_name
     from morf.export.project_export import ProjectExportConfig, export_project
     from morf.pipeline.control import StageControl, StopRequested
 
     if args.motion and not args.gltf:
         raise InputError("--motion goes into the glTF file: give --gltf FILE.glb too")
+    if args.run is not None:
+        check_name(args.run, "run name")
     project = CaptureProject.open(args.project)
     cfg = ProjectExportConfig(run=args.run, out=args.out, input_layout=args.layout,
-                              calibration_views=args.calibration_views, fits=args.fits)
+                              calibration_views=args.calibration_views, fits=args.fits,
+                              force=args.force)
     control = StageControl()
     previous = signal.signal(signal.SIGINT, lambda *_: control.stop())
     try:

@@ -8,6 +8,7 @@ show a traceback. ``MORF_DEBUG=1`` shows tracebacks for everything.
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import os
 import sys
@@ -49,9 +50,24 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"morf {args.command}: error: {e}", file=sys.stderr)
         return e.exit_code
+    except OSError as e:  # the environment, not a bug: a read-only folder, a full disk, a vanished file
+        if os.environ.get("MORF_DEBUG"):
+            raise
+        print(f"morf {args.command}: error: {os_error_line(e)}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"morf {args.command}: interrupted", file=sys.stderr)
         return 130
+
+
+def os_error_line(e: OSError) -> str:
+    """One line for an OSError: what failed, on which path, and what to do."""
+    what = e.strerror or type(e).__name__
+    path = f" {e.filename}" if e.filename else ""
+    hint = {errno.EACCES: "check the folder's permissions", errno.EPERM: "check the folder's permissions",
+            errno.EROFS: "the file system is read-only", errno.ENOSPC: "free some disk space and run it again",
+            errno.EDQUOT: "free some disk space and run it again"}.get(e.errno)
+    return f"cannot use{path}: {what}" + (f"; {hint}" if hint else "")
 
 
 if __name__ == "__main__":

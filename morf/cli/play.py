@@ -50,6 +50,9 @@ def add_playback_options(p) -> None:
     p.add_argument("--precision", choices=("int8", "fp32"), default="int8")
     p.add_argument("--background", default="255,255,255", help="R,G,B background colour")
     p.add_argument("--max-frames", type=int, default=0, help="stop after this many frames (0: all)")
+    p.add_argument("--force", action="store_true",
+                   help="replace an existing video, or write into a folder that holds files, replacing only the "
+                        "frames this command writes (other files there are kept)")
     p.add_argument("--force-int8", action="store_true",
                    help="play int8 even when the export measured it far from fp32")
 
@@ -61,22 +64,29 @@ def run(args, shape=None) -> int:
     from morf.raster.camera_paths import front_camera, orbit_camera
     from morf.playback.motion_input import load_playback_motion
     from morf.playback.player import open_player
-    from morf.playback.video_sink import VideoSink
+    from morf.playback.video_sink import VideoSink, claim_sink
     from morf.progress import progress
+
+    command = f"morf {getattr(args, 'command', None) or 'play'}"
 
     try:
         bg = tuple(int(v) for v in args.background.split(","))
         assert len(bg) == 3
     except (ValueError, AssertionError):
         raise InputError(f"--background must be R,G,B, got {args.background!r}") from None
-    if args.fps <= 0:
-        raise InputError("--fps must be positive")
-    if args.motion_fps is not None and args.motion_fps <= 0:
-        raise InputError("--motion-fps must be positive")
+    if not 0 < args.fps <= 1000:  # also refuses nan
+        raise InputError(f"--fps must be positive (a frame rate of at most 1000), got {args.fps}")
+    if args.motion_fps is not None and not 0 < args.motion_fps <= 1000:
+        raise InputError(f"--motion-fps must be positive (a frame rate of at most 1000), got {args.motion_fps}")
+    if args.max_frames < 0:
+        raise InputError(f"--max-frames must be 0 (all frames) or a positive count, got {args.max_frames}")
+    if args.size < 32 or args.size > 8192:
+        raise InputError(f"--size must be between 32 and 8192 pixels, got {args.size}")
+    claim = claim_sink(args.out, command, args.force)  # before any work: a refused output costs nothing
     precision, notice = args.precision, None
     quality = _int8_psnr(args.avatar)
     if precision == "int8" and not args.force_int8 and quality is not None and quality < INT8_MIN_PSNR_DB:
-        notice = (f"morf play: this avatar's int8 renderer is only {quality:.1f} dB from fp32 over the image or the "
+        notice = (f"{command}: this avatar's int8 renderer is only {quality:.1f} dB from fp32 over the image or the "
                   f"person (below {INT8_MIN_PSNR_DB:.0f} dB); playing fp32 instead (--force-int8 to override)")
         precision = "fp32"
     with open_player(args.avatar, size=args.size, precision=precision, background=bg) as player:
@@ -99,7 +109,7 @@ def run(args, shape=None) -> int:
                 return front_camera(size, center=(float(transl[i, 0]), float(transl[i, 1]), centre[2]))
             return front_camera(size, center=centre)
 
-        sink = VideoSink(args.out, args.fps, (size, size))
+        sink = VideoSink(args.out, args.fps, (size, size), command, claim)
         ok = False
         t0 = time.perf_counter()
         try:

@@ -66,8 +66,9 @@ def train_plan(root: Path, name: str, fresh: tuple[str, ...], holdout: int | Non
     finished or started run with another one is an error rather than a silent mismatch)."""
     from morf.capture.project import CaptureProject
     from morf.train.run_dir import RunDir
+    from morf.train.run_files import run_path
 
-    run = RunDir(CaptureProject.open(root).runs_dir / name)
+    run = RunDir(run_path(CaptureProject.open(root), name))
     if run.config_path.is_file():
         cfg = run.load_config()
         if holdout is not None and cfg.holdout != holdout:

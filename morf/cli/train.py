@@ -10,6 +10,7 @@ from __future__ import annotations
 import signal
 import sys
 
+from morf.io.names import check_name
 from morf.presets import PRESETS
 from morf.train.config import METHODS
 
@@ -50,7 +51,7 @@ def add_parser(sub):
     p.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                    help="set any config field, e.g. --set texture_size=512 --set renderer.width=24 (repeatable; "
                         "applied last)")
-    p.add_argument("--restart", action="store_true", help="delete an existing run of that name and start over")
+    p.add_argument("--restart", action="store_true", help="delete what an existing run of that name wrote and start over")
     return p
 
 
@@ -114,13 +115,16 @@ def run(args) -> int:
     from morf.train.project_run import train_project
 
     project = CaptureProject.open(args.project)
+    if args.name is not None:
+        check_name(args.name, "run name")
     cfg, reasons = resolve_config(args, project)
     if reasons:
         from morf.io import atomic_write_text
         from morf.train.project_run import default_run_name
+        from morf.train.run_files import AUTO_SIZE_FILE, run_path
 
         print("automatic size choice:\n  " + "\n  ".join(reasons))
-        atomic_write_text(project.runs_dir / (args.name or default_run_name(cfg)) / "auto_size.txt",
+        atomic_write_text(run_path(project, args.name or default_run_name(cfg)) / AUTO_SIZE_FILE,
                           "\n".join(reasons) + "\n")
     bar = progress(total=cfg.steps if cfg.method != "rgb" else None, desc=f"train {cfg.method}", unit="step")
 

@@ -54,6 +54,7 @@ class EvalConfig:
         ``$MORF_VGG16_WEIGHTS``; no LPIPS file at all: LPIPS is null);
         refine_poses: refine every frame's pose against its image with each run's avatar frozen
         before scoring (:mod:`morf.evaluate.pose_refine`), the floor included; refine: its settings.
+        force: write into an existing non-empty ``out`` (replacing only eval's own files there).
     """
 
     runs: tuple[str, ...] = ()
@@ -66,6 +67,7 @@ class EvalConfig:
     vgg: str | None = None
     refine_poses: bool = False
     refine: RefineConfig = RefineConfig()
+    force: bool = False
 
     def on_sheet(self, run: RunInfo) -> bool:
         return run.is_floor or not self.sheet_runs or run.name in self.sheet_runs
@@ -111,8 +113,43 @@ def ensure_floors(project, runs: list[RunInfo], model, say: Callable[[str], None
 
 def evaluate_project(project, cfg: EvalConfig = EvalConfig(), model=None,
                      say: Callable[[str], None] = lambda line: None) -> EvalResult:
-    """Evaluate, write everything into the output folder, and return what eval.json holds."""
+    """Evaluate, write everything into the output folder, and return what eval.json holds.
+
+    The output folder follows :mod:`morf.io.outputs` (``PROJECT/eval`` is eval's own place; another
+    non-empty folder needs ``cfg.force``, and then only eval's own files are replaced); the
+    project's ``eval`` lock is held while it writes.
+    """
+    from morf.io.lock import project_lock
+    from morf.io.outputs import claim_output_folder
+
+    own = Path(project.root) / "eval"
+    out = Path(cfg.out) if cfg.out else own
+    claim = claim_output_folder(out, "morf eval", cfg.force, previous=_earlier_files(out), own_place=own)
+    with project_lock(project.root, "eval"):
+        return _evaluate(project, cfg, model, say, claim)
+
+
+def _earlier_files(out: Path) -> frozenset[str]:
+    """The files an earlier ``morf eval`` wrote into ``out``: its record, else what its eval.json names."""
+    import json
+
+    from morf.io.outputs import read_record
+
+    names = read_record(out, "morf eval")
+    if names:
+        return names
+    try:
+        targets = json.loads((out / "eval.json").read_text())["targets"]
+        return frozenset({"eval.json"} | {t[k] for t in targets.values() for k in ("sheet", "slices")
+                                          if isinstance(t.get(k), str) and "/" not in t[k]})
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return frozenset()
+
+
+def _evaluate(project, cfg: EvalConfig, model, say, claim) -> EvalResult:
+    """:func:`evaluate_project` once the output is claimed and the lock held."""
     from morf.avatar.lpips import find_lpips
+    from morf.io.outputs import write_record
     from morf.train.data import load_body_fits
     from morf.train.trained_avatar import load_trained_avatar
 
@@ -155,7 +192,7 @@ def evaluate_project(project, cfg: EvalConfig = EvalConfig(), model=None,
                                           run.is_floor, scores)
     if not targets:
         raise ProjectError("nothing to evaluate: " + "; ".join(f"{k}: {v}" for k, v in skipped.items()))
-    out = Path(cfg.out) if cfg.out else Path(project.root) / "eval"
+    out = claim.path
     order = sorted(targets, key=lambda k: (k == "novel-poses", k))  # capture frames first
     result = EvalResult(str(Path(project.root).resolve()), cfg.resolution or "training", lpips_note(metric),
                         report_runs, skipped, {k: _write_target(targets[k], out) for k in order},
@@ -163,6 +200,10 @@ def evaluate_project(project, cfg: EvalConfig = EvalConfig(), model=None,
     from morf.io import atomic_write_json
 
     atomic_write_json(out / "eval.json", result.to_dict())
+    written = {"eval.json"} | {n for e in result.targets.values() for n in (e.sheet, e.slices)}
+    for name in claim.previous - written:  # an earlier eval's images of targets gone since
+        (out / name).unlink(missing_ok=True)
+    write_record(out, "morf eval", written)
     return result
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 from morf.errors import MorfError, ProjectError
 from morf.train.config import TrainConfig
 from morf.train.run_dir import RunDir
-from morf.train.run_files import AVATAR_FILE, RunFiles, finished_run_dirs
+from morf.train.run_files import AVATAR_FILE, RunFiles, finished_run_dirs, run_path
 
 
 @dataclass(frozen=True)
@@ -61,7 +61,7 @@ def select_runs(project, names: tuple[str, ...] | list[str] = ()) -> list[RunInf
         return runs
     out = []
     for name in dict.fromkeys(names):
-        d = root / name
+        d = run_path(project, name)
         if not d.is_dir():
             known = ", ".join(r.name for r in finished_runs(project)) or "none"
             raise ProjectError(f"no run named {name!r} in {root} (finished runs: {known})")

@@ -11,6 +11,8 @@ into place at the end, so a failed export leaves the previous avatar intact.
 from __future__ import annotations
 
 import dataclasses
+import json
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,10 +20,11 @@ from typing import Sequence
 
 import numpy as np
 
-from morf.export.avatar_folder import RENDERERS, replace_folder, write_arrays, write_manifest
+from morf.export.avatar_folder import FORMAT, MANIFEST, RENDERERS, replace_folder, write_arrays, write_manifest
 from morf.export.calibration_views import closer_scales, mosaic, zoomed_camera
 from morf.export.onnx_renderer import OPSET, export_fp32, export_int8
 from morf.export.skeleton import SkinningSkeleton, skeleton_from_body_model
+from morf.io.outputs import OutputClaim, staged_folder
 from morf.pipeline.control import Progress, StageControl
 from morf.raster.gl_context import create_headless_context
 from morf.raster.neural_raster import COVERAGE_CHANNEL, NUM_CHANNELS, NeuralRasterizer, SkinnedMesh, to_layout
@@ -131,7 +134,7 @@ def native_tails(folder: Path, layout: str, rasters: Sequence[np.ndarray]) -> di
 
 def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, calibration: Sequence[View],
                   heldout: Sequence[View], cfg: ExportConfig = ExportConfig(), ctx=None,
-                  control: StageControl | None = None) -> dict:
+                  control: StageControl | None = None, claim: OutputClaim | None = None) -> dict:
     """Write an avatar folder; returns its manifest.
 
     Args:
@@ -140,6 +143,8 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
         body_model, shape: the body model and the avatar's (1, 6) shape.
         calibration: views whose rasterizations calibrate int8 (the capture's training views).
         heldout: views kept out of calibration for the quality report (may be empty).
+        claim: what :func:`morf.io.outputs.claim_output_folder` allowed at ``out_dir`` (None: the
+            caller owns ``out_dir`` whole, e.g. a benchmark's work folder).
     """
     control = control or StageControl()
     t0 = time.time()
@@ -173,42 +178,69 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
         if own_ctx:
             ctx.release()
     control.check()
-    tmp = out_dir.with_name(f".{out_dir.name}.tmp")
-    if tmp.exists():
-        import shutil
-
-        shutil.rmtree(tmp)
-    tmp.mkdir(parents=True)
-    renderer = renderer.eval().float().cpu()
-    H, W = calib[0].shape[2:]
-    step(1, "writing texture, mesh and skeleton")
-    write_arrays(tmp, qtex, mesh, skeleton)
-    step(2, "exporting the fp32 renderer")
-    export_fp32(renderer, qtex.scales, tmp / RENDERERS["fp32"], cfg.input_layout)
-    control.check()
-    step(3, "quantising the renderer to int8")
-    chosen = export_int8(renderer, qtex.scales, tmp / RENDERERS["int8"], mosaic(calib) + close_calib if close_calib
-                         else calib, cfg.input_layout)
-    step(4, "measuring int8 against fp32")
-    # With no held-out views the report falls back on calibration views (and says so).
-    quality = int8_quality(tmp / RENDERERS["fp32"], tmp / RENDERERS["int8"], held or calib[:4], cfg.input_layout)
-    quality["on"] = "heldout" if held else "calibration"
-    quality["calibration"] = chosen["calibration"]  # the activation ranges kept, and why
-    quality["calibration_scores_db"] = chosen["scores_db"]
-    if close_calib:  # the same check on views as close as the player draws them
-        quality["playback_scale"] = {"zoom": round(float(cfg.playback_zoom), 3),
-                                     **int8_quality(tmp / RENDERERS["fp32"], tmp / RENDERERS["int8"],
-                                                    close_held or close_calib[:4], cfg.input_layout)}
-    rcfg = getattr(renderer, "cfg", None)
-    fields = _manifest_fields(qtex, skeleton, mesh, rcfg, (H, W), shape, cfg, quality, len(calib) + len(close_calib),
-                              time.time() - t0)
-    tails = native_tails(tmp, cfg.input_layout, held or calib[:4])
-    if tails:
-        fields["renderer"]["native_tail"] = tails
-    manifest = write_manifest(tmp, fields)
-    replace_folder(tmp, out_dir)
+    with staged_folder(out_dir) as tmp:
+        renderer = renderer.eval().float().cpu()
+        H, W = calib[0].shape[2:]
+        step(1, "writing texture, mesh and skeleton")
+        write_arrays(tmp, qtex, mesh, skeleton)
+        step(2, "exporting the fp32 renderer")
+        export_fp32(renderer, qtex.scales, tmp / RENDERERS["fp32"], cfg.input_layout)
+        control.check()
+        step(3, "quantising the renderer to int8")
+        chosen = export_int8(renderer, qtex.scales, tmp / RENDERERS["int8"],
+                             mosaic(calib) + close_calib if close_calib else calib, cfg.input_layout)
+        step(4, "measuring int8 against fp32")
+        # With no held-out views the report falls back on calibration views (and says so).
+        quality = int8_quality(tmp / RENDERERS["fp32"], tmp / RENDERERS["int8"], held or calib[:4], cfg.input_layout)
+        quality["on"] = "heldout" if held else "calibration"
+        quality["calibration"] = chosen["calibration"]  # the activation ranges kept, and why
+        quality["calibration_scores_db"] = chosen["scores_db"]
+        if close_calib:  # the same check on views as close as the player draws them
+            quality["playback_scale"] = {"zoom": round(float(cfg.playback_zoom), 3),
+                                         **int8_quality(tmp / RENDERERS["fp32"], tmp / RENDERERS["int8"],
+                                                        close_held or close_calib[:4], cfg.input_layout)}
+        rcfg = getattr(renderer, "cfg", None)
+        fields = _manifest_fields(qtex, skeleton, mesh, rcfg, (H, W), shape, cfg, quality,
+                                  len(calib) + len(close_calib), time.time() - t0)
+        tails = native_tails(tmp, cfg.input_layout, held or calib[:4])
+        if tails:
+            fields["renderer"]["native_tail"] = tails
+        manifest = write_manifest(tmp, fields)
+        place_avatar_folder(tmp, out_dir, claim)
     step(5, "done")
     return manifest
+
+
+def previous_avatar_files(folder: str | Path) -> frozenset[str]:
+    """The files an earlier export wrote into ``folder``: its manifest and the files it lists."""
+    try:
+        manifest = json.loads((Path(folder) / MANIFEST).read_text())
+        names = manifest["files"] if manifest.get("format") == FORMAT else {}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return frozenset()
+    if not isinstance(names, dict):
+        return frozenset()
+    return frozenset({MANIFEST} | {n for n in names if isinstance(n, str) and n and "/" not in n
+                                   and "\\" not in n and n not in (".", "..")})
+
+
+def place_avatar_folder(tmp: Path, out_dir: Path, claim: OutputClaim | None) -> None:
+    """Move the finished folder ``tmp`` to ``out_dir``.
+
+    Where ``out_dir`` holds nothing but an earlier export (or nothing), the whole folder is swapped,
+    so a failure leaves the previous avatar whole. Where it also holds files of others (allowed by
+    ``--force``), only the export's own files are replaced one by one, the manifest last, and the
+    files the earlier export listed and this one does not are deleted; the others stay.
+    """
+    if claim is None or not claim.foreign:
+        replace_folder(tmp, out_dir)
+        return
+    new = {p.name for p in tmp.iterdir()}
+    for name in sorted(new - {MANIFEST}) + [MANIFEST]:
+        os.replace(tmp / name, out_dir / name)
+    for name in claim.previous - new:
+        (out_dir / name).unlink(missing_ok=True)
+    tmp.rmdir()
 
 
 def _manifest_fields(qtex, skeleton, mesh, rcfg, image_hw, shape, cfg, quality, n_calib, seconds) -> dict:

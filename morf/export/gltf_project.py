@@ -81,9 +81,15 @@ def export_gltf(project, glb: str | Path, cfg: ProjectExportConfig = ProjectExpo
     from morf.export.skeleton import skeleton_from_body_model
     from morf.train.trained_avatar import load_trained_avatar
 
+    from morf.export.project_export import claim_export_folder
+    from morf.io.outputs import claim_output_file
+
     glb = Path(glb)
     if glb.suffix.lower() != ".glb":
         raise InputError(f"the glTF export writes a binary .glb; got {glb.name!r}")
+    # both outputs checked before any work: the .glb, and its avatar folder beside it
+    claim_output_file(glb, "morf export", cfg.force)
+    claim_export_folder(project, dataclasses.replace(cfg, out=str(avatar_dir_for(glb, cfg.out))))
     control = control or StageControl()
     if body_model is None:
         from morf.body import load_body_model

@@ -16,9 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from morf.errors import ProjectError
+from morf.io.lock import project_lock
 from morf.pipeline.control import Progress, StageControl
 from morf.raster.neural_raster import LAYOUTS
-from morf.train.run_files import AVATAR_FILE, CONFIG_FILE, finished_run_dirs
+from morf.train.run_files import AVATAR_FILE, CONFIG_FILE, finished_run_dirs, run_path
 
 
 
@@ -32,6 +33,7 @@ class ProjectExportConfig:
     calibration_views: int = 32  # training views used to calibrate int8 (spread over the capture)
     heldout_every: int = 8  # every this-many-th training view is held out of calibration for the report
     fits: str = "auto"  # body fits to pose the views: auto | fits | ground-truth (as 'morf train --fits')
+    force: bool = False  # write into an existing non-empty ``out``, replacing only the export's own files
 
     def validate(self) -> None:
         if self.input_layout not in LAYOUTS:
@@ -64,7 +66,7 @@ def pick_run(project, name: str | None) -> Path:
     """``PROJECT/runs/<name>``, or the newest finished run; one-line errors otherwise."""
     runs = Path(project.runs_dir)
     if name:
-        d = runs / name
+        d = run_path(project, name)
         if not d.is_dir():
             raise ProjectError(f"no run named {name!r} in {runs}")
         if not (d / AVATAR_FILE).is_file():
@@ -139,12 +141,33 @@ def export_project(project, cfg: ProjectExportConfig = ProjectExportConfig(), co
         cfg: which run, where to, and the int8 calibration choices.
         control: progress reports and pause / stop points (``morf.pipeline.control``).
         body_model: a loaded body model (optional; loaded on demand).
+    The output follows :mod:`morf.io.outputs`; writing PROJECT/avatar holds the project's export lock.
     """
+    cfg.validate()
+    claim = claim_export_folder(project, cfg)
+    if claim.path.resolve() != Path(project.avatar_dir).resolve():  # outside the project: nothing there to lock
+        return _export(project, cfg, claim, control, body_model)
+    with project_lock(project.root, "export"):
+        return _export(project, cfg, claim, control, body_model)
+
+
+def claim_export_folder(project, cfg: ProjectExportConfig):
+    """The output rule (:mod:`morf.io.outputs`) for ``cfg.out``: PROJECT/avatar is the export's own
+    place; any other non-empty folder needs ``cfg.force``."""
+    from morf.export.export_avatar import previous_avatar_files
+    from morf.io.outputs import claim_output_folder
+
+    out = Path(cfg.out) if cfg.out else Path(project.avatar_dir)
+    return claim_output_folder(out, "morf export", cfg.force, previous=previous_avatar_files(out),
+                               own_place=project.avatar_dir)
+
+
+def _export(project, cfg: ProjectExportConfig, claim, control: StageControl | None, body_model) -> dict:
+    """:func:`export_project` once its output is claimed (and the project's export lock held)."""
     from morf.export.calibration_views import playback_zoom
     from morf.export.export_avatar import ExportConfig, export_avatar
     from morf.train.trained_avatar import load_trained_avatar
 
-    cfg.validate()
     control = control or StageControl()
     run_dir = pick_run(project, cfg.run)
     control.report(Progress("export", 0, 5, f"loading run {run_dir.name}"))
@@ -160,7 +183,7 @@ def export_project(project, cfg: ProjectExportConfig = ProjectExportConfig(), co
     camera = trained.camera or project.camera()
     calib, held = project_views(project, camera, len(body_model.bone_names), cfg.fits, cfg.heldout_every)
     stride = max(1, len(calib) // cfg.calibration_views)  # spread calibration over the whole turn
-    out = Path(cfg.out) if cfg.out else Path(project.avatar_dir)
+    out = claim.path
     scale = trained_scale(camera, calib + held, trained.config)
     zoom = playback_zoom(camera, [v.transl for v in calib + held], scale["max_pixels_per_metre"])
     ecfg = ExportConfig(input_layout=cfg.input_layout, max_calibration_views=cfg.calibration_views,
@@ -169,5 +192,5 @@ def export_project(project, cfg: ProjectExportConfig = ProjectExportConfig(), co
                                           "method": trained.method}, "trained_scale": scale})
     manifest = export_avatar(out, texture=trained.texture, renderer=trained.renderer, body_model=body_model,
                              shape=trained.shape, calibration=calib[::stride], heldout=held, cfg=ecfg,
-                             control=control)
+                             control=control, claim=claim)
     return manifest

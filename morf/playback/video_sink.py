@@ -12,16 +12,36 @@ import numpy as np
 
 from morf.errors import InputError
 from morf.io import atomic_path, write_image
+from morf.io.outputs import RECORD, OutputClaim, claim_output_file, claim_output_folder, write_record
 from morf.playback.video_writer import VIDEO_SUFFIXES, Codec, choose_codec, open_video_writer
+
+
+def is_video_path(out: str | Path) -> bool:
+    return Path(out).suffix.lower() in VIDEO_SUFFIXES
+
+
+def claim_sink(out: str | Path, command: str, force: bool = False) -> OutputClaim:
+    """The output rule (:mod:`morf.io.outputs`) for a video file or a PNG folder, checked before
+    any rendering: an existing video, or a folder holding files, needs ``force``."""
+    out = Path(out)
+    if is_video_path(out):
+        return claim_output_file(out, command, force)
+    if out.suffix:
+        raise InputError(f"output must be a video file ({', '.join(VIDEO_SUFFIXES)}) or a folder, got {out}")
+    return claim_output_folder(out, command, force)
 
 
 class VideoSink:
     """Write (H, W, 3) uint8 RGB frames to ``out``: a video file (written atomically: the video
-    appears only when complete) or a folder (frames 000000.png, ...)."""
+    appears only when complete) or a folder (frames 000000.png, ...; with a record of them, so a
+    later ``--force`` replaces these and deletes the ones it does not write again, nothing else)."""
 
-    def __init__(self, out: str | Path, fps: float, size: tuple[int, int]):
+    def __init__(self, out: str | Path, fps: float, size: tuple[int, int], command: str = "morf play",
+                 claim: OutputClaim | None = None):
         self.out = Path(out)
-        self.is_video = self.out.suffix.lower() in VIDEO_SUFFIXES
+        self.is_video = is_video_path(self.out)
+        self.command = command
+        self.claim = claim if claim is not None else claim_sink(self.out, command)
         self.count = 0
         self.codec: Codec | None = None  # the video's codec (None for a PNG folder)
         self._writer = None
@@ -36,9 +56,6 @@ class VideoSink:
                 self._ctx.__exit__(type(e), e, None)
                 raise
         else:
-            if self.out.suffix:
-                raise InputError(f"output must be a video file ({', '.join(VIDEO_SUFFIXES)}) or a folder, "
-                                 f"got {self.out}")
             self.out.mkdir(parents=True, exist_ok=True)
 
     def write(self, rgb: np.ndarray) -> None:
@@ -49,6 +66,12 @@ class VideoSink:
         self.count += 1
 
     def close(self, ok: bool = True) -> None:
+        if not self.is_video:
+            written = {f"{i:06d}.png" for i in range(self.count)}
+            if ok:  # frames an earlier, longer render left: this command's own, so they go
+                for name in self.claim.previous - written - {RECORD}:
+                    (self.out / name).unlink(missing_ok=True)
+            write_record(self.out, self.command, written if ok else written | self.claim.previous)
         if self._writer is not None:
             writer, self._writer = self._writer, None
             try:

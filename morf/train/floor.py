@@ -12,16 +12,17 @@ be exported (there is no network to run). Building it takes seconds, once the fr
 
 from __future__ import annotations
 
-import shutil
 import time
 
 import torch
 
 from morf.avatar.renderer import RendererConfig
 from morf.errors import InputError
+from morf.io.lock import project_lock
 from morf.pipeline.control import Progress, StageControl
 from morf.train.config import TrainConfig
 from morf.train.floor_texture import MIN_SIDE
+from morf.train.run_files import restart_run, run_path
 
 # What TrainConfig records as the floor's renderer: 4 input channels (RGB + coverage), size multiple 1.
 # The module itself is morf.avatar.passthrough.PassthroughRenderer.
@@ -56,21 +57,28 @@ def train_floor(project, cfg: TrainConfig, name: str | None = None, fits_source:
         a :class:`morf.train.loop.TrainResult` with step 0; ``losses`` holds the L1 of the floor on
         its own frames (premultiplied RGB, as training reports it), empty when the run was already built.
     """
+    if cfg.method != "rgb":
+        raise InputError(f"the RGB floor needs method 'rgb', got {cfg.method!r}")
+    from morf.train.run_dir import RunDir
+
+    control = control or StageControl()
+    run = RunDir(run_path(project, name or f"{cfg.method}-{cfg.preset}"))
+    with project_lock(project.root, f"run-{run.root.name}"):
+        if restart:
+            restart_run(run.root)
+        return _build_floor(project, run, cfg, fits_source, model, control)
+
+
+def _build_floor(project, run, cfg: TrainConfig, fits_source: str, model, control: StageControl):
+    """:func:`train_floor` for one run folder, with its lock held."""
     from morf.avatar.passthrough import PassthroughRenderer
     from morf.avatar.spectral import body_uv_atlas
     from morf.body import load_body_model
     from morf.train.data import build_frames
     from morf.train.floor_texture import choose_floor_size, floor_texture
     from morf.train.loop import TrainResult
-    from morf.train.run_dir import RunDir
     from morf.train.trained_avatar import save_trained_avatar
 
-    if cfg.method != "rgb":
-        raise InputError(f"the RGB floor needs method 'rgb', got {cfg.method!r}")
-    control = control or StageControl()
-    run = RunDir(project.runs_dir / (name or f"{cfg.method}-{cfg.preset}"))
-    if restart and run.root.exists():
-        shutil.rmtree(run.root)
     t0 = time.monotonic()
     control.report(Progress("train", 0, None, "loading body model"))
     model = model or load_body_model("anny")

@@ -6,8 +6,6 @@ the perceptual loss and the inpainting views, then calls :func:`morf.train.loop.
 
 from __future__ import annotations
 
-import shutil
-
 import numpy as np
 
 import torch
@@ -17,7 +15,9 @@ from morf.pipeline.control import Progress, StageControl
 from morf.train.config import TrainConfig
 from morf.train.frame_scores import FrameScores
 from morf.train.loop import InpaintViews, TrainResult, train_avatar
+from morf.io.lock import project_lock
 from morf.train.run_dir import RunDir
+from morf.train.run_files import restart_run, run_path
 
 
 def default_run_name(cfg: TrainConfig) -> str:
@@ -34,21 +34,29 @@ def train_project(project, cfg: TrainConfig, name: str | None = None, control: S
         name: run name (default ``<method>-<preset>``); fits_source: auto | fits | ground-truth;
         vgg: VGG-16 weights path (else ``$MORF_VGG16_WEIGHTS``; none: feature matching);
         restart: delete an existing run of that name first; model: a loaded body model (optional).
+    The run's lock (``morf.io.lock``) is held throughout: a second writer of the run is refused.
     """
+    if cfg.method == "rgb":  # the no-learning floor: no network, seconds
+        from morf.train.floor import train_floor
+
+        return train_floor(project, cfg, name, fits_source, model, control, restart=restart)
+    control = control or StageControl()
+    run = RunDir(run_path(project, name or default_run_name(cfg)))
+    with project_lock(project.root, f"run-{run.root.name}"):
+        return _train_run(project, run, cfg, control, fits_source, vgg, restart, model)
+
+
+def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fits_source: str, vgg: str | None,
+               restart: bool, model) -> TrainResult:
+    """:func:`train_project` for one run folder, with its lock held."""
     from morf.avatar.spectral import body_uv_atlas, spectral_texture
     from morf.avatar.vgg import PerceptualLoss, load_vgg16, resolve_vgg_path
     from morf.body import load_body_model
     from morf.train.data import build_frames
     from morf.train.pseudo_views import make_pseudo_views
 
-    if cfg.method == "rgb":  # the no-learning floor: no network, seconds
-        from morf.train.floor import train_floor
-
-        return train_floor(project, cfg, name, fits_source, model, control, restart=restart)
-    control = control or StageControl()
-    run = RunDir(project.runs_dir / (name or default_run_name(cfg)))
-    if restart and run.root.exists():
-        shutil.rmtree(run.root)
+    if restart:
+        restart_run(run.root)
     if run.config_path.is_file() and run.load_config() != cfg:
         raise InputError(f"run {run.root.name!r} exists with a different configuration; resume it with the same "
                          "options, or pass --restart or another --name")

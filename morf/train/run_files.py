@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import sys
 import time
 from pathlib import Path
 
@@ -30,6 +31,9 @@ CHECKPOINT_FILE = "checkpoint.pt"
 AVATAR_FILE = "avatar.pt"
 LOG_FILE = "train.log"
 METRICS_FILE = "metrics.jsonl"
+AUTO_SIZE_FILE = "auto_size.txt"  # why `--preset auto` chose the run's sizes
+# Every file a run writes; `morf train --restart` deletes these and nothing else.
+RUN_FILES = (CONFIG_FILE, CHECKPOINT_FILE, AVATAR_FILE, LOG_FILE, METRICS_FILE, AUTO_SIZE_FILE)
 
 FITS_SOURCES = ("fits", "ground-truth")  # what the fits note of train.log may name
 _FITS_NOTE = re.compile(r"\bfits: ([\w-]+);")
@@ -114,10 +118,48 @@ class RunFiles:
         return last_step(self.read_metrics())
 
 
+def run_path(project, name: str) -> Path:
+    """``PROJECT/runs/<name>`` for a name a user gave (a single folder name, else an InputError)."""
+    from morf.io.names import check_name
+
+    return Path(project.runs_dir) / check_name(name, "run name")
+
+
+def is_run_name(name: str) -> bool:
+    """Whether a folder name under runs/ can be a run (dot folders such as ``.cache`` are the project's own)."""
+    return not name.startswith(".")
+
+
+def clear_run(root: Path) -> list[str]:
+    """Delete the files a run writes (:data:`RUN_FILES`, and temporaries of its atomic writes) from
+    ``root``, then the folder when nothing else is left; returns the names of other files, which stay."""
+    root = Path(root)
+    if not root.is_dir():
+        return []
+    kept = []
+    for p in root.iterdir():
+        ours = p.name in RUN_FILES or any(p.name.startswith(f".{n}.") for n in RUN_FILES)
+        if ours and not p.is_dir():
+            p.unlink()
+        else:
+            kept.append(p.name)
+    if not kept:
+        root.rmdir()
+    return sorted(kept)
+
+
+def restart_run(root: Path) -> None:
+    """``morf train --restart``: delete what the run wrote (and only that), saying what was left."""
+    kept = clear_run(root)
+    if kept:
+        print(f"note: {root} also holds files training did not write ({', '.join(kept[:3])}); they are kept",
+              file=sys.stderr)
+
+
 def finished_run_dirs(project) -> list[Path]:
     """The run folders of ``project`` holding a trained avatar (``avatar.pt``), oldest avatar first."""
     root = Path(project.runs_dir)
     if not root.is_dir():
         return []
-    done = [RunFiles(d) for d in root.iterdir() if RunFiles(d).is_done]
+    done = [RunFiles(d) for d in root.iterdir() if is_run_name(d.name) and RunFiles(d).is_done]
     return [run.root for run in sorted(done, key=lambda run: run.avatar_path.stat().st_mtime)]
