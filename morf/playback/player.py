@@ -44,7 +44,9 @@ class Player:
     """Plays an exported avatar.
 
     Args:
-        avatar_dir: a folder written by ``morf export`` (or an :class:`ExportedAvatar`).
+        avatar_dir: a folder written by ``morf export``, checked on load with its sha256 sums
+            (:func:`~morf.export.avatar_folder.load_exported_avatar`), or an :class:`ExportedAvatar`
+            (one loaded with ``verify=False`` skips the sums, for a caller that has just checked them).
         size: output side in pixels (square; a multiple of the renderer's size multiple).
         ctx: a moderngl context to draw in (e.g. the studio window's); None makes a headless one.
         precision: "int8" (default) or "fp32" renderer.
