@@ -27,7 +27,7 @@ def run(args) -> int:
         "source": project.manifest.get("source"),
         "synthetic": project.is_synthetic,
         "has_fits": project.fits_path.is_file(),
-        "runs": sorted(p.name for p in project.runs_dir.iterdir()) if project.runs_dir.is_dir() else [],
+        "runs": run_names(project.runs_dir),
         "has_avatar": is_avatar_folder(project.avatar_dir),
         "training_frames": len(decisions) - len(dropped),
         "excluded": dropped,
@@ -45,3 +45,11 @@ def run(args) -> int:
             else:
                 print(f"{k}: {v}")
     return 0
+
+
+def run_names(runs_dir) -> list[str]:
+    """The training runs in ``runs_dir``: its folders, without the project's own (``.cache`` and
+    any other name starting with a dot) and without stray files."""
+    if not runs_dir.is_dir():
+        return []
+    return sorted(p.name for p in runs_dir.iterdir() if p.is_dir() and not p.name.startswith("."))

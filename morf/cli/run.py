@@ -9,6 +9,7 @@ training size and hold-out the last ``morf run`` on it chose (PROJECT/run.json).
 
 from __future__ import annotations
 
+import shlex
 from pathlib import Path
 
 from morf.presets import PRESETS
@@ -81,17 +82,33 @@ def run(args) -> int:
         Step("train", lambda: train_plan(root, name, fresh, holdout)),
         Step("export", lambda: export_plan(root, name)),
     ][:STAGES.index(args.until) + 1]
-    again = f"morf run {root}" + (f" --until {args.until}" if args.until != "export" else "")
-    rc = run_steps(steps, main, "run", again)
+    rc = run_steps(steps, main, "run", again_command(args))
     if rc == 0 and args.until == "ingest":
         _remember(root, preset, holdout)
     if rc == 0:
         if args.until == "export":
             print(f"avatar ready in {root / 'avatar'} (run {name}); animate it with: "
-                  f"morf animate {root} --motion FILE --out video.mp4")
+                  f"morf animate {shlex.quote(str(root))} --motion FILE --out video.mp4")
         else:
-            print(f"stopped after {args.until} as asked; 'morf run {root}' continues to the export")
+            print(f"stopped after {args.until} as asked; continue to the export with: "
+                  f"morf run {shlex.quote(str(root))}")
     return rc
+
+
+def again_command(args) -> str:
+    """The command line that runs this ``morf run`` again, with every option the user gave,
+    quoted for a shell: pasted after a failed stage, it continues (an existing project made from
+    the same --video skips ingest)."""
+    argv = ["morf", "run", str(args.project)]
+    if args.video is not None:
+        argv += ["--video", str(args.video)]
+    if args.until != "export":
+        argv += ["--until", args.until]
+    if args.preset is not None:
+        argv += ["--preset", args.preset]
+    if args.holdout is not None:
+        argv += ["--holdout", str(args.holdout)]
+    return shlex.join(argv + _ingest_argv(args))
 
 
 def _ingest_plan(root: Path, args):
@@ -122,13 +139,7 @@ def _ingest_plan(root: Path, args):
         raise InputError(f"{root} exists and is not a MoRF capture project; choose a new folder")
     if video is None:
         raise InputError(f"{root} is not a capture project yet; give --video FILE to make one")
-    argv = ("ingest", str(root), "--video", str(video))
-    for flag, value in _ingest_options(args):
-        if value is True:
-            argv += (flag,)
-        elif value is not None:
-            argv += (flag, str(value))
-    return Plan("run", argv)
+    return Plan("run", ("ingest", str(root), "--video", str(video), *_ingest_argv(args)))
 
 
 def _ingest_options(args) -> list[tuple[str, object]]:
@@ -136,6 +147,17 @@ def _ingest_options(args) -> list[tuple[str, object]]:
     return [("--keypoints", args.keypoints), ("--masks", args.masks), ("--every", args.every),
             ("--max-frames", args.max_frames), ("--resize", args.resize),
             ("--no-mirror-average", args.no_mirror_average or None)]
+
+
+def _ingest_argv(args) -> list[str]:
+    """The ``morf ingest`` options given to ``morf run``, as command-line words."""
+    argv = []
+    for flag, value in _ingest_options(args):
+        if value is True:
+            argv.append(flag)
+        elif value is not None:
+            argv += [flag, str(value)]
+    return argv
 
 
 def _recall(root: Path) -> dict:

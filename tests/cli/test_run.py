@@ -4,6 +4,9 @@ bad starts refused in one line."""
 from __future__ import annotations
 
 import json
+import os
+import shlex
+import subprocess
 import sys
 from pathlib import Path
 
@@ -108,3 +111,49 @@ def test_stopped_fits_and_runs_are_resumed_with_their_own_settings(tmp_path):
     assert plan.action == "resume" and plan.argv[2:4] == ("--config", str(root / "runs" / "morf-tiny" / "config.json"))
     with pytest.raises(InputError, match="--holdout 4"):
         train_plan(root, "morf-tiny", fresh, holdout=8)
+
+
+def _hint(out: str) -> str:
+    """The command line of the retry hint printed after a failed stage."""
+    line = next(line for line in out.splitlines() if "again to continue" in line)
+    hint = line.split("fix it and run ", 1)[1].rsplit(" again to continue", 1)[0]
+    return hint[1:-1] if hint.startswith("'") and hint.endswith("'") else hint
+
+
+def test_retry_hint_keeps_every_option_and_works_pasted(tmp_path, capsys):
+    base = tmp_path / "my captures"
+    base.mkdir()
+    video = write_video(base / "my clip.avi", 6)
+    kp = write_openpose(base / "kp files", 5, [(10, 8, 30, 40)])  # one file short: ingest fails
+    masks = write_masks(base / "the masks", 6)
+    root = base / "my proj"
+    rc, out, err = run(capsys, root, "--video", video, "--keypoints", kp, "--masks", masks, "--every", "1",
+                       "--until", "ingest", "--preset", "tiny", "--holdout", "3")
+    assert rc == 2 and "no OpenPose file for frame 5" in err and not root.exists()
+    hint = _hint(out)
+    argv = shlex.split(hint)
+    assert argv[:3] == ["morf", "run", str(root)]
+    given = dict(zip(argv[3::2], argv[4::2]))
+    assert given == {"--video": str(video), "--keypoints": str(kp), "--masks": str(masks), "--every": "1",
+                     "--until": "ingest", "--preset": "tiny", "--holdout": "3"}, hint
+
+    write_openpose(kp, 6, [(10, 8, 30, 40)])  # the fix; then the hint, pasted into a shell
+    morf = Path(sys.executable).with_name("morf")
+    if not morf.is_file():
+        pytest.skip(f"no morf command beside {sys.executable}")
+    env = {**os.environ, "PATH": f"{morf.parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    r = subprocess.run(hint, shell=True, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert CaptureProject.open(root).num_frames == 6
+    assert json.loads((root / "run.json").read_text()) == {"preset": "tiny", "holdout": 3}
+    assert "continue to the export with: morf run " + shlex.quote(str(root)) in r.stdout
+
+
+def test_info_lists_runs_without_the_projects_own_folders(tmp_path, capsys):
+    root = CaptureProject.create(tmp_path / "p", num_frames=2, width=64, height=48, fps=10.0,
+                                 source={"kind": "video"}).root
+    for name in (".cache", ".old-run", "morf-cpu", "morf-tiny"):
+        (root / "runs" / name).mkdir(parents=True)
+    (root / "runs" / "notes.txt").write_text("mine")
+    assert main(["info", str(root), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["runs"] == ["morf-cpu", "morf-tiny"]
