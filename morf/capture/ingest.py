@@ -127,8 +127,9 @@ def ingest(project: str | Path, config: IngestConfig, control: StageControl | No
            log: Callable[[str], None] = print) -> IngestResult:
     """Ingest ``config``'s input into the project folder ``project`` (created or replaced).
 
-    Raises :class:`~morf.errors.MorfError` (one line) on bad input; the project is then
-    unchanged. ``control`` receives a :class:`Progress` per frame and can pause or stop
+    Raises :class:`~morf.errors.MorfError` (one line) on bad input, including an input in which
+    no frame shows a person; the project is then unchanged (or, when there was none, not made).
+    ``control`` receives a :class:`Progress` per frame and can pause or stop
     (:class:`~morf.pipeline.control.StopRequested` also leaves the project unchanged).
     ``log`` receives the sentences worth showing a user (people seen, the choice made).
     """
@@ -178,6 +179,8 @@ def ingest(project: str | Path, config: IngestConfig, control: StageControl | No
             source_total = source.frame_count if source.kind != "video" else (
                 None if config.max_frames and len(rows) == config.max_frames else source.decoded)
             labeller.check_complete(len(rows), source_total, source.ended_early)
+            if not any(label.found for _, label in rows):
+                raise InputError(_nobody_found(len(rows), source, config))
             people = _people_record(labeller, rows, config)
             timing = frame_timing(times, config.fps or source.fps, config.fps is not None) \
                 if source.kind == "video" else FrameTiming(None, "fps" if config.fps else "none")
@@ -189,6 +192,17 @@ def ingest(project: str | Path, config: IngestConfig, control: StageControl | No
     detected = sum(1 for _, lab in rows if lab.found)
     return IngestResult(root, len(rows), out_w, out_h, detected, labeller.people_seen,
                         tuple(labeller.rechosen_frames), replaced, tuple(source.warnings + labeller.warnings))
+
+
+def _nobody_found(frames: int, source: FrameSource, config: IngestConfig) -> str:
+    """The error for an input in which no frame shows the person: nothing could be fitted or trained
+    on such a project, so none is made."""
+    where = f"any of the {frames} frames of {source.path}"
+    if config.keypoints is not None:
+        return (f"no person was found in {where}: the OpenPose files in {config.keypoints} hold nobody; give the "
+                f"keypoints OpenPose found on these frames")
+    return (f"no person was found in {where}; film one person, whole body in view and well lit (or give their "
+            f"keypoints with --keypoints DIR)")
 
 
 def _people_record(labeller: FrameLabeller, rows, config: IngestConfig) -> dict:

@@ -45,21 +45,47 @@ def check_replaceable(root: Path, force: bool) -> bool:
 def staged_folder(root: Path) -> Iterator[Path]:
     """Yield an empty hidden folder beside ``root``; on success it replaces ``root``.
 
-    On any exception (including KeyboardInterrupt) the staging folder is deleted and ``root``
-    is untouched.
+    On any exception (including KeyboardInterrupt) the staging folder is deleted, ``root`` is
+    untouched (a folder the user had stays as it was) and the parent folders made for it are
+    removed again: a failed ingest leaves nothing behind.
     """
     root = Path(root).absolute()
+    made = missing_parents(root)
     try:
         root.parent.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=f".{root.name}.ingest-", dir=root.parent))
         os.chmod(staging, 0o777 & ~_umask())  # mkdtemp makes it private; a project is an ordinary folder
     except OSError as e:
+        _remove_empty(made)
         raise ProjectError(f"cannot write in {root.parent}: {e.strerror or e}") from None
     try:
         yield staging
         swap_in(staging, root)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        _remove_empty(made)
+        raise
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+
+
+def missing_parents(root: Path) -> list[Path]:
+    """The parent folders of ``root`` that do not exist yet, innermost first."""
+    out = []
+    for parent in root.parents:
+        if parent.exists():
+            break
+        out.append(parent)
+    return out
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    """Remove ``folders`` (innermost first) while they are empty; one that holds anything stays."""
+    for folder in folders:
+        try:
+            folder.rmdir()
+        except OSError:
+            return
 
 
 def _umask() -> int:

@@ -217,3 +217,47 @@ def test_stop_midway_leaves_the_previous_project(project, inputs):
     assert seen == [1, 2]
     assert snapshot(project) == before
     assert not list(project.parent.glob(".proj.ingest-*"))
+
+
+def _one_line_error(rc: int, err: str) -> str:
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert rc == 2 and len(lines) == 1 and lines[0].startswith("morf ingest: error: "), (rc, err)
+    return lines[0]
+
+
+def test_no_person_in_any_frame_is_an_error_that_leaves_nothing(project, tmp_path, inputs, capsys):
+    nobody = write_openpose(tmp_path / "nobody", 6, [])  # OpenPose found nobody in any frame
+    args = ["--video", inputs["video"], "--keypoints", nobody, "--masks", inputs["masks"]]
+
+    rc, out, err = run_cli(capsys, tmp_path / "new" / "deeper" / "proj", *args)
+    assert "no person was found in any of the 6 frames" in _one_line_error(rc, err)
+    assert not (tmp_path / "new").exists(), "folders made for the project were left behind"
+
+    had = tmp_path / "had"  # a folder the user made for it stays exactly as it was
+    had.mkdir()
+    had.chmod(0o750)
+    before = had.stat()
+    rc, out, err = run_cli(capsys, had, *args)
+    _one_line_error(rc, err)
+    after = had.stat()
+    assert list(had.iterdir()) == [] and (after.st_ino, after.st_mode) == (before.st_ino, before.st_mode)
+
+    before = snapshot(project)  # an existing project, even with --force, is kept
+    rc, out, err = run_cli(capsys, project, *args, "--force")
+    _one_line_error(rc, err)
+    assert snapshot(project) == before
+    assert not [p.name for p in tmp_path.iterdir() if ".ingest-" in p.name], "staging folder left behind"
+
+
+def test_a_video_without_a_person_fails_through_the_command(tmp_path, inputs):
+    """MediaPipe on frames that show no person, run as a user runs it."""
+    import subprocess
+    import sys
+
+    pytest.importorskip("mediapipe")
+    video = write_video(tmp_path / "empty room.avi", 3)
+    r = subprocess.run([sys.executable, "-m", "morf.cli.main", "ingest", str(tmp_path / "proj"), "--video", str(video)],
+                       capture_output=True, text=True, timeout=300)
+    line = _one_line_error(r.returncode, r.stderr)
+    assert "no person was found in any of the 3 frames" in line and "film one person" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["empty room.avi", "in"]
