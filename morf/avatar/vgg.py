@@ -17,6 +17,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from morf.errors import InputError
+from morf.io.torch_files import load_torch_file
 
 ENV_VAR = "MORF_VGG16_WEIGHTS"
 # torchvision's vgg16 "features": numbers are conv widths, "M" a 2x2 max-pool.
@@ -71,12 +72,8 @@ def read_state_dict(path: Path, what: str) -> dict:
     """The state dict in ``path`` (a ``{"state_dict": ...}`` wrapper unwrapped; {} when the file
     holds no dict), read with ``torch.load(weights_only=True)``, which unpickles tensors and plain
     containers only. A missing or unreadable file is an InputError naming ``what``."""
-    if not path.is_file():
-        raise InputError(f"{what} not found: {path}")
-    try:
-        state = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as e:
-        raise InputError(f"cannot read {what} {path}: {e}") from None
+    state = load_torch_file(path, what=what, missing=InputError,
+                            use=f"use the {what} as published (a state dict of tensors)")
     if isinstance(state, dict) and "state_dict" in state and isinstance(state["state_dict"], dict):
         state = state["state_dict"]
     return state if isinstance(state, dict) else {}

@@ -50,6 +50,9 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"morf {args.command}: error: {e}", file=sys.stderr)
         return e.exit_code
+    except BrokenPipeError:  # `morf info P | head`: the reader has gone; nothing more to say
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error flushing stdout at exit
+        return 141
     except OSError as e:  # the environment, not a bug: a read-only folder, a full disk, a vanished file
         if os.environ.get("MORF_DEBUG"):
             raise

@@ -124,8 +124,9 @@ def write_dataset_project(root: str | Path, frames: Iterable[DatasetFrame], *, t
                 labeller.close()
             if not source_frames:
                 raise InputError("no frames were selected for import (check --split, --every and --max-frames)")
-            if detect and not any(found):
-                warnings.append("MediaPipe found no person in any frame")
+            if detect and not any(found):  # nothing to fit: an error, as for 'morf ingest', and no project left
+                raise InputError(f"MediaPipe found no person in any of the {len(found)} imported frames; check that "
+                                 "the dataset folder and subject are right (the frames should show one person)")
             extras = write_extras(staging / DATASET_DIR, source_frames) if write_extras else {}
             kp = Keypoints2D(np.stack(points).astype(np.float32), np.array(found, bool), np.array(kinds, str))
             full = dict(record, source_frames=source_frames, splits=splits, warnings=warnings,

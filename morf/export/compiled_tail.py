@@ -173,6 +173,8 @@ class TailShader:
             raise ValueError("this tail has no head stage")
         if skip.shape[2] != 2 * low.shape[2] or skip.shape[3] != 2 * low.shape[3] or skip.shape[1] != low.shape[1]:
             raise ValueError(f"head tensors {low.shape} / {skip.shape} do not match")
+        if self._weight.shape[1] != low.shape[1]:  # the compiled loop does not check bounds
+            raise ValueError(f"head weights take {self._weight.shape[1]} channels, the graph gives {low.shape[1]}")
         out = np.empty((1, self._weight.shape[0], *skip.shape[2:]), np.float32)
         with _LOCK:
             numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))

@@ -99,8 +99,13 @@ def test_loader_refuses_bad_files(tmp_path, lpips_weights):
         with pytest.raises(InputError, match=words.replace("(", r"\(").replace(")", r"\)")):
             load_lpips(tmp_path / f"{name}.pth", vgg_path)
     torch.save({"lin": InputError("not a tensor")}, tmp_path / "object.pth")  # needs full unpickling
-    with pytest.raises(InputError, match="cannot read LPIPS weights"):
+    with pytest.raises(InputError, match=r"object\.pth holds objects other than tensors \(morf\.errors\.InputError\), "
+                                         r"so it is not loaded, for safety") as e:
         load_lpips(tmp_path / "object.pth", vgg_path)
+    assert "weights_only" not in str(e.value)
+    (tmp_path / "text.pth").write_text("not a torch file")
+    with pytest.raises(InputError, match="damaged or not a PyTorch LPIPS weights"):
+        load_lpips(tmp_path / "text.pth", vgg_path)
     with pytest.raises(InputError, match="VGG-16"):
         load_lpips(lin_path, lin_path)  # the lin file is no VGG-16
 
