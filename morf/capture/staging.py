@@ -13,12 +13,15 @@ import contextlib
 import ctypes
 import os
 import shutil
+import sys
 import tempfile
+import time
 from pathlib import Path
 from typing import Iterator
 
 from morf.capture.project import FITS_DIR, CaptureProject
 from morf.errors import ProjectError
+from morf.io.lock import held_locks
 
 # Folders whose content was made from the current frames; replacing the frames orphans them.
 LATER_STAGES = (FITS_DIR, "runs", "avatar", "ground_truth")
@@ -34,11 +37,21 @@ def check_replaceable(root: Path, force: bool) -> bool:
         if any(root.iterdir()):
             raise ProjectError(f"{root} exists, is not empty and is not a MoRF project; choose a new folder")
         return False
-    later = [d for d in LATER_STAGES if (root / d).is_dir() and any((root / d).iterdir())]
+    busy = held_locks(root)
+    if busy:
+        stage, holder = busy[0]
+        raise ProjectError(f"{root} is being written by another morf process (pid {holder.get('pid', '?')}, "
+                           f"`{holder.get('command', '?')}`, {stage}); wait for it to finish before ingesting again")
+    later = later_stages(root)
     if later and not force:
         raise ProjectError(f"{root} already holds {', '.join(later)} made from its current frames; "
                            f"pass --force to replace the whole project")
     return True
+
+
+def later_stages(root: Path) -> list[str]:
+    """The folders of later stages (fits, runs, avatar, ...) that hold anything in the project ``root``."""
+    return [d for d in LATER_STAGES if (root / d).is_dir() and any((root / d).iterdir())]
 
 
 @contextlib.contextmanager
@@ -48,6 +61,10 @@ def staged_folder(root: Path) -> Iterator[Path]:
     On any exception (including KeyboardInterrupt) the staging folder is deleted, ``root`` is
     untouched (a folder the user had stays as it was) and the parent folders made for it are
     removed again: a failed ingest leaves nothing behind.
+
+    A replaced project that held later stages' work (fits, training runs, an avatar: hours of a
+    user's time, which ingest did not write) is not deleted: it is kept beside the new one as
+    ``<name>.replaced-<date>-<time>``, and a note says so.
     """
     root = Path(root).absolute()
     made = missing_parents(root)
@@ -61,6 +78,10 @@ def staged_folder(root: Path) -> Iterator[Path]:
     try:
         yield staging
         swap_in(staging, root)
+        if later_stages(staging):
+            keep = root.with_name(f"{root.name}.replaced-{time.strftime('%Y%m%d-%H%M%S')}")
+            os.rename(staging, keep)
+            print(f"note: the replaced project's fits, runs and avatar are kept in {keep}", file=sys.stderr)
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         _remove_empty(made)

@@ -150,3 +150,16 @@ def holder_of(project_root: str | os.PathLike, stage: str) -> dict | None:
     finally:
         os.close(fd)  # closing drops a shared lock we got
     return None
+
+
+def held_locks(project_root: str | os.PathLike) -> list[tuple[str, dict]]:
+    """(stage, holder) of every lock of the project another process holds now."""
+    folder = Path(project_root) / LOCK_DIR
+    if not folder.is_dir():
+        return []
+    out = []
+    for path in sorted(folder.glob("*.lock")):
+        holder = holder_of(project_root, path.stem)
+        if holder is not None:
+            out.append((path.stem, holder))
+    return out

@@ -100,6 +100,29 @@ def test_later_stages_need_force(project, inputs, capsys):
     rc, out, err = run_cli(capsys, project, "--video", inputs["video"], "--keypoints", inputs["kp"], "--masks", inputs["masks"], "--force")
     assert rc == 0, err
     assert not (project / "fits").exists()
+    # the replaced project's work is not deleted: it is kept beside the new one, and the note says where
+    kept = [p for p in project.parent.iterdir() if p.name.startswith(f"{project.name}.replaced-")]
+    assert len(kept) == 1 and (kept[0] / "fits" / "fits.npz").read_bytes() == b"x"
+    assert f"kept in {kept[0]}" in err
+
+
+def test_ingest_waits_for_a_writer_of_the_project(project, inputs, capsys):
+    import subprocess
+    import sys
+
+    hold = "import sys, time\nfrom morf.io.lock import project_lock\nwith project_lock(sys.argv[1], 'run-x', 'morf train P'):\n" \
+           "    print('held', flush=True)\n    time.sleep(60)\n"
+    p = subprocess.Popen([sys.executable, "-c", hold, str(project)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert p.stdout.readline().strip() == "held"
+        before = snapshot(project)
+        rc, out, err = run_cli(capsys, project, "--video", inputs["video"], "--keypoints", inputs["kp"], "--masks",
+                               inputs["masks"], "--force")
+        assert rc == 2 and f"pid {p.pid}" in err and "`morf train P`" in err, err
+        assert snapshot(project) == before
+    finally:
+        p.kill()
+        p.wait()
 
 
 def _bad_inputs(tmp: Path, inputs) -> dict[str, tuple[list, str]]:
