@@ -95,7 +95,7 @@ def _fit_sequence(model, inputs, cfg, control, start, device, on_stage) -> FitSt
     bone_ids = [model.bone_index(b) for b in FIT_BONES]
     shape0 = model.default_shape().to(device)
     n_off = problem.body.proxy_ids.numel() if (cfg.offsets and problem.body.proxy_ids is not None) else 0
-    done = 0
+    done, state = 0, start
     if start is not None and start.stage > 0:
         params = FitParameters(N, len(model.bone_names), bone_ids, torch.eye(3, device=device).expand(N, 3, 3),
                                start.transl.to(device), shape0, cfg.shared_shape, n_off).to(device)
@@ -113,21 +113,35 @@ def _fit_sequence(model, inputs, cfg, control, start, device, on_stage) -> FitSt
         params = FitParameters(N, len(model.bone_names), bone_ids, g.root.to(device), g.transl.to(device),
                                shape0, cfg.shared_shape, n_off).to(device)
         done = 1
-        if on_stage is not None:
-            on_stage(_state(params, done))
+        state = _stage_done(params, done, on_stage)
     for k in range(done, len(cfg.stages)):
         stage = cfg.stages[k]
         run_stage(problem, params, cfg, stage, stage_number=k + 1, control=control)
-        if on_stage is not None:
-            on_stage(_state(params, k + 1))
-    return _state(params, len(cfg.stages))
+        state = _stage_done(params, k + 1, on_stage)
+    return state  # what the last checkpoint holds (a resumed fit with nothing left returns ``start``)
+
+
+def _stage_done(params: FitParameters, stage: int, on_stage: Callable[[FitState], None] | None) -> FitState:
+    """Hand the state after ``stage`` to ``on_stage`` (the checkpoint) and go on from that very
+    state, as a fit resumed from the checkpoint does: the parameters are rebuilt from the saved
+    rotvecs and shape (the root's delta folded into its rotation, the shape through its logit),
+    so a fit killed after any stage and resumed ends with the same numbers as one that ran through."""
+    state = _state(params, stage)
+    if on_stage is not None:
+        on_stage(state)
+    device = params.transl.device
+    params.load_state(state.rotvecs.to(device), state.transl.to(device), state.shape.to(device),
+                      state.offsets.to(device))
+    return state
 
 
 def _state(params: FitParameters, stage: int) -> FitState:
+    """The parameters after ``stage`` as tensors of their own (a copy: never views of the
+    parameters, which later stages go on changing)."""
     with torch.no_grad():
         pose = params.pose()
-        return FitState(pose.rotvecs.detach().float().cpu(), pose.transl.detach().float().cpu(),
-                        params.shape().detach().float().cpu(), stage, params.offsets.detach().float().cpu())
+        return FitState(*(t.detach().float().cpu().clone() for t in (pose.rotvecs, pose.transl, params.shape())),
+                        stage, params.offsets.detach().float().cpu().clone())
 
 
 def finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple[BodyFits, dict[int, str]]:

@@ -6,6 +6,14 @@ Outputs:
     fits/fit_config.json   the resolved FitConfig
     fits/checkpoint.npz    parameters after the last completed stage (resume point)
     fits/overlays/000000.jpg  one overlay per frame
+    fits/done.json         written last, once every file above exists: the fit is complete
+
+The fit counts as done only when done.json names this configuration AND every output it lists is
+on disk (:func:`fit_progress`, :func:`missing_outputs`): a fit killed anywhere, even between the
+last overlay and done.json, is finished by the next ``morf fit`` or ``morf run`` rather than taken
+for complete. A fit that will rewrite the outputs removes done.json first. The fit resumes from
+the checkpoint of its last completed stage; a checkpoint holding all stages leaves only the
+evaluation, the filter and the overlays to do again (seconds).
 """
 
 from __future__ import annotations
@@ -18,7 +26,7 @@ import numpy as np
 import torch
 
 from morf.camera import PinholeCamera
-from morf.errors import InputError, MorfError
+from morf.errors import InputError, MorfError, ProjectError
 from morf.fitting.config import FitConfig
 from morf.fitting.evaluate import posed_chunks, silhouettes
 from morf.fitting.fit import FitState, cpu_threads, default_device, finalize, fit_sequence
@@ -27,6 +35,7 @@ from morf.fitting.inputs import load_fit_inputs
 from morf.fitting.offsets import dressed_vertices
 from morf.fitting.overlays import draw_overlay
 from morf.io import atomic_write_json, write_image
+from morf.io.lock import project_lock
 from morf.pipeline.control import Progress, StageControl
 from morf.progress import progress
 
@@ -48,13 +57,17 @@ class FitReport:
     up_to_date: bool = False
 
 
+DONE_FILE = "done.json"  # PROJECT/fits/done.json: the fit's completion record, written last
+
+
 @dataclass(frozen=True)
 class FitProgress:
     """How far the fit of a project has come, read from PROJECT/fits/ without fitting anything.
 
     Fields:
-        complete: fits.npz and filter.json are written (``fit_project`` then reports up to date,
-            unless asked for another configuration).
+        complete: done.json records a finished fit and every output it lists exists (fits.npz,
+            filter.json, an overlay per frame when the fit makes them); ``fit_project`` then reports
+            up to date, unless asked for another configuration.
         stages_done: fit stages the checkpoint holds (0: none).
         stages_total: stages of the fit that wrote fit_config.json (None: no fit started).
         config: that fit's configuration (None when there is none, or it is unreadable).
@@ -81,8 +94,33 @@ def fit_progress(project) -> FitProgress:
         pass
     ckpt = read_checkpoint(out / CHECKPOINT_FILE)
     done = ckpt["stage"] if ckpt is not None else 0
-    complete = project.fits_path.is_file() and (out / "filter.json").is_file()
+    record = read_done(project)
+    complete = record is not None and not missing_outputs(project, bool(record["config"].get("overlays")))
     return FitProgress(complete, done, None if config is None else len(config.stages), config)
+
+
+def read_done(project) -> dict | None:
+    """fits/done.json ({"config": the FitConfig dict, "key": what decided the parameters, "frames":
+    N}) when it records a fit of this project's frames; None when absent, unreadable or stale."""
+    try:
+        record = json.loads((project.fits_dir / DONE_FILE).read_text())
+    except (OSError, ValueError):
+        return None
+    if (not isinstance(record, dict) or not isinstance(record.get("config"), dict)
+            or record.get("frames") != project.num_frames):
+        return None
+    return record
+
+
+def missing_outputs(project, overlays: bool) -> list[str]:
+    """The outputs of a complete fit that are not on disk (paths inside fits/): fits.npz,
+    filter.json and, when the fit makes them, one overlay per frame."""
+    out = project.fits_dir
+    missing = [name for name in ("fits.npz", "filter.json") if not (out / name).is_file()]
+    if overlays:
+        have = {p.name for p in (out / "overlays").glob("*.jpg")} if (out / "overlays").is_dir() else set()
+        missing += [f"overlays/{i:06d}.jpg" for i in range(project.num_frames) if f"{i:06d}.jpg" not in have]
+    return missing
 
 
 def _resume_key(cfg: FitConfig, camera: PinholeCamera) -> dict:
@@ -105,9 +143,15 @@ def project_camera(project, focal: float | None) -> PinholeCamera:
 
 def fit_project(project, cfg: FitConfig, *, model=None, focal: float | None = None, restart: bool = False,
                 control: StageControl | None = None, device: torch.device | None = None) -> FitReport:
-    """Fit every frame of ``project`` (a CaptureProject) and write PROJECT/fits/."""
+    """Fit every frame of ``project`` (a CaptureProject) and write PROJECT/fits/, holding the
+    project's fit lock (a second writer is refused)."""
+    with project_lock(project.root, "fit"):
+        return _fit_project(project, cfg, model, focal, restart, control or StageControl(), device)
+
+
+def _fit_project(project, cfg: FitConfig, model, focal: float | None, restart: bool, control: StageControl,
+                 device: torch.device | None) -> FitReport:
     t0 = time.perf_counter()
-    control = control or StageControl()
     if model is None:
         from morf.body import load_body_model
 
@@ -125,6 +169,13 @@ def fit_project(project, cfg: FitConfig, *, model=None, focal: float | None = No
         start = FitState(torch.as_tensor(ckpt["rotvecs"]), torch.as_tensor(ckpt["transl"]),
                          torch.as_tensor(ckpt["shape"]), ckpt["stage"], torch.as_tensor(ckpt["offsets"]))
     resumed = start.stage if start is not None else 0
+    record = None if restart else read_done(project)
+    settings = json.loads(json.dumps(cfg.to_dict()))  # as done.json holds it (tuples become lists)
+    if (record is not None and record.get("key") == key and record["config"] == settings
+            and not missing_outputs(project, cfg.overlays)):
+        return FitReport(read_fits(project.fits_path), project.auto_filter(), time.perf_counter() - t0, resumed, True)
+    # from here on the outputs are rewritten: the fit is not complete until done.json is back
+    (out / DONE_FILE).unlink(missing_ok=True)
     atomic_write_json(out / "fit_config.json", cfg.to_dict())
 
     def save(state: FitState) -> None:
@@ -133,8 +184,6 @@ def fit_project(project, cfg: FitConfig, *, model=None, focal: float | None = No
                         offsets=state.offsets.numpy())
 
     complete = start is not None and start.stage >= len(cfg.stages)
-    if complete and project.fits_path.is_file() and (out / "filter.json").is_file():
-        return FitReport(read_fits(project.fits_path), project.auto_filter(), time.perf_counter() - t0, resumed, True)
     state = start if complete else fit_sequence(model, inputs, cfg, control=control, start=start, device=device,
                                                 on_stage=save)
     control.report(Progress(stage="fit", message="evaluating fits and filtering frames"))
@@ -150,6 +199,11 @@ def fit_project(project, cfg: FitConfig, *, model=None, focal: float | None = No
     if cfg.overlays:
         with cpu_threads(cfg.cpu_threads):
             write_overlays(project, model, fits, inputs.keypoints, camera, rejected, control)
+    missing = missing_outputs(project, cfg.overlays)
+    if missing:  # someone removed a file while the fit ran: never record such a fit as done
+        raise ProjectError(f"{out}: {missing[0]} vanished while the fit was writing it; run 'morf fit' again")
+    atomic_write_json(out / DONE_FILE, {"config": settings, "key": key, "frames": inputs.num_frames,
+                                        "finished": time.strftime("%Y-%m-%d %H:%M:%S")})
     return FitReport(fits, rejected, time.perf_counter() - t0, resumed)
 
 

@@ -9,8 +9,11 @@ import torch
 
 from morf.body.model import BodyPose
 from morf.camera import PinholeCamera
+from morf.capture.project import CaptureProject, Keypoints2D
 from morf.fitting.evaluate import silhouettes
 from morf.fitting.inputs import FitInputs, downsample_mask, raster_size
+
+SHAPE = torch.tensor([[0.55, 0.45, 0.5, 0.55, 0.5, 0.5]])
 
 
 def turning_poses(model, n: int, seed: int = 0, turn: float = 2 * math.pi, cycles: float = 1.0) -> BodyPose:
@@ -45,3 +48,23 @@ def make_inputs(model, pose: BodyPose, shape: torch.Tensor, size: int = 256, noi
     masks_eval = np.stack([downsample_mask(m, ew, eh) >= 0.5 for m in full])
     n = pose.batch_size
     return FitInputs(pts, np.ones(n, bool), cam, masks, sh / size, masks_eval, eh / size), out
+
+
+def write_project(root, model, n=8, bad=4):
+    """A 256 px capture project of ``n`` frames of the body turning, masks from the body itself,
+    and frame ``bad`` with the arms' keypoints confused (the frame filter rejects it)."""
+    pose = turning_poses(model, n, turn=np.pi / 2)
+    inputs, _ = make_inputs(model, pose, SHAPE, size=256, sil_res=64, eval_res=64)
+    points = inputs.keypoints.copy()
+    # the detector confused the arms in one frame
+    points[bad, [7, 8, 9, 10]] = points[bad, [8, 7, 10, 9]]
+    points[bad, [7, 8, 9, 10], :2] += (points[bad, [7, 8, 9, 10], :2] - points[bad, [5, 6, 5, 6], :2]) * 0.8
+    project = CaptureProject.create(root, num_frames=n, width=256, height=256, fps=30.0, source={"kind": "test"},
+                                    camera=inputs.camera)
+    with torch.no_grad():
+        masks = silhouettes(model(pose, SHAPE).vertices, model.faces, inputs.camera, 1.0, 256, 256)
+    for i in range(n):
+        project.save_frame(i, np.full((256, 256, 3), 120, np.uint8))
+        project.save_mask(i, masks[i])
+    project.save_keypoints(Keypoints2D(points, np.ones(n, bool), np.full(n, "ground_truth")))
+    return project

@@ -7,15 +7,12 @@ import pytest
 import torch
 
 from morf.body.model import BodyPose
-from morf.capture.project import CaptureProject, Keypoints2D
+from morf.capture.project import CaptureProject
 from morf.fitting import FitConfig, fit_project, fit_sequence, finalize, load_fits, preset
 from morf.fitting.fit_body import FitBody
 from morf.fitting.proxy_mesh import body_proxy
 
-from .synthetic import make_inputs, turning_poses
-
-SHAPE = torch.tensor([[0.55, 0.45, 0.5, 0.55, 0.5, 0.5]])
-
+from .synthetic import SHAPE, make_inputs, turning_poses, write_project
 
 def _vertex_error_mm(model, state, gt) -> np.ndarray:
     with torch.no_grad():
@@ -53,28 +50,8 @@ def test_fit_recovers_pose_roughly(body_model):
     assert rejected == {}
 
 
-def _write_project(root, model, n=8, bad=4):
-    pose = turning_poses(model, n, turn=np.pi / 2)
-    inputs, _ = make_inputs(model, pose, SHAPE, size=256, sil_res=64, eval_res=64)
-    points = inputs.keypoints.copy()
-    # the detector confused the arms in one frame
-    points[bad, [7, 8, 9, 10]] = points[bad, [8, 7, 10, 9]]
-    points[bad, [7, 8, 9, 10], :2] += (points[bad, [7, 8, 9, 10], :2] - points[bad, [5, 6, 5, 6], :2]) * 0.8
-    project = CaptureProject.create(root, num_frames=n, width=256, height=256, fps=30.0, source={"kind": "test"},
-                                    camera=inputs.camera)
-    from morf.fitting.evaluate import silhouettes
-
-    with torch.no_grad():
-        masks = silhouettes(model(pose, SHAPE).vertices, model.faces, inputs.camera, 1.0, 256, 256)
-    for i in range(n):
-        project.save_frame(i, np.full((256, 256, 3), 120, np.uint8))
-        project.save_mask(i, masks[i])
-    project.save_keypoints(Keypoints2D(points, np.ones(n, bool), np.full(n, "ground_truth")))
-    return project
-
-
 def test_fit_project_writes_resumes_and_filters(tmp_path, body_model):
-    project = _write_project(tmp_path / "cap", body_model)
+    project = write_project(tmp_path / "cap", body_model)
     cfg = preset("fast").replace(silhouette_resolution=64, iou_resolution=64, overlays=True)
     report = fit_project(project, cfg, model=body_model, device=torch.device("cpu"))
     out = project.fits_dir
