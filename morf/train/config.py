@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass, field
 
 from morf.avatar.network_configs import RendererConfig, WarpConfig
-from morf.config_checks import apply_settings, check_keys
+from morf.config_checks import apply_settings, check_keys, raise_first
 from morf.errors import InputError
 
 METHODS = ("morf", "stylepeople", "anr", "rgb")
@@ -141,6 +141,14 @@ class TrainConfig:
         return cfg
 
     def validate(self) -> None:
+        """Raise one InputError naming the first setting that makes no sense: a value of the wrong
+        kind (a config file may hold anything), a count, size or rate out of its range. Checked
+        wherever a config is made (presets with overrides, ``--set``, config files, run configs read
+        back on resume), so a run that would train nothing (``steps`` 0) or divide by zero never starts."""
+        check_field_kinds(self, "")
+        check_field_kinds(self.renderer, "renderer.")
+        check_field_kinds(self.warp, "warp.")
+        raise_first(self._range_checks())
         if self.method not in METHODS:
             raise InputError(f"unknown method {self.method!r}; choose one of {', '.join(METHODS)}")
         if self.loss_background not in LOSS_BACKGROUNDS:
@@ -157,8 +165,6 @@ class TrainConfig:
             raise InputError("crop must not exceed resolution")
         if self.renderer.in_channels != self.texture_channels:
             raise InputError("renderer input channels must equal texture channels")
-        if self.batch_size < 1 or self.steps < 0:
-            raise InputError("batch size must be >= 1 and steps >= 0")
         if not (0.0 <= self.lr_decay_start <= 1.0 and 0.0 < self.lr_decay_floor <= 1.0):
             raise InputError("lr_decay_start must lie in [0, 1] and lr_decay_floor in (0, 1]")
         if self.holdout < 0 or self.holdout == 1:
@@ -168,6 +174,54 @@ class TrainConfig:
         if not 0.0 <= self.warp_fade_start <= self.warp_fade_end <= 1.0:
             raise InputError("warp_fade_start and warp_fade_end must satisfy 0 <= start <= end <= 1, got "
                              f"{self.warp_fade_start} and {self.warp_fade_end}")
+
+    def _range_checks(self) -> list[tuple[bool, str]]:
+        """(ok, message) for every number with a range, in field order."""
+        r, w = self.renderer, self.warp
+        min_steps = 0 if self.method == "rgb" else 1  # the RGB floor records 0: it has nothing to train
+        checks = [
+            (self.resolution >= 1, f"resolution must be a positive number of pixels, got {self.resolution}"),
+            (self.crop >= 0, f"crop must be 0 (whole image) or a positive number of pixels, got {self.crop}"),
+            (self.zoom_resolution >= 0, f"zoom_resolution must be 0 (none) or a positive number of pixels, got "
+                                        f"{self.zoom_resolution}"),
+            (self.batch_size >= 1, f"batch size must be at least 1 image per step, got {self.batch_size}"),
+            (self.steps >= min_steps, f"steps must be at least 1, got {self.steps}: a run without training steps "
+                                      "has nothing to export; give --steps 1 or more"),
+            (self.texture_channels >= 1, f"texture_channels must be at least 1, got {self.texture_channels}"),
+            (self.texture_size >= 1, f"texture_size must be a positive number of texels, got {self.texture_size}"),
+            (self.texture_dilate >= 0, f"texture_dilate must be >= 0 texels, got {self.texture_dilate}"),
+            (r.width >= 1 and r.max_width >= 1 and r.skip_hidden >= 1,
+             f"renderer widths must be at least 1 channel, got width {r.width}, max_width {r.max_width}, "
+             f"skip_hidden {r.skip_hidden}"),
+            (r.depth >= 0 and r.stem >= 1 and r.head_stride >= 1 and r.fill_levels >= 0,
+             f"renderer depth and fill_levels must be >= 0, stem and head_stride >= 1; got depth {r.depth}, "
+             f"fill_levels {r.fill_levels}, stem {r.stem}, head_stride {r.head_stride}"),
+            (self.method != "morf" or min(w.pose_dim, w.latent_dim, w.style_dim, w.mlp_layers, w.base_resolution,
+                                          w.width) >= 1 and min(w.fourier_freqs, w.levels) >= 0,
+             "warp sizes must be at least 1 (fourier_freqs and levels at least 0), got "
+             + ", ".join(f"{k} {v}" for k, v in dataclasses.asdict(w).items())),
+        ]
+        for name in ("lr_texture", "lr_renderer", "lr_warp", "lr_latent", "lr_discriminator", "inpaint_lr"):
+            checks.append((getattr(self, name) >= 0, f"{name} must be >= 0 (a learning rate), got {getattr(self, name)}"))
+        for name in ("w_residual", "w_l1", "w_perceptual", "w_feature_matching", "w_ssim", "w_gan", "w_dice",
+                     "w_tv_rgb", "w_warp_l2", "w_warp_tv"):
+            checks.append((getattr(self, name) >= 0, f"{name} must be >= 0 (a loss weight), got {getattr(self, name)}"))
+        checks += [
+            (self.gan_start >= 0, f"gan_start must be >= 0, got {self.gan_start}"),
+            (self.w_gan == 0 or min(self.disc_width, self.disc_scales, self.disc_layers) >= 1,
+             f"discriminator sizes must be at least 1, got disc_width {self.disc_width}, disc_scales "
+             f"{self.disc_scales}, disc_layers {self.disc_layers}"),
+            (self.inpaint_steps >= 0, f"inpaint_steps must be >= 0 (0: no inpainting), got {self.inpaint_steps}"),
+            (self.inpaint_views >= 1 or self.inpaint_steps == 0,
+             f"inpaint_views must be at least 1 when inpainting, got {self.inpaint_views}"),
+            (self.anr_texture_every >= 1, f"anr_texture_every must be at least 1, got {self.anr_texture_every}"),
+            (self.checkpoint_minutes >= 0, f"checkpoint_minutes must be >= 0, got {self.checkpoint_minutes}"),
+            (self.max_recoveries >= 0, f"max_recoveries must be >= 0, got {self.max_recoveries}"),
+            (self.report_every >= 1, f"report_every must be at least 1 step, got {self.report_every}"),
+            (self.log_every >= 1, f"log_every must be at least 1 step, got {self.log_every}"),
+            (self.seed >= 0, f"seed must be >= 0, got {self.seed}"),
+        ]
+        return checks
 
     @property
     def colour_frozen(self) -> bool:
@@ -198,15 +252,38 @@ class TrainConfig:
         return self.lr_decay_floor + (1.0 - self.lr_decay_floor) * 0.5 * (1.0 + math.cos(math.pi * t))
 
 
+def check_field_kinds(cfg, prefix: str) -> None:
+    """InputError unless every field of dataclass ``cfg`` holds a value of its default's kind: a
+    bool for a switch, an integer (not a bool) for a count, a finite number for a real, text for a
+    name. Nested configs are checked by their own call (``prefix``: "renderer." in messages)."""
+    for f in dataclasses.fields(cfg):
+        default = f.default if f.default is not dataclasses.MISSING else None
+        value = getattr(cfg, f.name)
+        if isinstance(default, bool):
+            ok, words = isinstance(value, bool), "true or false"
+        elif isinstance(default, int):
+            ok, words = isinstance(value, int) and not isinstance(value, bool), "a whole number"
+        elif isinstance(default, float):
+            ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+            words = "a finite number"
+        elif isinstance(default, str):
+            ok, words = isinstance(value, str), "text"
+        else:
+            continue
+        if not ok:
+            raise InputError(f"training config field {prefix}{f.name} must be {words}, got {value!r}")
+
+
 PRESETS: dict[str, TrainConfig] = {
-    # CI: seconds on 2 cores. Tiny everything.
+    # CI: seconds on 2 cores. Tiny everything. A checkpoint every 0.6 s, so that a run killed during
+    # its few seconds of training resumes part-way, as a long run does (morf bench resume).
     "tiny": TrainConfig(
         preset="tiny", resolution=64, batch_size=2, steps=30, texture_channels=8, texture_size=64,
         renderer=RendererConfig(in_channels=8, width=8, depth=2, stem=2, skip_hidden=8, rgb_skip=True),
         w_ssim=1.0, w_gan=0.0, freeze_colour=True,
         warp=WarpConfig(latent_dim=8, style_dim=16, mlp_layers=2, fourier_freqs=3, base_resolution=16, width=8, levels=2),
         disc_width=8, disc_scales=1, disc_layers=2, inpaint_steps=5, inpaint_views=2,
-        checkpoint_minutes=1.0, report_every=5, log_every=5),
+        checkpoint_minutes=0.01, report_every=5, log_every=5),
     # 6-7 minutes on 2 CPU cores with native bf16 at 256 px (0.25 s a step); 0.49M-parameter renderer.
     # The hold-out scores of the default capture were the same at 300 and 1200 steps (fit error,
     # not training, bounds them); 1500 leaves the image time to sharpen.

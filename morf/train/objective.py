@@ -29,29 +29,37 @@ def run_discriminator(disc, x: torch.Tensor, bf16: bool = False) -> list[list[to
     return [[f.float() for f in scale] for scale in feats]
 
 
-def composited(out: AvatarOutput, target: torch.Tensor, mask: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+def composited(out: AvatarOutput, target: torch.Tensor, mask: torch.Tensor,
+               colour: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """Render and premultiplied target over the same random colour, one per image (``rgb + (1 -
     mask) * colour``, the player's composite): colour and mask are judged together, so an
-    uncertain edge pixel costs the same whichever way it is wrong."""
-    colour = torch.rand(target.shape[0], 3, 1, 1, device=target.device, dtype=target.dtype)
+    uncertain edge pixel costs the same whichever way it is wrong.
+
+    ``colour``: (B, 3) or (B, 3, 1, 1) colours in [0, 1] (the trainer draws them from the step's
+    own seed, so a resumed run sees the same ones); None draws them from torch's global generator.
+    """
+    if colour is None:
+        colour = torch.rand(target.shape[0], 3, 1, 1, device=target.device, dtype=target.dtype)
+    colour = colour.to(device=target.device, dtype=target.dtype).reshape(target.shape[0], 3, 1, 1)
     return out.rgb + (1 - out.mask) * colour, target + (1 - mask) * colour
 
 
 def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=None, perceptual=None,
-                     gan_on: bool = False, bf16: bool | None = None) -> dict[str, torch.Tensor]:
+                     gan_on: bool = False, bf16: bool | None = None,
+                     backdrop: torch.Tensor | None = None) -> dict[str, torch.Tensor]:
     """Unweighted loss terms of the generator side (texture, warp, renderer).
 
     Keys: l1, dice, tv_rgb, and when applicable ssim, residual, perceptual, warp_l2, warp_tv, gan,
     feature_matching.
     The RGB target is the frame premultiplied by its person mask (the renderer's convention); with
     ``cfg.loss_background == "random"`` the image terms compare render and frame composited over
-    one random colour per image (:func:`composited`).
+    one random colour per image (:func:`composited`; ``backdrop``: those colours, (B, 3)).
     """
     bf16 = cfg.bf16 if bf16 is None else bf16
     target = batch.image * batch.mask
     image, image_target = out.rgb, target
     if cfg.loss_background == "random":
-        image, image_target = composited(out, target, batch.mask)
+        image, image_target = composited(out, target, batch.mask, backdrop)
     L = {"l1": l1_loss(image, image_target), "dice": dice_loss(out.mask, batch.mask), "tv_rgb": tv_loss(out.rgb)}
     if cfg.w_ssim > 0:  # around the person: the real mask grown by the SSIM window's radius
         near = F.max_pool2d(batch.mask, 11, 1, 5)

@@ -9,6 +9,7 @@ and finishing the avatar once the main stage is done.
 from __future__ import annotations
 
 import copy
+import json
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -16,12 +17,14 @@ from typing import TYPE_CHECKING
 import torch
 
 from morf.errors import InputError, TrainingDiverged
+from morf.io import atomic_write_text
 from morf.pipeline.control import Progress, StageControl
 from morf.train.config import TrainConfig
 from morf.train.frames import FrameSet
 from morf.train.health import CollapseMonitor
 from morf.train.recovery import RecoveryPolicy
 from morf.train.run_dir import RunDir
+from morf.train.run_files import last_step
 from morf.train.start_log import log_start
 from morf.train.trained_avatar import save_trained_avatar
 from morf.train.trainer import Trainer
@@ -48,10 +51,33 @@ def open_run(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, texture_in
     trainer = Trainer(cfg, frames, texture_init, perceptual=perceptual, zoom_frames=zoom_frames)
     if run.has_checkpoint:
         trainer.load_state_dict(run.load_checkpoint(map_location=trainer.device))
-        run.log(f"resumed at step {trainer.step}")
+        dropped = drop_metrics_after(run, trainer.step)
+        run.log(f"resumed at step {trainer.step}" + (f" ({dropped} metrics lines of later steps, from the "
+                                                      "session that stopped, dropped)" if dropped else ""))
     else:
+        drop_metrics_after(run, 0)  # a session killed before its first checkpoint starts over
         log_start(run, cfg, frames, trainer.device, trainer.bf16, perceptual is not None, notes, trainer.bf16_note)
     return run, trainer
+
+
+def drop_metrics_after(run: RunDir, step: int) -> int:
+    """Remove the metrics.jsonl lines of steps after ``step`` (those a killed session logged past
+    its last checkpoint: the resumed session logs them again) and a line cut by the kill; returns
+    how many went. The file is rewritten atomically, and only when something goes."""
+    if not run.metrics_path.is_file():
+        return 0
+    lines = run.metrics_path.read_text().splitlines()
+    keep = []
+    for line in lines:
+        try:
+            row_step = last_step([json.loads(line)])
+        except (json.JSONDecodeError, AttributeError):
+            continue
+        if row_step <= step:
+            keep.append(line)
+    if len(keep) < len(lines):
+        atomic_write_text(run.metrics_path, "".join(line + "\n" for line in keep))
+    return len(lines) - len(keep)
 
 
 def recovery_policy(run: RunDir, trainer: Trainer, snapshot_every: int) -> RecoveryPolicy:

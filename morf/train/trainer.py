@@ -10,8 +10,10 @@ Methods (same code path, MoRF Sec. 5 "Scenario B"):
   (ANR's motivation for splitting); the paper's exact schedule is in its supplementary material,
   which is not available here, so this alternation is our reading of it.
 
-Every step draws its frames and crops from ``default_rng((seed, step))``: a resumed run sees the
-same data order as an uninterrupted one without storing RNG state.
+Every step draws its frames and crops from ``default_rng((seed, step))``, and the backdrop colours
+of ``loss_background="random"`` from ``default_rng((seed, step, 1))``: a resumed run sees the same
+data order and colours as an uninterrupted one without storing RNG state. Nothing in a step draws
+from torch's global generator (it is seeded once, for the initial weights).
 """
 
 from __future__ import annotations
@@ -170,6 +172,13 @@ class Trainer:
             return self.zoom_frames.batch(idx, self.cfg.crop or self.cfg.resolution, rng, self.device)
         return self.frames.batch(idx, self.cfg.crop, rng, self.device)
 
+    def backdrop(self) -> torch.Tensor | None:
+        """(B, 3) the backdrop colours of this step's images (``loss_background="random"``), else None."""
+        if self.cfg.loss_background != "random":
+            return None
+        rng = np.random.default_rng([self.cfg.seed, self.step, 1])
+        return torch.from_numpy(rng.random((self.cfg.batch_size, 3), dtype=np.float32)).to(self.device)
+
     def train_step(self) -> tuple[dict[str, float], AvatarOutput, Batch]:
         """One optimisation step. Raises :class:`TrainingDiverged` on NaN/inf (nothing is updated then)."""
         cfg = self.cfg
@@ -178,7 +187,7 @@ class Trainer:
         gan_on = self.disc is not None and self.step >= cfg.gan_start and not self.hold_adversarial
         self.model.train()
         out = render_batch(self.model, batch, self.bf16, cfg.warp_scale(self.step))
-        losses = generator_losses(cfg, out, batch, self.disc, self.perceptual, gan_on, self.bf16)
+        losses = generator_losses(cfg, out, batch, self.disc, self.perceptual, gan_on, self.bf16, self.backdrop())
         total = weighted_total(cfg, losses)
         if not torch.isfinite(total):
             bad = [k for k, v in losses.items() if not torch.isfinite(v)]

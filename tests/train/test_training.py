@@ -373,3 +373,128 @@ def test_warp_fade_scales_the_offsets_to_zero_and_skips_the_bake(frames_factory,
     assert "texture not baked" in (tmp_path / "run" / "train.log").read_text()
     trained = torch.load(tmp_path / "run" / "checkpoint.pt", weights_only=True)["model"]["texture.texture"]
     assert torch.equal(load_trained_avatar(res.run_dir).texture, trained)  # no inpainting in tiny() here
+
+
+@pytest.mark.parametrize("change, words", [
+    ({"steps": 0}, "steps must be at least 1"), ({"steps": -5}, "steps must be at least 1"),
+    ({"lr_texture": -1e-3}, "lr_texture must be >= 0"), ({"lr_renderer": float("nan")}, "lr_renderer must be a finite"),
+    ({"batch_size": 0}, "batch size must be at least 1"), ({"resolution": 0}, "resolution must be a positive"),
+    ({"resolution": -64}, "resolution must be a positive"), ({"log_every": 0}, "log_every must be at least 1"),
+    ({"anr_texture_every": 0}, "anr_texture_every must be at least 1"), ({"w_l1": -1.0}, "w_l1 must be >= 0"),
+    ({"steps": 2.5}, "steps must be a whole number"), ({"bf16": 1}, "bf16 must be true or false"),
+    ({"checkpoint_minutes": float("inf")}, "checkpoint_minutes must be a finite"), ({"seed": -1}, "seed must be >= 0"),
+])
+def test_nonsensical_numbers_are_refused_with_one_line(change, words):
+    with pytest.raises(InputError, match=words) as e:
+        preset("tiny", "morf", **change)
+    assert "\n" not in str(e.value)
+    d = preset("tiny", "morf").to_dict()
+    with pytest.raises(InputError, match=words):  # a config file or a run's config.json read back
+        type(preset("tiny")).from_dict({**d, **change})
+
+
+def test_nonsensical_network_sizes_are_refused():
+    cfg = preset("tiny", "morf")
+    with pytest.raises(InputError, match="renderer widths"):
+        cfg.replace(renderer=dataclasses.replace(cfg.renderer, width=0))
+    with pytest.raises(InputError, match="renderer.stem must be a whole number"):
+        cfg.with_settings([]).from_dict({**cfg.to_dict(), "renderer": {**cfg.to_dict()["renderer"], "stem": "2"}})
+    with pytest.raises(InputError, match="warp sizes"):
+        cfg.replace(warp=dataclasses.replace(cfg.warp, latent_dim=0))
+    cfg.replace(method="stylepeople", warp=dataclasses.replace(cfg.warp, latent_dim=0))  # no warp: not used
+
+
+def test_the_rgb_floor_records_zero_steps():
+    assert preset("tiny", "rgb", steps=0).steps == 0
+
+
+def test_train_steps_0_is_one_line_and_creates_no_run(tmp_path, capsys):
+    from morf.capture.project import CaptureProject
+    from morf.cli.main import main
+
+    project = CaptureProject.create(tmp_path / "cap", num_frames=2, width=64, height=64, fps=None,
+                                    source={"kind": "test"})
+    assert main(["train", str(project.root), "--preset", "tiny", "--steps", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("morf train: error: steps must be at least 1, got 0")
+    assert not (project.runs_dir / "morf-tiny").exists()
+
+
+def test_resume_with_random_backdrops_matches_an_uninterrupted_run(frames_factory, tmp_path):
+    # the backdrop colours come from the step's seed, not from torch's global generator, which a
+    # resumed process has not advanced through the steps before its checkpoint
+    cfg = tiny("morf", steps=12, checkpoint_minutes=1e6, report_every=1, loss_background="random")
+    a, b = _stopped_at_5_and_resumed(frames_factory(), cfg, tmp_path)
+    assert torch.equal(a.texture, b.texture)
+    for name, w in a.renderer.state_dict().items():
+        assert torch.equal(w, b.renderer.state_dict()[name]), name
+
+
+def test_metrics_of_steps_after_the_checkpoint_are_dropped_on_resume(frames_factory, tmp_path):
+    frames = frames_factory()
+    cfg = tiny("morf", steps=12, checkpoint_minutes=1e6, report_every=1, log_every=1)
+    control = StageControl()
+    control._on_progress = lambda p: control.stop() if p.step >= 5 else None
+    with pytest.raises(StopRequested):
+        train_avatar(frames, tmp_path / "run", cfg, texture_init(cfg), control)
+    run = RunDir(tmp_path / "run")
+    with open(run.metrics_path, "a") as f:  # what a session killed past its checkpoint left behind
+        f.write('{"step": 6, "l1": 0.5}\n{"step": 7, "l1": 0.4}\n{"step": 8, "l1"')
+    train_avatar(frames, run.root, cfg, texture_init(cfg))
+    assert [m["step"] for m in run.read_metrics()] == list(range(1, 13))
+    assert "3 metrics lines of later steps" in run.log_path.read_text()
+
+
+KILL_AT_SECOND_CHECKPOINT = """
+import os, signal, sys
+sys.path.insert(0, sys.argv[1])
+import torch
+from conftest import synthetic_frames
+from morf.train.config import preset
+from morf.train.loop import train_avatar
+from morf.train.run_dir import RunDir
+
+torch.set_num_threads(1)
+if sys.argv[3] == "kill":
+    real, saves = RunDir.save_checkpoint, [0]
+    def save_then_die(self, state):
+        real(self, state)
+        saves[0] += 1
+        if saves[0] == 2:
+            with open(self.root / "metrics.jsonl", "a") as f:
+                f.write('{"step": 99')  # a line cut by the kill
+            os.kill(os.getpid(), signal.SIGKILL)
+    RunDir.save_checkpoint = save_then_die
+cfg = preset("tiny", "morf", resolution=32, steps=10, batch_size=2, texture_size=32, inpaint_steps=0,
+             checkpoint_minutes=0.0, ema_decay=0.9, loss_background="random", device="cpu")
+g = torch.Generator().manual_seed(0)
+tex = torch.randn(cfg.texture_channels, 32, 32, generator=g) * 0.5
+train_avatar(synthetic_frames(), sys.argv[2], cfg, tex)
+"""
+
+
+def test_kill_9_after_a_checkpoint_then_resume_equals_an_uninterrupted_run(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    here = str(Path(__file__).parent)
+
+    def train(run, mode):
+        return subprocess.run([sys.executable, "-c", KILL_AT_SECOND_CHECKPOINT, here, str(run), mode],
+                              capture_output=True, timeout=300, env=dict(os.environ, MORF_QUIET="1"))
+
+    killed = train(tmp_path / "run", "kill")
+    assert killed.returncode == -signal.SIGKILL, killed.stderr.decode()[-2000:]
+    run = RunDir(tmp_path / "run")
+    assert run.load_checkpoint()["step"] == 2 and not run.is_done
+    for mode, where in (("resume", tmp_path / "run"), ("straight", tmp_path / "straight")):
+        done = train(where, mode)
+        assert done.returncode == 0, done.stderr.decode()[-2000:]
+    a, b = load_trained_avatar(tmp_path / "run"), load_trained_avatar(tmp_path / "straight")
+    assert torch.equal(a.texture, b.texture)
+    for name, w in a.renderer.state_dict().items():
+        assert torch.equal(w, b.renderer.state_dict()[name]), name
+    assert [m["step"] for m in run.read_metrics()] == [5, 10]
