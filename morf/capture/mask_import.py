@@ -19,11 +19,17 @@ from morf.errors import InputError
 def read_mask(path: str | Path, width: int, height: int) -> np.ndarray:
     """Read a mask file -> (H, W) bool, checked against the frame size (W, H)."""
     path = Path(path)
-    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-    if img is None:
-        raise InputError(f"not a readable mask image: {path}")
+    try:  # bytes first: cv2.imread prints a warning of its own for a file it cannot open
+        data = np.frombuffer(path.read_bytes(), np.uint8)
+    except OSError as e:
+        raise InputError(f"cannot read mask {path}: {e.strerror or e}") from None
+    img = _decode(data)
+    if img is None or img.size == 0:
+        raise InputError(f"not a readable mask image: {path} (empty, damaged, or not an image format OpenCV reads: "
+                         f"{', '.join(MASK_EXTS)})")
     if img.shape[1] != width or img.shape[0] != height:
-        raise InputError(f"mask {path.name} is {img.shape[1]}x{img.shape[0]} but the frames are {width}x{height}")
+        raise InputError(f"mask {path.name} is {img.shape[1]}x{img.shape[0]} but the frames are {width}x{height}; "
+                         "each mask must have its frame's size (before --resize)")
     if img.dtype != np.uint8:  # 16-bit or float masks: scale to 0..255
         img = cv2.normalize(img.astype(np.float32), None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
     if img.ndim == 3 and img.shape[2] == 4 and img[..., 3].min() != img[..., 3].max():
@@ -31,6 +37,24 @@ def read_mask(path: str | Path, width: int, height: int) -> np.ndarray:
     if img.ndim == 3:
         img = img[..., :3].max(axis=2)  # any coloured label counts as the person
     return img > 127
+
+
+def _decode(data: np.ndarray) -> np.ndarray | None:
+    """The image in ``data``, or None; OpenCV's warnings about a damaged file are held back (the
+    one-line error says it instead)."""
+    if not data.size:
+        return None
+    log = getattr(getattr(cv2, "utils", None), "logging", None)
+    level = log.getLogLevel() if log is not None else None
+    if log is not None:
+        log.setLogLevel(log.LOG_LEVEL_ERROR)
+    try:
+        return cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    except cv2.error:
+        return None
+    finally:
+        if log is not None:
+            log.setLogLevel(level)
 
 
 def resize_mask(mask: np.ndarray, width: int, height: int) -> np.ndarray:

@@ -13,6 +13,7 @@ import numpy as np
 
 from morf.export.gltf_rig import pose_nodes
 from morf.export.skeleton import SkinningSkeleton
+from morf.motion.checks import check_pose_arrays
 
 
 @dataclass(frozen=True)
@@ -55,14 +56,18 @@ def joint_animation(skeleton: SkinningSkeleton, rotvecs: np.ndarray, transl: np.
         skeleton: the shaped skeleton the skin was written from.
         rotvecs: (T, J, 3) axis-angle per bone (Anny "local-ref"); transl: (T, 3) root translation
             (Anny axes); fps: frames per second.
+    Raises:
+        ValueError: shapes that do not fit the skeleton; InputError: values that are not finite or
+            out of range (:mod:`morf.motion.checks`; motion readers refuse such files first).
     """
     rotvecs = np.asarray(rotvecs, np.float64)
     transl = np.asarray(transl, np.float64)
     if rotvecs.ndim != 3 or rotvecs.shape[1:] != (skeleton.num_bones, 3) or transl.shape != (len(rotvecs), 3):
         raise ValueError(f"motion must be rotvecs (T, {skeleton.num_bones}, 3) and transl (T, 3), "
                          f"got {rotvecs.shape} and {transl.shape}")
-    if len(rotvecs) == 0 or not fps > 0:
-        raise ValueError("motion needs at least one frame and a positive fps")
+    if len(rotvecs) == 0:
+        raise ValueError("motion needs at least one frame")
+    fps = check_pose_arrays(rotvecs, transl, fps, f"motion {name!r}")  # no NaN or 1e30 into a .glb
     quats, trans = [], []
     for r, t in zip(rotvecs, transl):
         q, tr = pose_nodes(skeleton, r, t)

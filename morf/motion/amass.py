@@ -16,6 +16,7 @@ import numpy as np
 
 from morf.errors import InputError
 from morf.io import load_npz
+from morf.motion.checks import check_duration, check_fps, check_rotvecs, check_translations, numbers
 from morf.motion.skeleton import SourceMotion, SourceSkeleton
 from morf.motion.so3 import rotvec_to_matrix
 
@@ -72,14 +73,10 @@ def stored_fps(arrays: dict[str, np.ndarray], path: str | Path) -> float | None:
     key = next((k for k in FPS_KEYS if k in arrays), None)
     if key is None:
         return None
-    try:
-        fps = float(np.asarray(arrays[key]).reshape(-1)[0])
-    except (ValueError, TypeError, IndexError):
-        raise InputError(f"{path}: '{key}' is not a frame rate") from None
-    if not np.isfinite(fps) or fps <= 0:
-        raise InputError(f"{path}: bad frame rate {fps}")
-    return fps
-
+    value = np.asarray(arrays[key])
+    if value.size == 0 or value.dtype.kind not in "iuf":
+        raise InputError(f"{path}: '{key}' is not a frame rate")
+    return check_fps(value.reshape(-1)[0], str(path), f"'{key}'")
 
 
 def smpl_source_motion(body: np.ndarray, trans: np.ndarray, fps: float, up_axis: str, path: Path, source: str,
@@ -96,8 +93,9 @@ def smpl_source_motion(body: np.ndarray, trans: np.ndarray, fps: float, up_axis:
         raise InputError(f"{path}: no frames")
     if trans.shape != (T, 3):
         raise InputError(f"{path}: translation has shape {trans.shape}; expected ({T}, 3)")
-    if not np.all(np.isfinite(body)) or not np.all(np.isfinite(trans)):
-        raise InputError(f"{path}: poses or translations contain NaN or inf")
+    check_rotvecs(body, str(path), "the body rotations")  # the readers checked their own arrays by name
+    check_translations(trans, str(path), "the translations")
+    check_duration(T, fps, str(path))
     sk = smpl_skeleton()
     local = np.broadcast_to(np.eye(3), (T, sk.num_joints, 3, 3)).copy()
     local[:, :22] = rotvec_to_matrix(body.reshape(T, 22, 3))
@@ -118,20 +116,27 @@ def read_amass(path: str | Path, arrays: dict[str, np.ndarray] | None = None, fp
     if arrays is None:
         arrays = load_npz(path, error=InputError, skip_pickled=True)
     if "poses" in arrays:
-        poses = np.asarray(arrays["poses"], dtype=np.float64)
+        poses = numbers(arrays, "poses", str(path))
         if poses.ndim != 2 or poses.shape[1] not in (156, 165):
             raise InputError(f"{path}: 'poses' has shape {poses.shape}; expected (T, 156) SMPL-H, (T, 165) SMPL-X "
                              "or (T, 72) SMPL")
         kind = {156: "smplh", 165: "smplx"}[poses.shape[1]]
+        check_rotvecs(poses, str(path), "'poses'")
         body = poses[:, :66]
     elif "root_orient" in arrays and "pose_body" in arrays:
-        body = np.concatenate([arrays["root_orient"], arrays["pose_body"]], axis=1).astype(np.float64)
-        if body.ndim != 2 or body.shape[1] != 66:
-            raise InputError(f"{path}: 'root_orient' + 'pose_body' give shape {body.shape}; expected (T, 66)")
+        parts = [numbers(arrays, k, str(path)) for k in ("root_orient", "pose_body")]
+        if [a.shape[1:] for a in parts] != [(3,), (63,)] or parts[0].shape[0] != parts[1].shape[0]:
+            raise InputError(f"{path}: 'root_orient' {parts[0].shape} and 'pose_body' {parts[1].shape}; "
+                             "expected (T, 3) and (T, 63)")
+        for key, a in zip(("root_orient", "pose_body"), parts):
+            check_rotvecs(a, str(path), f"'{key}'")
+        body = np.concatenate(parts, axis=1)
         kind = "smplx"
     else:
         raise InputError(f"{path}: not an AMASS motion (no 'poses' or 'root_orient'/'pose_body' arrays)")
-    trans = np.asarray(arrays.get("trans", np.zeros((body.shape[0], 3))), dtype=np.float64)
+    trans = numbers(arrays, "trans", str(path), np.zeros((body.shape[0], 3)))
+    if trans.shape == (body.shape[0], 3):
+        check_translations(trans, str(path), "'trans'")
     fps = stored_fps(arrays, path) or fps or 30.0
     gender = text_value(np.asarray(arrays["gender"])) if "gender" in arrays else "neutral"
     return smpl_source_motion(body, trans, fps, "z", path, f"amass:{path.name} ({kind}, {gender})", kind)

@@ -19,6 +19,7 @@ import torch
 from morf.capture.project import CaptureProject
 from morf.errors import InputError, MorfError
 from morf.motion.anny_rest import target_rest
+from morf.motion.checks import MAX_PHENOTYPE, check_fps, check_range, check_rotvecs, check_translations
 from morf.motion.clip import MotionClip, at_uniform_times, resample
 from morf.motion.convert import RetargetConfig
 from morf.motion.ground import place_on_ground
@@ -92,8 +93,11 @@ def clip_from_fits(path: str | Path, model, shape: torch.Tensor | None = None, f
     J = len(model.bone_names)
     if fits.rotvecs.shape[1:] != (J, 3) or fits.num_frames == 0:
         raise InputError(f"{path}: fits have rotvecs {fits.rotvecs.shape}; expected (N, {J}, 3)")
+    check_rotvecs(fits.rotvecs, str(path), "'rotvecs'")
+    check_translations(fits.transl, str(path), "'transl'")
+    check_range(fits.shape, str(path), "'shape'", MAX_PHENOTYPE, "", "body shape value")
     project_rate, times = project_timing(path)
-    rate = project_rate or fps or FITS_DEFAULT_FPS
+    rate = check_fps(project_rate or fps or FITS_DEFAULT_FPS, str(path))
     rotvecs, transl = upright_motion(fits.rotvecs, fits.transl, config.face_forward, config.center_start)
     if times is not None and len(times) == len(rotvecs) > 1 and (np.diff(times) > 0).all():
         uniform = times[0] + np.arange(len(times)) / rate

@@ -15,6 +15,7 @@ import numpy as np
 
 from morf.errors import InputError
 from morf.io import load_npz, save_npz
+from morf.motion.checks import check_pose_arrays, numbers
 from morf.motion.so3 import slerp_rotvecs
 
 if TYPE_CHECKING:
@@ -126,14 +127,20 @@ def save_clip(clip: MotionClip, path: str | os.PathLike) -> None:
 
 def clip_from_arrays(arrays: dict[str, np.ndarray], path: str | os.PathLike = "") -> MotionClip:
     """A clip from the arrays of a file written by :func:`save_clip`; InputError if they do not fit."""
-    version = int(np.asarray(arrays.get("morf_motion_version", -1)))
+    try:
+        version = int(np.asarray(arrays.get("morf_motion_version", -1)).reshape(-1)[0])
+    except (ValueError, TypeError, IndexError):
+        version = -1
     if version != CLIP_FORMAT_VERSION:
         raise InputError(f"{path}: motion clip format version {version}; this build reads {CLIP_FORMAT_VERSION}")
-    try:
-        return MotionClip(np.asarray(arrays["rotvecs"], dtype=np.float32), np.asarray(arrays["transl"], dtype=np.float32),
-                          float(arrays["fps"]), str(arrays.get("name", Path(path).stem)), str(arrays.get("source", "")))
-    except (KeyError, ValueError, TypeError) as e:
-        raise InputError(f"{path}: not a valid motion clip ({e})") from None
+    origin = str(path)
+    rotvecs, transl = numbers(arrays, "rotvecs", origin), numbers(arrays, "transl", origin)
+    fps = numbers(arrays, "fps", origin).reshape(-1)
+    if fps.size != 1:
+        raise InputError(f"{path}: 'fps' holds {fps.size} values; expected one frame rate")
+    rate = check_pose_arrays(rotvecs, transl, fps[0], origin, ("'rotvecs'", "'transl'", "'fps'"))
+    return MotionClip(rotvecs.astype(np.float32), transl.astype(np.float32), rate,
+                      str(arrays.get("name", Path(path).stem)), str(arrays.get("source", "")))
 
 
 def load_clip(path: str | os.PathLike) -> MotionClip:

@@ -24,6 +24,7 @@ import numpy as np
 from morf.errors import InputError
 from morf.fitting.fits_io import FITS_ONLY_KEYS  # torch-free, like this module
 from morf.motion.amass import stored_fps
+from morf.motion.checks import check_pose_arrays, numbers
 from morf.motion.clip import MotionClip
 
 # What a motion .npz is expected to hold, for one-line errors.
@@ -65,9 +66,6 @@ def not_a_motion(path: Path, arrays: dict[str, np.ndarray]) -> InputError:
 
 def player_clip(path: Path, arrays: dict[str, np.ndarray], fps: float | None = None) -> MotionClip:
     """A ``player`` .npz (Anny poses as they are) as a clip; ``fps`` when it stores none (else 30)."""
-    rate = stored_fps(arrays, path) or fps or 30.0
-    try:
-        return MotionClip(np.asarray(arrays["rotvecs"], np.float32), np.asarray(arrays["transl"], np.float32), rate,
-                          path.stem, f"npz:{path.name}")
-    except (ValueError, TypeError) as e:
-        raise InputError(f"{path}: {e}") from None
+    rotvecs, transl = numbers(arrays, "rotvecs", str(path)), numbers(arrays, "transl", str(path))
+    rate = check_pose_arrays(rotvecs, transl, stored_fps(arrays, path) or fps or 30.0, str(path))
+    return MotionClip(rotvecs.astype(np.float32), transl.astype(np.float32), rate, path.stem, f"npz:{path.name}")

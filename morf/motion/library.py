@@ -8,6 +8,7 @@ from pathlib import Path
 
 from morf.errors import InputError
 from morf.io import load_npz
+from morf.motion.checks import check_clip, check_fps
 from morf.motion.clip import MotionClip, clip_from_arrays
 from morf.motion.formats import not_a_motion, npz_motion_kind, player_clip
 from morf.resources import MOTIONS
@@ -46,9 +47,10 @@ def load_motion(path: str | os.PathLike, model=None, shape=None, config=None,
     ``source_fps`` is the frame rate of files that store none (AIST++ and plain SMPL, fits outside
     a project, Anny poses without ``fps``); each kind has its default otherwise.
     Raises:
-        InputError: missing file, unknown suffix, or a file of the right suffix but wrong content.
+        InputError: missing file, unknown suffix, a file of the right suffix but wrong content, or
+            numbers out of range (:mod:`morf.motion.checks`).
     """
-    from morf.motion.convert import RetargetConfig, retarget
+    from morf.motion.convert import RetargetConfig
 
     path = Path(path).expanduser()
     suffix = path.suffix.lower()
@@ -56,10 +58,18 @@ def load_motion(path: str | os.PathLike, model=None, shape=None, config=None,
         raise InputError(f"{path}: not a motion file (expected .bvh or .npz)")
     if not path.is_file():
         raise InputError(f"no such motion file: {path}")
-    if source_fps is not None and not source_fps > 0:
-        raise InputError(f"the motion's frame rate must be positive, got {source_fps}")
-    config = config or RetargetConfig()
-    if suffix == ".bvh":
+    if source_fps is not None:
+        source_fps = check_fps(source_fps, "the frame rate given for the motion")
+    clip = _read_motion(path, model, shape, config or RetargetConfig(), source_fps)
+    check_clip(clip, f"{path} (as retargeted onto the body)")  # what every reader hands the player and the export
+    return clip
+
+
+def _read_motion(path: Path, model, shape, config, source_fps: float | None) -> MotionClip:
+    """:func:`load_motion` by kind, each reader checking the numbers it reads."""
+    from morf.motion.convert import retarget
+
+    if path.suffix.lower() == ".bvh":
         from morf.motion.bvh import read_bvh
 
         source = read_bvh(path)

@@ -19,6 +19,7 @@ import numpy as np
 
 from morf.errors import InputError
 from morf.motion.amass import SMPL_REST, smpl_source_motion, stored_fps
+from morf.motion.checks import check_rotvecs, check_translations, numbers
 from morf.motion.skeleton import SourceMotion
 from morf.motion.so3 import matrix_to_rotvec, rotvec_to_matrix
 
@@ -47,23 +48,28 @@ def read_smpl(path: str | Path, arrays: dict[str, np.ndarray], fps: float | None
     path = Path(path)
     aist = "smpl_poses" in arrays
     pose_key, trans_key = ("smpl_poses", "smpl_trans") if aist else ("poses", "trans")
-    if pose_key not in arrays:
-        raise InputError(f"{path}: no '{pose_key}' array")
-    poses = np.asarray(arrays[pose_key], dtype=np.float64)
+    poses = numbers(arrays, pose_key, str(path))
     if poses.ndim != 2 or poses.shape[1] != 72:
         raise InputError(f"{path}: '{pose_key}' has shape {poses.shape}; expected (T, 72) SMPL")
+    check_rotvecs(poses, str(path), f"'{pose_key}'")
     T = poses.shape[0]
     if aist and trans_key not in arrays:
         raise InputError(f"{path}: AIST++ motion without 'smpl_trans'")
-    trans = np.asarray(arrays.get(trans_key, np.zeros((T, 3))), dtype=np.float64)
+    trans = numbers(arrays, trans_key, str(path), np.zeros((T, 3)))
+    trans_field = f"'{trans_key}'"
     if aist and "smpl_scaling" in arrays:
-        scaling = float(np.asarray(arrays["smpl_scaling"], dtype=np.float64).reshape(-1)[0])
-        if not np.isfinite(scaling) or scaling <= 0:
-            raise InputError(f"{path}: bad 'smpl_scaling' {scaling}")
-        trans = trans / scaling
+        scaling = numbers(arrays, "smpl_scaling", str(path)).reshape(-1)
+        if scaling.size == 0 or not np.isfinite(scaling[0]) or scaling[0] <= 0:
+            raise InputError(f"{path}: 'smpl_scaling' is {scaling[:1].tolist() or 'empty'}; expected a positive "
+                             "number (translations are divided by it)")
+        with np.errstate(over="ignore"):  # a tiny scaling gives inf, refused below
+            trans = trans / scaling[0]
+        trans_field += " divided by 'smpl_scaling'"
+    if trans.shape == (T, 3):
+        check_translations(trans, str(path), trans_field)
     rate = stored_fps(arrays, path) or fps or (AIST_FPS if aist else SMPL_DEFAULT_FPS)
     body = poses[:, :66].copy()
-    if T and trans.shape == (T, 3) and np.all(np.isfinite(body)):
+    if T and trans.shape == (T, 3):
         axis, sign = world_up(body[:, :3])
         if sign < 0:  # upside down (camera space, Y down): half a turn about X puts it upright
             flip = np.diag([1.0, -1.0, -1.0])

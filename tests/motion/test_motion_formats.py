@@ -119,7 +119,7 @@ def test_frame_rates(tmp_path, body_model):
     assert load_motion(smplh, body_model, config=RAW, source_fps=25.0).fps == 120.0  # the file's own wins
     clip = load_motion(smplh, body_model)  # default output: 30 fps, feet on the ground
     assert clip.fps == 30.0 and clip.num_frames == 4
-    with pytest.raises(InputError, match="positive"):
+    with pytest.raises(InputError, match="frame rate given for the motion: frame rate is 0 fps; .* between"):
         load_motion(aist, body_model, source_fps=0.0)
 
 
