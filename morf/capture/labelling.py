@@ -20,7 +20,7 @@ import numpy as np
 from morf.capture.detect_mediapipe import Detection, MediaPipeDetector
 from morf.capture.keypoint_layout import NUM_KEYPOINTS
 from morf.capture.mask_import import read_mask, resize_mask
-from morf.capture.matching import FileMatch
+from morf.capture.matching import FileMatch, count_mismatch
 from morf.capture.openpose import OpenPosePerson, check_pixel_coordinates, read_openpose_json
 from morf.capture.people import (BoxFollower, PersonTracker, TrackerConfig, box_iou, detect_in_region,
                                  expand_box, keypoint_box, person_box)
@@ -138,8 +138,7 @@ class FrameLabeller:
             return
         for match in (self.keypoints, self.masks):
             if match is not None and match.rule == "order" and match.total != source_total:
-                raise InputError(f"{match.total} {match.what} files for {source_total} frames, and their names "
-                                 f"do not say which frame each belongs to")
+                raise count_mismatch(match.total, match.what, source_total)
 
     def close(self) -> None:
         if self.detector is not None:

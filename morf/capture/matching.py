@@ -69,6 +69,12 @@ def _last_number(stem: str) -> int | None:
     return int(nums[-1]) if nums else None
 
 
+def count_mismatch(files: int, what: str, frames: int) -> InputError:
+    """The error for side files (keypoints, masks) that do not number the frames."""
+    return InputError(f"{frames} frames but {files} {what} files: one {what} file is needed for each frame (in name "
+                      f"order, or named with the frame's number); add the missing ones or remove the extra ones")
+
+
 def match_files(files: list[Path], wanted: list[int], frame_names: tuple[str, ...] | None,
                 total_frames: int | None, what: str) -> FileMatch:
     """Pair ``files`` with source frames; every index in ``wanted`` must get a file.
@@ -98,8 +104,7 @@ def match_files(files: list[Path], wanted: list[int], frame_names: tuple[str, ..
         if all(i in mapping for i in wanted) and (wanted or frame_names is None):
             return FileMatch(mapping, "number", len(files), what)
     if total_frames is not None and len(files) != total_frames:
-        raise InputError(f"{len(files)} {what} files for {total_frames} frames, and their names do not "
-                         f"say which frame each belongs to")
+        raise count_mismatch(len(files), what, total_frames)
     match = FileMatch(dict(enumerate(files)), "order", len(files), what)
     for i in wanted:
         match.get(i)

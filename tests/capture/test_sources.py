@@ -61,7 +61,7 @@ def test_matching_by_name_number_and_order(tmp_path):
     files = [tmp_path / f"mask{c}.png" for c in "abc"]
     m = match_files(files, [0, 2], None, 3, "mask")
     assert m.rule == "order" and m.get(2).name == "maskc.png"
-    with pytest.raises(InputError, match="3 mask files for 4 frames"):
+    with pytest.raises(InputError, match="4 frames but 3 mask files: one mask file is needed for each frame"):
         match_files(files, [0, 2], None, 4, "mask")
     with pytest.raises(InputError, match="no mask file for frame 5"):
         match_files(files, [0, 5], None, None, "mask")
@@ -77,7 +77,7 @@ def test_openpose_body25_coco18_hands_face(tmp_path):
     p = _write(tmp_path / "a.json", {"people": [
         {"pose_keypoints_2d": body, "hand_left_keypoints_2d": [7.0, 8.0, 0.5] * 21, "face_keypoints_2d": []},
         {"pose_keypoints_2d": []},  # OpenPose writes empty lists for undetected parts
-        {"pose_keypoints_2d": [float(v) for v in range(54)]},
+        {"pose_keypoints_2d": [float(v) if v % 3 != 2 else 0.5 for v in range(54)]},
     ]})
     people = read_openpose_json(p)
     assert [q.layout for q in people] == ["BODY_25", "COCO-18"]
