@@ -27,6 +27,9 @@ class _Parsed:
         self.channels: list[list[str]] = []
 
 
+# A BVH of this size holds hours of mocap at 120 fps; more is not a motion clip.
+MAX_BVH_BYTES = 256 * 2**20
+
 def _parse_hierarchy(lines: list[str], path: Path) -> tuple[_Parsed, int]:
     """Joints in file order (parents first); returns the index of the MOTION line."""
     out = _Parsed()
@@ -99,6 +102,10 @@ def read_bvh(path: str | os.PathLike, up_axis: str = "auto", unit: str = "auto")
     """
     path = Path(path)
     try:
+        size = path.stat().st_size
+        if size > MAX_BVH_BYTES:  # the text and its numbers take several times the file in memory
+            raise InputError(f"{path} is {size / 2**20:.0f} MiB, more than the {MAX_BVH_BYTES // 2**20} MiB a BVH "
+                             "motion may take here; cut the clip into shorter files")
         text = path.read_text(encoding="utf-8", errors="replace")
     except OSError as e:
         raise InputError(f"cannot read {path}: {e.strerror or e}") from None
