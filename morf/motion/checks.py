@@ -123,3 +123,19 @@ def check_pose_arrays(rotvecs: np.ndarray, transl: np.ndarray, fps: float, origi
 def check_clip(clip, origin: str) -> None:
     """A :class:`~morf.motion.clip.MotionClip` before it is played or exported."""
     check_pose_arrays(clip.rotvecs, clip.transl, clip.fps, origin)
+
+
+MAX_ROTATION_ERROR = 1e-2  # |R^T R - I| and |det R - 1| of a rotation matrix stored as float32 and rounded
+
+
+def check_rotation_matrices(values: np.ndarray, origin: str, field: str) -> None:
+    """(..., 3, 3) rotation matrices, frames first: finite, orthonormal and right-handed (to
+    :data:`MAX_ROTATION_ERROR`); InputError naming the first frame that is not."""
+    check_range(values, origin, field, 1.0 + MAX_ROTATION_ERROR, "", "rotation matrix entry")
+    m = np.asarray(values, np.float64)
+    gram = np.swapaxes(m, -1, -2) @ m - np.eye(3)
+    bad = (np.abs(gram).max(axis=(-1, -2)) > MAX_ROTATION_ERROR) | (np.abs(np.linalg.det(m) - 1.0) > MAX_ROTATION_ERROR)
+    if bad.any():
+        where = f" at frame {np.argwhere(bad)[0][0]}" if bad.ndim else ""
+        raise InputError(f"{origin}: {field} holds a 3x3 matrix that is not a rotation{where} (not orthonormal, or a "
+                         "mirror); fix or cut that frame")

@@ -37,6 +37,8 @@ class MotionClip:
         transl: (T, 3) float32 root translation, metres, Anny's world (Z up, person faces -Y).
         fps: frames per second.
         name: short name for pickers; source: where it came from (file, format, notes).
+        notes: what the source held that the clip could not keep (a jaw rotation the body has
+            no bone for), one sentence each: said to the user, never saved with the clip.
     """
 
     rotvecs: np.ndarray
@@ -44,6 +46,7 @@ class MotionClip:
     fps: float
     name: str = ""
     source: str = ""
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self):
         r, t = np.asarray(self.rotvecs), np.asarray(self.transl)

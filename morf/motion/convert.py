@@ -36,7 +36,7 @@ def retarget(source: SourceMotion, model, shape: torch.Tensor | None = None, con
     rest = target_rest(model, shape)
     r = turn_and_shift(retarget_rotations(source, rest, joint_map), config.face_forward, config.center_start)
     clip = MotionClip(r.rotvecs.astype(np.float32), r.transl.astype(np.float32), float(source.fps), source.name,
-                      f"{source.source}, map {r.joint_map.name}, scale {r.scale:.3f}")
+                      f"{source.source}, map {r.joint_map.name}, scale {r.scale:.3f}", source.notes)
     clearance = r.clearance
     if config.fps is not None and abs(config.fps - clip.fps) > 1e-6:
         clip = resample(clip, config.fps)

@@ -12,6 +12,8 @@ amass      ``poses`` (T, 156) SMPL-H or (T, 165) SMPL-X (or ``root_orient`` + ``
            ``trans``, ``mocap_framerate`` / ``mocap_frame_rate`` (:mod:`morf.motion.amass`)
 smpl       ``poses`` (T, 72) + ``trans``, or AIST++ ``smpl_poses`` (T, 72) + ``smpl_trans``
            (+ ``smpl_scaling``) (:mod:`morf.motion.smpl`)
+smpl-      SMPL / SMPL-X split by body part: ``global_orient`` (T, 3), ``body_pose`` (T, 69) or
+params     (T, 63), ``transl``, ``betas``, SMPL-X hands and face (:mod:`morf.motion.smpl_params`)
 =========  ================================================================================
 """
 
@@ -26,20 +28,24 @@ from morf.fitting.fits_io import FITS_ONLY_KEYS  # torch-free, like this module
 from morf.motion.amass import stored_fps
 from morf.motion.checks import check_pose_arrays, numbers
 from morf.motion.clip import MotionClip
+from morf.motion.smpl_params import is_smpl_params
 
 # What a motion .npz is expected to hold, for one-line errors.
 EXPECTED_NPZ = ("a MoRF clip (rotvecs (T,J,3), transl (T,3), fps), AMASS SMPL-H / SMPL-X (poses (T,156) / "
-                "(T,165), trans), SMPL / AIST++ (poses or smpl_poses (T,72), trans or smpl_trans) "
+                "(T,165), trans), SMPL / AIST++ (poses or smpl_poses (T,72), trans or smpl_trans), "
+                "SMPL / SMPL-X parameters (global_orient (T,3), body_pose (T,69) or (T,63), transl) "
                 "or a capture's fits/fits.npz")
 
 
 def npz_motion_kind(arrays: dict[str, np.ndarray]) -> str | None:
-    """"clip", "player", "fits", "amass", "smpl" (see the module docstring) or None."""
+    """"clip", "player", "fits", "amass", "smpl", "smpl-params" (see the module docstring) or None."""
     keys = set(arrays)
     if "morf_motion_version" in keys:
         return "clip"
     if {"rotvecs", "transl"} <= keys:
         return "fits" if any(k in keys for k in FITS_ONLY_KEYS) else "player"
+    if is_smpl_params(arrays):
+        return "smpl-params"
     if "smpl_poses" in keys:
         return "smpl"
     poses = arrays.get("poses")

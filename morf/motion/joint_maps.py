@@ -128,10 +128,22 @@ def _cmu_old() -> JointMap:
     return JointMap("cmu-old", tuple(anchors), ("LeftHip", "RightHip"), "Neck")
 
 
+def _smpl_detail() -> JointMap:
+    # SMPL-H / SMPL-X with fingers and eyes (morf.motion.smpl_hands): the body as SMPL, and one
+    # anchor per finger bone and eye with no rest direction, so it turns from Anny's own rest.
+    from morf.motion.smpl_hands import detail_bones
+
+    base = _smpl()
+    extra = tuple(Anchor(bone, joint) for bone, joint in detail_bones())
+    return JointMap("smpl-hands", base.anchors + extra, base.hips, base.up)
+
+
 SMPL_MAP = _smpl()
+SMPL_DETAIL_MAP = _smpl_detail()
 CMU_MAP = _cmu()
 CMU_OLD_MAP = _cmu_old()
-KNOWN_MAPS = (SMPL_MAP, CMU_MAP, CMU_OLD_MAP)
+# Most joints first: a skeleton with SMPL-X hands takes the map that drives them.
+KNOWN_MAPS = (SMPL_DETAIL_MAP, SMPL_MAP, CMU_MAP, CMU_OLD_MAP)
 
 
 def map_for(skeleton) -> JointMap:

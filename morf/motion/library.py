@@ -39,7 +39,8 @@ def load_motion(path: str | os.PathLike, model=None, shape=None, config=None,
     - ``.bvh``: read and retargeted (:func:`morf.motion.convert.retarget`);
     - ``.npz`` written by :func:`morf.motion.clip.save_clip`, or Anny poses (``rotvecs``,
       ``transl``, ``fps``): loaded as they are;
-    - ``.npz`` from AMASS (SMPL-H / SMPL-X), AIST++ or plain SMPL: read and retargeted;
+    - ``.npz`` from AMASS (SMPL-H / SMPL-X), AIST++, plain SMPL, or SMPL / SMPL-X parameters split
+      by body part (``global_orient``, ``body_pose``, ...): read and retargeted;
     - a capture's ``fits/fits.npz``: turned upright and put on the ground for ``shape``.
 
     ``model`` (Anny) and ``shape`` (1, 6) are only needed for retargeting; a shared Anny model
@@ -92,6 +93,10 @@ def _read_motion(path: Path, model, shape, config, source_fps: float | None) -> 
             from morf.motion.smpl import read_smpl
 
             source = read_smpl(path, arrays, source_fps)
+        elif kind == "smpl-params":
+            from morf.motion.smpl_params import read_smpl_params
+
+            source = read_smpl_params(path, arrays, source_fps)
         else:
             raise not_a_motion(path, arrays)
     return retarget(source, model if model is not None else shared_body_model(), shape, config)

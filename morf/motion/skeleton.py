@@ -72,6 +72,8 @@ class SourceMotion:
         kind: "bvh", "smplh" or "smplx" (selects the joint map).
         channel_orders: per joint, the rotation order read from the file ("ZYX", "" for none;
             empty tuple when the format has no such thing).
+        notes: what the reader read but could not use (a jaw rotation the body has no bone for),
+            one sentence each, for the user.
     """
 
     skeleton: SourceSkeleton
@@ -83,6 +85,7 @@ class SourceMotion:
     source: str = ""
     kind: str = "bvh"
     channel_orders: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
 
     @property
     def num_frames(self) -> int:

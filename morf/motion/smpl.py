@@ -68,14 +68,25 @@ def read_smpl(path: str | Path, arrays: dict[str, np.ndarray], fps: float | None
     if trans.shape == (T, 3):
         check_translations(trans, str(path), trans_field)
     rate = stored_fps(arrays, path) or fps or (AIST_FPS if aist else SMPL_DEFAULT_FPS)
-    body = poses[:, :66].copy()
-    if T and trans.shape == (T, 3):
-        axis, sign = world_up(body[:, :3])
-        if sign < 0:  # upside down (camera space, Y down): half a turn about X puts it upright
-            flip = np.diag([1.0, -1.0, -1.0])
-            body[:, :3] = matrix_to_rotvec(flip @ rotvec_to_matrix(body[:, :3]))
-            trans = (trans + SMPL_REST[0]) @ flip.T - SMPL_REST[0]
-    else:
-        axis = "y"  # smpl_source_motion reports what is wrong
+    body, trans, axis = upright(poses[:, :66], trans)
     layout = "aist++" if aist else "smpl"
     return smpl_source_motion(body, trans, rate, axis, path, f"{layout}:{path.name} ({axis}-up)", "smpl")
+
+
+def upright(body: np.ndarray, trans: np.ndarray) -> tuple[np.ndarray, np.ndarray, str]:
+    """(body, trans, up axis) of a SMPL motion in a world of unknown axes: the up axis found by
+    :func:`world_up`, and an upside-down world (camera space, Y down) turned half a turn about X.
+
+    Args: body (T, 66) axis-angle, root first; trans (T, 3) metres. The arrays are not changed.
+    A translation of the wrong shape is passed on as it is (the caller reports it).
+    """
+    T = body.shape[0]
+    body = body.copy()
+    if not (T and trans.shape == (T, 3)):
+        return body, trans, "y"
+    axis, sign = world_up(body[:, :3])
+    if sign < 0:
+        flip = np.diag([1.0, -1.0, -1.0])
+        body[:, :3] = matrix_to_rotvec(flip @ rotvec_to_matrix(body[:, :3]))
+        trans = (trans + SMPL_REST[0]) @ flip.T - SMPL_REST[0]
+    return body, trans, axis

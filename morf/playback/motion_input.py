@@ -15,7 +15,8 @@ from morf.motion.clip import MotionClip
 def load_playback_motion(path: str | Path, num_bones: int, shape=None, source_fps: float | None = None) -> MotionClip:
     """Read any motion :func:`morf.motion.load_motion` reads (detected by content: Anny poses
     ``rotvecs`` (T, J, 3) + ``transl`` (T, 3) + ``fps``, MoRF clips, AMASS SMPL-H / SMPL-X,
-    AIST++ / SMPL, a capture's ``fits/fits.npz``, BVH), retargeted onto Anny with phenotype
+    AIST++ / SMPL, SMPL / SMPL-X parameters split by body part (``global_orient``, ``body_pose``,
+    ...), a capture's ``fits/fits.npz``, BVH), retargeted onto Anny with phenotype
     ``shape`` (1, 6) (default: Anny's default body). ``source_fps``: the rate of files that store none.
 
     Raises:
