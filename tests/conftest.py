@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import os
 from pathlib import Path
 
@@ -12,6 +13,32 @@ os.environ.setdefault("MORF_QUIET", "1")
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
+
+
+def strict_install() -> bool:
+    """Whether this run has every declared dependency installed, so that a missing one is a broken
+    install that fails its tests instead of skipping them: ``MORF_REQUIRE_DEPS=1``, or
+    ``MORF_REQUIRE_GL=1`` (CI, after ``scripts/install.sh``, sets it)."""
+    return os.environ.get("MORF_REQUIRE_DEPS") == "1" or os.environ.get("MORF_REQUIRE_GL") == "1"
+
+
+def require(module: str):
+    """``module`` imported, for a test (or, at module level, a test file) that needs it.
+
+    Where it cannot be imported the test is skipped, except under :func:`strict_install`, where
+    it fails: pyproject.toml declares it (or scripts/install.sh installs it), so CI must run those
+    tests, not pass them as skips. Use it instead of ``pytest.importorskip``::
+
+        imgui = require("imgui_bundle").imgui
+    """
+    try:
+        return importlib.import_module(module)
+    except ImportError as e:
+        error = e  # reported below, outside the handler: one line, no chained traceback
+    if strict_install():
+        pytest.fail(f"{module} cannot be imported ({error}) although this install should have it "
+                    "(MORF_REQUIRE_DEPS / MORF_REQUIRE_GL is set): run bash scripts/install.sh", pytrace=False)
+    pytest.skip(f"{module} is not installed ({error})", allow_module_level=True)
 
 
 @pytest.fixture(scope="session")
@@ -82,7 +109,7 @@ def local_ray():
     """A local Ray of two CPUs (two workers at once), no dashboard, a small object store."""
     from morf.scale.ray_runtime import RayOptions, connect
 
-    ray = pytest.importorskip("ray")
+    ray = require("ray")
     if ray.is_initialized():
         ray.shutdown()
     connect(RayOptions(num_cpus=2, object_store_memory=80 * 1024**2))

@@ -5,6 +5,7 @@ import torch.nn.functional as F
 
 from morf.avatar.model import AvatarModel
 from morf.avatar.renderer import RendererConfig, UNetRenderer, count_parameters
+from tests.conftest import require
 
 
 @pytest.mark.parametrize("stem,head_stride", [(1, 1), (2, 1), (4, 1), (2, 2), (4, 2)])
@@ -37,8 +38,8 @@ def test_avatar_model_forward():
 
 
 def test_onnx_export_matches_torch(tmp_path):
-    ort = pytest.importorskip("onnxruntime")
-    pytest.importorskip("onnx")
+    ort = require("onnxruntime")
+    require("onnx")
     torch.manual_seed(0)
     r = UNetRenderer(RendererConfig(in_channels=8, width=8, depth=2, stem=2, skip_hidden=8)).eval()
     x = torch.randn(1, 8, 64, 64)

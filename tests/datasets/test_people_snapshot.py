@@ -15,8 +15,9 @@ from morf.datasets.people_snapshot import SPLITS
 from morf.errors import InputError
 from morf.io import load_npz
 from tests.datasets.fakes import RunsCommand, make_people_snapshot, person_box
+from tests.conftest import require
 
-pytest.importorskip("h5py")
+require("h5py")
 
 SUBJECT = "tiny-casual"
 
@@ -109,7 +110,7 @@ def test_malicious_consensus_is_skipped_not_run(subject, tmp_path):
 
 
 def test_mediapipe_runs_on_the_masked_crop(subject, tmp_path):
-    pytest.importorskip("mediapipe")
+    require("mediapipe")  # scripts/install.sh installs it
     # MediaPipe runs on every imported frame; the test subject's boxes are no person, so nothing can be
     # fitted: the import ends with the error and leaves no project behind
     with pytest.raises(InputError, match="MediaPipe found no person in any of the 2 imported frames"):

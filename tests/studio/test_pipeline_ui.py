@@ -13,9 +13,11 @@ import time
 import numpy as np
 import pytest
 
+from tests.conftest import require
+
 pytestmark = [pytest.mark.gl, pytest.mark.slow]
 
-imgui = pytest.importorskip("imgui_bundle").imgui
+imgui = require("imgui_bundle").imgui
 from studio.app import StudioApp  # noqa: E402
 
 K = imgui.Key

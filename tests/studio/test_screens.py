@@ -8,12 +8,13 @@ import numpy as np
 import pytest
 
 from screenshots import WINDOW, check_golden
+from tests.conftest import require
 from morf.errors import MorfError
 from morf.pipeline.control import Progress
 
 pytestmark = pytest.mark.gl
 
-imgui = pytest.importorskip("imgui_bundle").imgui
+imgui = require("imgui_bundle").imgui
 from studio.app import StudioApp  # noqa: E402  (after the skip)
 from studio.commands import StartStage  # noqa: E402
 from studio.snapshot import LossCurve, Snapshot  # noqa: E402
