@@ -135,21 +135,21 @@ def _translation(arrays: dict[str, np.ndarray], T: int, path: Path) -> tuple[np.
 
 
 def _hands(arrays: dict[str, np.ndarray], T: int, path: Path, notes: list[str]) -> np.ndarray | None:
-    """(T, 30, 3) both hands (a missing hand at rest), or None when the file has no usable hand
-    poses; PCA hand poses add a note instead."""
-    present = [k for k in HAND_KEYS if k in arrays]
-    if not present:
+    """(T, 30, 3) both hands (a missing hand at rest), or None when the file has no hand poses;
+    PCA hand poses stay at rest and add a note."""
+    if not any(k in arrays for k in HAND_KEYS):
         return None
-    parts = []
+    parts, pca = [], []
     for key in HAND_KEYS:
-        if key not in arrays:
-            parts.append(np.zeros((T, 15, 3)))
-            continue
-        shape = np.shape(arrays[key])
-        if not rotation_frames(shape, 15) and len(shape) in (1, 2) and 0 < shape[-1] < 45:
-            notes.append(f"'{key}' holds {shape[-1]} PCA coefficients, which only the licensed SMPL-X model file "
-                         "decodes: that hand keeps its rest pose (save the full 45 rotations to move it)")
-            parts.append(np.zeros((T, 15, 3)))
-            continue
-        parts.append(read_rotations(arrays, key, 15, path, T))
+        shape = np.shape(arrays[key]) if key in arrays else None
+        if shape is not None and not rotation_frames(shape, 15) and len(shape) in (1, 2) and 0 < shape[-1] < 45:
+            pca.append((key, shape[-1]))
+            shape = None
+        parts.append(np.zeros((T, 15, 3)) if shape is None else read_rotations(arrays, key, 15, path, T))
+    if pca:
+        keys = " and ".join(f"'{k}'" for k, _ in pca)
+        counts = "/".join(sorted({str(n) for _, n in pca}))
+        notes.append(f"{keys} {'hold' if len(pca) > 1 else 'holds'} {counts} PCA coefficients, which only the licensed "
+                     f"SMPL-X model file decodes: {'those hands keep' if len(pca) > 1 else 'that hand keeps'} the rest "
+                     "pose (save the 45 rotations of each hand to move them)")
     return np.concatenate(parts, axis=1)
