@@ -5,13 +5,17 @@ On a tiny synthetic capture (``morf synth --preset tiny``), ``morf run P --prese
 uninterrupted: the reference avatar and the duration the kills are spread over. Then for each of
 ``--kills`` times (stratified: one uniform draw in each of K equal slices of that duration, seeded
 by ``--seed``), a fresh copy of the capture gets ``morf run`` started in its own process group,
-the whole group is sent SIGKILL at that time, and ``morf run`` runs again to the end. The avatar
+the whole group is sent SIGKILL at that time, and ``morf run`` runs again to the end. A time is
+counted from the last status line (``[3/4] train: ...``) the reference had printed by then, in
+the killed run's own output: on a shared machine one run's stages take longer than another's,
+and a time on the reference's clock alone would land past the end of a faster run. The avatar
 folder it exports is compared with the reference's:
 
 * the same file list;
-* every array of every .npz equal within ``--tolerance`` (1e-5), every initializer of every .onnx
-  graph the same, their nodes the same operators in the same order;
-* every JSON file (the manifest) with the same keys, apart from what records a time or a path.
+* every array of every .npz and every initializer of every .onnx graph equal within
+  ``--tolerance`` (1e-5), the graphs' nodes the same operators in the same order;
+* every JSON file (the manifest) with the same keys, apart from what records a time or a path
+  (:mod:`morf.bench.avatar_diff`).
 
 Per kill the table says when it came, which stage it hit (read from the killed run's own status
 lines), what the second run did with that stage (resumed it, ran it again, or found it done) and
@@ -20,7 +24,6 @@ the largest difference. Writes ``DIR/resume.json`` and ``DIR/resume.md``.
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import shutil
@@ -28,135 +31,16 @@ import signal
 import subprocess
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from morf.bench.avatar_diff import AvatarDiff, compare_avatars
+
 STAGES = ("ingest", "fit", "train", "export")
-COLUMNS = ["kill", "at_s", "stage_killed", "second_run", "passed", "max_abs_diff", "worst", "note"]
-# manifest keys that record when, how long or where, not what was exported
-VOLATILE_KEYS = frozenset({"created", "export_seconds", "project", "sha256", "bytes", "seconds", "written", "finished"})
-
-
-# ---- comparing two avatar folders ---------------------------------------------------------
-
-@dataclass(frozen=True)
-class AvatarDiff:
-    """How an avatar folder differs from a reference one (:func:`compare_avatars`).
-
-    Fields:
-        missing, extra: files the reference has and this folder lacks, and the other way round;
-        max_abs_diff: the largest absolute difference of any array or initializer (inf when two
-            cannot be compared: another shape, dtype kind, or a name only one of them has);
-        worst: "file:array" where it is; key_diff: JSON keys only one side has ("file:a.b.c");
-        value_diff: JSON values (not times or paths) that differ, for information; tolerance:
-            what ``max_abs_diff`` had to stay within.
-    """
-
-    missing: tuple[str, ...]
-    extra: tuple[str, ...]
-    max_abs_diff: float
-    worst: str
-    key_diff: tuple[str, ...]
-    value_diff: tuple[str, ...]
-    tolerance: float
-
-    @property
-    def passed(self) -> bool:
-        return not self.missing and not self.extra and not self.key_diff and self.max_abs_diff <= self.tolerance
-
-    def to_dict(self) -> dict:
-        return {**asdict(self), "passed": self.passed}
-
-
-def _files(folder: Path) -> set[str]:
-    return {p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file()}
-
-
-def _array_diff(a: np.ndarray, b: np.ndarray) -> float:
-    """Largest absolute difference of two arrays; inf when they cannot be compared."""
-    if a.shape != b.shape:
-        return float("inf")
-    if a.dtype.kind in "US" or b.dtype.kind in "US":
-        return 0.0 if a.dtype.kind == b.dtype.kind and np.array_equal(a, b) else float("inf")
-    if a.dtype.kind not in "biuf" or b.dtype.kind not in "biuf":
-        return 0.0 if np.array_equal(a, b) else float("inf")
-    if a.size == 0:
-        return 0.0
-    d = np.abs(a.astype(np.float64) - b.astype(np.float64))
-    nan_a, nan_b = np.isnan(a.astype(np.float64)), np.isnan(b.astype(np.float64))
-    if (nan_a != nan_b).any():
-        return float("inf")
-    return float(np.nanmax(np.where(nan_a, 0.0, d)))
-
-
-def npz_arrays(path: Path) -> dict[str, np.ndarray]:
-    from morf.io import load_npz
-
-    return load_npz(path)
-
-
-def onnx_arrays(path: Path) -> dict[str, np.ndarray]:
-    """The graph's initializers by name, plus its operator sequence as one string array (so two
-    graphs with other nodes but the same weights do not pass)."""
-    import onnx
-    from onnx import numpy_helper
-
-    model = onnx.load(str(path))
-    out = {f"init:{t.name}": numpy_helper.to_array(t) for t in model.graph.initializer}
-    out["graph:ops"] = np.array(" ".join(n.op_type for n in model.graph.node))
-    return out
-
-
-def _json_diff(a, b, where: str, keys: list[str], values: list[str], tol: float) -> None:
-    if isinstance(a, dict) and isinstance(b, dict):
-        for k in sorted(set(a) | set(b), key=str):
-            here = f"{where}.{k}" if where else str(k)
-            if k in VOLATILE_KEYS:
-                if (k in a) != (k in b):
-                    keys.append(here)
-                continue
-            if k not in a or k not in b:
-                keys.append(here)
-            else:
-                _json_diff(a[k], b[k], here, keys, values, tol)
-    elif isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
-        for i, (x, y) in enumerate(zip(a, b)):
-            _json_diff(x, y, f"{where}[{i}]", keys, values, tol)
-    elif isinstance(a, (int, float)) and isinstance(b, (int, float)) and not isinstance(a, bool):
-        if not abs(float(a) - float(b)) <= tol * max(1.0, abs(float(a))):
-            values.append(f"{where}: {a} != {b}")
-    elif a != b:
-        values.append(f"{where}: {a!r} != {b!r}")
-
-
-def compare_avatars(reference: str | Path, other: str | Path, tolerance: float = 1e-5) -> AvatarDiff:
-    """Compare avatar folder ``other`` with ``reference`` (see the module docstring for what counts)."""
-    reference, other = Path(reference), Path(other)
-    ref_files, other_files = _files(reference), _files(other)
-    worst, worst_name = 0.0, ""
-    keys: list[str] = []
-    values: list[str] = []
-    for name in sorted(ref_files & other_files):
-        suffix = Path(name).suffix
-        if suffix in (".npz", ".onnx"):
-            read = npz_arrays if suffix == ".npz" else onnx_arrays
-            a, b = read(reference / name), read(other / name)
-            for key in sorted(set(a) | set(b)):
-                d = _array_diff(a[key], b[key]) if key in a and key in b else float("inf")
-                if d > worst or (d == worst and not worst_name and d > 0):
-                    worst, worst_name = d, f"{name}:{key}"
-        elif suffix == ".json":
-            found: list[str] = []
-            _json_diff(json.loads((reference / name).read_text()), json.loads((other / name).read_text()),
-                       "", found, values, tolerance)
-            keys += [f"{name}:{k}" for k in found]
-        elif (reference / name).read_bytes() != (other / name).read_bytes():
-            worst, worst_name = float("inf"), name
-    return AvatarDiff(tuple(sorted(ref_files - other_files)), tuple(sorted(other_files - ref_files)), worst,
-                      worst_name, tuple(keys), tuple(values), tolerance)
+COLUMNS = ["kill", "at_s", "anchor", "stage_killed", "second_run", "passed", "max_abs_diff", "worst", "note"]
 
 
 # ---- running, killing and reading ``morf run`` ---------------------------------------------
@@ -242,12 +126,24 @@ def _environment() -> dict:
     return env
 
 
-def run_to_end(argv: list[str], log_path: Path, timeout: float = 1800) -> tuple[int, float]:
-    """Run a command to its end with its output in ``log_path``; (exit status, seconds)."""
+def run_to_end(argv: list[str], log_path: Path, timeout: float = 1800) -> tuple[int, float, list[float]]:
+    """Run a command to its end with its output in ``log_path``; (exit status, seconds, the
+    seconds after the start at which each of its status lines showed, polled every 20 ms)."""
     t0 = time.monotonic()
+    marks: list[float] = []
     with open(log_path, "wb") as log:
-        rc = subprocess.call(argv, stdout=log, stderr=subprocess.STDOUT, env=_environment(), timeout=timeout)
-    return rc, time.monotonic() - t0
+        proc = subprocess.Popen(argv, stdout=log, stderr=subprocess.STDOUT, env=_environment())
+        while proc.poll() is None:
+            if time.monotonic() - t0 > timeout:
+                proc.kill()
+                proc.wait()
+                break
+            now = time.monotonic() - t0
+            marks += [now] * (len(stage_lines(log_path.read_text(errors="replace"))) - len(marks))
+            time.sleep(0.02)
+    seconds = time.monotonic() - t0
+    marks += [seconds] * (len(stage_lines(log_path.read_text(errors="replace"))) - len(marks))
+    return proc.returncode, seconds, marks
 
 
 def run_and_kill(argv: list[str], at_s: float, log_path: Path,
@@ -275,6 +171,23 @@ def run_and_kill(argv: list[str], at_s: float, log_path: Path,
     return False, time.monotonic() - t0
 
 
+def anchor(at_s: float, marks: list[float]) -> tuple[int, float]:
+    """A time of the reference run as (status lines shown by then, seconds after the last of them):
+    a killed run is killed that long after its own k-th status line, so each kill lands where the
+    reference's time says even when this run's stages take longer or shorter (a shared machine)."""
+    k = sum(1 for m in marks if m <= at_s)
+    return k, at_s - (marks[k - 1] if k else 0.0)
+
+
+def anchor_words(k: int, offset: float, reference_log: str) -> str:
+    """``anchor``'s point in words: "start +0.8 s", "fit +1.2 s", "after fit +0.1 s"."""
+    if k == 0:
+        return f"start +{offset:.1f} s"
+    stage, rest = stage_lines(reference_log)[k - 1]
+    where = f"after {stage}" if rest.startswith("skipped") or " done in " in f" {rest}" else stage
+    return f"{where} +{offset:.1f} s"
+
+
 def kill_times(duration: float, kills: int, seed: int) -> list[float]:
     """``kills`` times in [0, duration): one uniform draw in each of ``kills`` equal slices."""
     rng = np.random.default_rng(seed)
@@ -286,11 +199,14 @@ def kill_times(duration: float, kills: int, seed: int) -> list[float]:
 
 @dataclass(frozen=True)
 class KillRow:
-    """One kill: when (``at_s``), what it hit, what the next ``morf run`` did, and the avatar's
-    difference from the reference's (``diff``, :class:`AvatarDiff`; None when no avatar came)."""
+    """One kill: when (``at_s`` on the reference's clock; ``anchor``: the status line it was
+    counted from in the killed run, :func:`anchor`), what it hit, what the next ``morf run`` did,
+    and the avatar's difference from the reference's (``diff``, :class:`AvatarDiff`; None when no
+    avatar came)."""
 
     kill: int
     at_s: float
+    anchor: str
     stage_killed: str
     second_run: str
     actions: dict
@@ -313,7 +229,7 @@ class KillRow:
 
 def kill_once(capture: Path, work: Path, argv_for: Callable[[Path], list[str]], at_s: float, reference: Path,
               index: int, tolerance: float = 1e-5, output: str = "avatar",
-              after: Callable[[Path], bool] | None = None) -> KillRow:
+              after: Callable[[Path], bool] | None = None, anchor_text: str = "") -> KillRow:
     """One kill of the benchmark in ``work`` (a fresh copy of ``capture`` there): ``argv_for(P)``
     (the ``morf run`` command line for project P) killed at ``at_s`` (:func:`run_and_kill`; with
     ``after``, after ``after(P)`` holds), run again to the end, and P/``output`` compared with
@@ -327,7 +243,7 @@ def kill_once(capture: Path, work: Path, argv_for: Callable[[Path], list[str]], 
                             None if after is None else lambda: after(project))
     killed_log = (work / "killed.log").read_text(errors="replace")
     stage = stage_at_kill(killed_log, ended)
-    rc, _ = run_to_end(argv_for(project), work / "again.log")
+    rc, _, _ = run_to_end(argv_for(project), work / "again.log")
     again = (work / "again.log").read_text(errors="replace")
     actions = stage_actions(again)
     if actions.get("train") == "resumed (from its checkpoint)":
@@ -344,7 +260,7 @@ def kill_once(capture: Path, work: Path, argv_for: Callable[[Path], list[str]], 
                               *diff.key_diff][:3]) or f"differs at {diff.worst}"
     else:
         note = f"no {output} folder after the second run"
-    return KillRow(index, at_s, stage, second_run_word(stage, actions), actions, rc, diff, note)
+    return KillRow(index, at_s, anchor_text, stage, second_run_word(stage, actions), actions, rc, diff, note)
 
 
 def _last_line(log: str) -> str:
@@ -375,7 +291,7 @@ def run(args) -> int:
     if capture.exists():
         shutil.rmtree(capture)
     capture.parent.mkdir(parents=True, exist_ok=True)
-    rc, _ = run_to_end(morf_argv("synth", str(capture), "--preset", args.preset), work / "synth.log")
+    rc, _, _ = run_to_end(morf_argv("synth", str(capture), "--preset", args.preset), work / "synth.log")
     if rc != 0:
         raise ProjectError(f"morf synth failed (exit {rc}); see {work / 'synth.log'}")
 
@@ -387,18 +303,24 @@ def run(args) -> int:
         shutil.rmtree(ref)
     ref.mkdir()
     shutil.copytree(capture, ref / "P")
-    rc, duration = run_to_end(argv_for(ref / "P"), ref / "run.log")
+    rc, duration, marks = run_to_end(argv_for(ref / "P"), ref / "run.log")
     if rc != 0:
         raise ProjectError(f"the uninterrupted morf run failed (exit {rc}); see {ref / 'run.log'}")
     reference = ref / "P" / "avatar"
-    print(f"reference: morf run in {duration:.1f} s; {args.kills} kills over it")
+    ref_log = (ref / "run.log").read_text(errors="replace")
+    print(f"reference: morf run in {duration:.1f} s (status lines at "
+          f"{', '.join(f'{m:.1f}' for m in marks)} s); {args.kills} kills over it", flush=True)
     rows = []
     for i, at in enumerate(kill_times(duration, args.kills, args.seed)):
         kill_dir = work / f"kill-{i:02d}"
-        row = kill_once(capture, kill_dir, argv_for, at, reference, i, args.tolerance)
+        k, offset = anchor(at, marks)
+        after = None if k == 0 else (
+            lambda project, k=k: len(stage_lines((project.parent / "killed.log").read_text(errors="replace"))) >= k)
+        row = replace(kill_once(capture, kill_dir, argv_for, offset, reference, i, args.tolerance, after=after,
+                                anchor_text=anchor_words(k, offset, ref_log)), at_s=at)  # the reference's clock
         rows.append(row)
         print(f"kill {i:2d} at {at:6.2f} s in {row.stage_killed:<13} second run {row.second_run:<28} "
-              f"{'pass' if row.passed else 'FAIL'} max diff {row.diff.max_abs_diff if row.diff else 'n/a'}")
+              f"{'pass' if row.passed else 'FAIL'} max diff {row.diff.max_abs_diff if row.diff else 'n/a'}", flush=True)
         if row.passed and not args.keep:
             shutil.rmtree(kill_dir / "P", ignore_errors=True)
     passed = sum(r.passed for r in rows)
@@ -411,7 +333,8 @@ def run(args) -> int:
               "worst": (r.diff.worst if r.diff else "") or "-", "note": r.note or "-"} for r in rows]
     md = (f"# morf bench resume\n\n`morf run P --preset {args.preset}` on a `morf synth --preset {args.preset}` capture: "
           f"uninterrupted in {duration:.1f} s; then {args.kills} runs sent SIGKILL (the whole process group) at a "
-          f"stratified random time (seed {args.seed}), each followed by `morf run` to the end, and the exported "
+          f"stratified random time of that run (seed {args.seed}; counted from the status line the anchor names, "
+          f"as the killed run printed it), each followed by `morf run` to the end, and the exported "
           f"avatar compared with the uninterrupted run's (same files, arrays within {args.tolerance:g}). "
           f"**{passed} of {len(rows)} passed.**\n\nCPU: {result['machine']['cpu']}\n\n"
           + markdown_table(table, COLUMNS))

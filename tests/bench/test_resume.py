@@ -10,8 +10,9 @@ import time
 import numpy as np
 import pytest
 
-from morf.bench.resume import (compare_avatars, kill_once, kill_times, morf_argv, run_and_kill, second_run_word,
-                               stage_actions, stage_at_kill)
+from morf.bench.avatar_diff import compare_avatars
+from morf.bench.resume import (anchor, anchor_words, kill_once, kill_times, morf_argv, run_and_kill,
+                               second_run_word, stage_actions, stage_at_kill)
 
 
 def _avatar(folder, texture, weight=None, op="Add", manifest=None):
@@ -94,6 +95,15 @@ def test_status_lines_say_where_a_run_was_killed_and_what_the_next_one_did():
     assert second_run_word("train", actions) == "ran it again"
     assert second_run_word("after ingest", actions) == "fit: resumed it (after stage 2 of 3)"
     assert second_run_word("finished", {"fit": "skipped"}) == "nothing left to do"
+
+
+def test_a_kill_time_is_counted_from_the_last_status_line_before_it():
+    marks = [1.0, 1.1, 4.0, 9.0]  # ingest skipped, fit started, fit done, train started
+    assert anchor(0.5, marks) == (0, 0.5)
+    k, offset = anchor(6.5, marks)
+    assert k == 3 and offset == pytest.approx(2.5)
+    assert anchor_words(3, 2.5, RUN_LOG) == "after fit +2.5 s"
+    assert anchor_words(2, 0.4, RUN_LOG) == "fit +0.4 s" and anchor_words(0, 0.5, RUN_LOG) == "start +0.5 s"
 
 
 def test_kill_times_are_one_per_slice_and_seeded():

@@ -72,3 +72,19 @@ def test_validate_refuses_nonsense_in_replace_and_from_dict(change, words):
     d.update(json.loads(json.dumps(dataclasses.asdict(FitConfig(**change)))))  # the same value read from JSON
     with pytest.raises(InputError, match=words):
         FitConfig.from_dict(d)
+
+
+@pytest.mark.parametrize("change, words", [
+    ({"keypoint_weight": "x"}, "fit config: keypoint_weight must be a finite number, got 'x'"),
+    ({"temporal_weight": float("nan")}, "temporal_weight must be a finite number"),
+    ({"cpu_threads": 1.5}, "cpu_threads must be a whole number"),
+    ({"overlays": "yes"}, "overlays must be true or false"),
+    ({"seed": -1}, "seed must be >= 0"),
+    ({"filter": {"min_keypoints": "3"}}, "filter.min_keypoints must be a whole number"),
+    ({"stages": [{"name": "global", "iterations": "10", "lr": 0.1, "body_pose": False, "shape": False,
+                  "silhouette": False}]}, "stage 'global' iterations must be a whole number"),
+])
+def test_values_of_the_wrong_kind_in_a_config_file_are_one_line_errors(change, words):
+    # a config file (--config) may hold anything: compared with numbers, a string was a TypeError traceback
+    with pytest.raises(InputError, match=words.replace("(", r"\(").replace(")", r"\)")):
+        FitConfig.from_dict({**json.loads(json.dumps(preset("tiny").to_dict())), **change})
