@@ -111,8 +111,12 @@ def test_declared_dependencies_are_the_imported_ones():
     optional = {m: modules.pop(m) for m in list(modules) if m in OPTIONAL_IMPORTS}
     assert set(optional) == set(OPTIONAL_IMPORTS), "an optional import listed here is no longer made"
     dists, missing = distributions_of(modules)
-    assert not missing, ("imported but installed by no distribution (declare it in pyproject.toml and install): "
-                         + ", ".join(f"{m} ({sorted(modules[m])[0]})" for m in missing))
+    if missing:  # an extra not installed here, or an import nobody declared: CI installs every extra
+        why = ("imported but installed by no distribution (declare it in pyproject.toml and install): "
+               + ", ".join(f"{m} ({sorted(modules[m])[0]})" for m in missing))
+        if not strict_install():
+            pytest.skip(why)
+        pytest.fail(why, pytrace=False)
     want = declared() - set(NOT_IMPORTED)
     undeclared = {d: sorted(dists[d]) for d in set(dists) - want}
     unused = sorted(want - set(dists))
@@ -165,7 +169,11 @@ def test_tests_import_only_what_is_installed_with_the_project():
     modules = third_party(imported_modules([tests], calls=False), local)
     modules = {m: f for m, f in modules.items() if m not in OPTIONAL_IMPORTS}
     dists, missing = distributions_of(modules)
-    assert not missing, f"the tests import modules no installed distribution provides: {missing}"
+    if missing:
+        why = f"the tests import modules no installed distribution provides: {missing}"
+        if not strict_install():
+            pytest.skip(why + " (install the test extras)")
+        pytest.fail(why, pytrace=False)
     allowed = _requirements_closure(declared(test=True))
     stray = {d: sorted(dists[d]) for d in set(dists) - allowed}
     assert not stray, f"the tests import distributions pyproject.toml brings neither directly nor through another: {stray}"

@@ -11,7 +11,8 @@ zero-length joint (CMU ``Spine1`` -> ``Neck`` at the same point, ``LeftHand`` ->
 ``LeftFingerBase``) the anchor is the joint that owns the segment with a length.
 
 Anny bones that no anchor names either follow their parent (pelvis, shoulder01, the twist bones
-upperarm02 / lowerarm02 / upperleg02 / lowerleg02, fingers, eyes) or, on the spine and neck,
+upperarm02 / lowerarm02 / upperleg02 / lowerleg02, metacarpals; fingers and eyes unless the source
+has them, as SMPL-H / SMPL-X do: :mod:`morf.motion.smpl_hands`) or, on the spine and neck,
 share the rotation between their nearest anchored ancestor and descendant (see
 :data:`SPREAD_BONES`). Spine anchors were chosen by matching the height of each source spine
 segment (as a fraction of the hips-to-head length) with Anny's spine05..spine01, neck01..03.
