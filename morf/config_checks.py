@@ -4,6 +4,7 @@ setting that makes no sense is reported as one :class:`~morf.errors.InputError`.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 from morf.errors import InputError
 
@@ -68,6 +69,8 @@ def _like(old, value, key: str):
         if isinstance(old, kind):
             if not isinstance(value, accepted) or (isinstance(value, bool) and kind is not bool):
                 raise InputError(f"config field {key!r} wants {words}, got {value!r}")
+            if kind is float and not math.isfinite(value):
+                raise InputError(f"config field {key!r} wants a finite number, got {value!r}")
             return float(value) if kind is float else value
     return value
 
@@ -93,4 +96,19 @@ def read_config_file(path, what: str) -> dict:
         raise InputError(f"cannot read config {path}: {e}") from None
     if not isinstance(d, dict):
         raise InputError(f"{path} is not a {what} (a JSON object)")
+    bad = first_non_finite(d)
+    if bad is not None:
+        raise InputError(f"{path}: {bad[0]!r} is {bad[1]!r}; every number of a {what} must be finite")
     return d
+
+
+def first_non_finite(node, key: str = "") -> tuple[str, float] | None:
+    """(dotted key, value) of the first NaN or infinite number in a JSON tree; None when all are finite."""
+    if isinstance(node, float) and not math.isfinite(node):
+        return key, node
+    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, (list, tuple)) else ()
+    for k, v in items:
+        found = first_non_finite(v, f"{key}.{k}" if key else str(k))
+        if found is not None:
+            return found
+    return None

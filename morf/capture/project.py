@@ -76,6 +76,47 @@ class FrameDecision:
     reason: str | None  # e.g. "user", "no person detected", "keypoint residual 41 px"
 
 
+MAX_SIDE = 16384  # pixels; a frame wider than this is no video frame
+MAX_FRAMES = 10_000_000
+
+
+def _number(value, low: float, high: float) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and low <= value <= high  # nan fails too
+
+
+def check_manifest(manifest: dict, path: Path) -> None:
+    """Every number of a project manifest that later stages use, checked once when it is opened:
+    a hand-edited or damaged manifest is one line, not a crash (or a silent nonsense) later."""
+    def bad(key: str, want: str):
+        return ProjectError(f"damaged project manifest {path}: {key!r} must be {want}, got {manifest.get(key)!r}; "
+                            "restore it, or make the project again with 'morf ingest'")
+
+    for key, high in (("num_frames", MAX_FRAMES), ("width", MAX_SIDE), ("height", MAX_SIDE)):
+        value = manifest.get(key)
+        if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value <= high:
+            raise bad(key, f"a whole number from 0 to {high}")
+    if manifest.get("fps") is not None and not _number(manifest["fps"], 1e-3, 1e4):
+        raise bad("fps", "a frame rate between 0.001 and 10000, or absent")
+    if manifest.get("frame_ext", ".png") not in (".png", ".jpg"):
+        raise bad("frame_ext", "'.png' or '.jpg'")
+    cam = manifest.get("camera")
+    if cam is not None:
+        if not isinstance(cam, dict):
+            raise bad("camera", "an object with fx, fy, cx, cy, width, height")
+        for key in ("fx", "fy", "cx", "cy", "width", "height"):
+            if not _number(cam.get(key), -1e7 if key in ("cx", "cy") else 1e-6, 1e7):
+                raise ProjectError(f"damaged project manifest {path}: camera {key!r} must be a finite number"
+                                   f"{'' if key in ('cx', 'cy') else ' above 0'}, got {cam.get(key)!r}")
+        for key, shape in (("R", (3, 3)), ("t", (3,))):
+            if key in cam:
+                try:
+                    a = np.asarray(cam[key], np.float64)
+                except (TypeError, ValueError):
+                    a = None
+                if a is None or a.shape != shape or not np.isfinite(a).all():
+                    raise ProjectError(f"damaged project manifest {path}: camera {key!r} must be {shape} finite numbers")
+
+
 class CaptureProject:
     """A project folder on disk. Create with :meth:`create`, open with :meth:`open`."""
 
@@ -107,9 +148,7 @@ class CaptureProject:
         version = manifest.get("version")
         if not isinstance(version, int) or version > VERSION:
             raise ProjectError(f"project version {version!r} is newer than this MoRF understands ({VERSION}); update MoRF")
-        for key in ("num_frames", "width", "height"):
-            if not isinstance(manifest.get(key), int) or manifest[key] < 0:
-                raise ProjectError(f"damaged project manifest {path}: bad {key!r}")
+        check_manifest(manifest, path)
         return cls(root, manifest)
 
     @classmethod

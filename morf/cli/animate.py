@@ -4,7 +4,7 @@ another capture's fits, MoRF clips; see docs/formats.md) on the project's export
 
 from __future__ import annotations
 
-from morf.cli.play import add_playback_options
+from morf.cli.play import add_playback_options, check_args
 from morf.cli.play import run as play
 
 
@@ -20,12 +20,15 @@ def run(args) -> int:
     from morf.capture.project import CaptureProject
     from morf.errors import ProjectError
     from morf.export.avatar_folder import is_avatar_folder
-    from morf.motion.capture_fits import project_shape
 
     project = CaptureProject.open(args.project)
     avatar = args.avatar or project.avatar_dir
     if not is_avatar_folder(project.avatar_dir) and args.avatar is None:
         raise ProjectError(f"{project.root} has no exported avatar yet; run 'morf export {project.root}' first")
     args.avatar = str(avatar)
-    return play(args, project_shape(project))
+    checked = check_args(args)  # before the body model is loaded for the project's shape
+
+    from morf.motion.capture_fits import project_shape
+
+    return play(args, project_shape(project), checked)
 

@@ -52,9 +52,14 @@ def run(args) -> int:
     from pathlib import Path
 
     from morf.capture.project import CaptureProject
-    from morf.evaluate.project_eval import EvalConfig, evaluate_project, format_table
+    from morf.io.names import check_name
 
     project = CaptureProject.open(args.project)
+    for name in args.run:
+        check_name(name, "run name")
+
+    from morf.evaluate.project_eval import EvalConfig, evaluate_project, format_table
+
     cfg = EvalConfig(runs=tuple(args.run), out=args.out, floor=args.floor,
                      resolution=parse_resolution(args.resolution), lpips=args.lpips, vgg=args.vgg,
                      refine_poses=args.refine_poses, force=args.force)

@@ -52,15 +52,17 @@ def resolve_config(args):
 
 
 def run(args) -> int:
-    import torch
-
     from morf.capture.project import CaptureProject
     from morf.errors import InputError
+
+    cfg = resolve_config(args)  # the cheap checks first: torch and the fitting stack take seconds to load
+    project = CaptureProject.open(args.project)
+
+    import torch
+
     from morf.fitting.project_fit import fit_project
     from morf.pipeline.control import StageControl, StopRequested
 
-    cfg = resolve_config(args)
-    project = CaptureProject.open(args.project)
     try:
         device = torch.device(args.device) if args.device else None
     except RuntimeError as e:

@@ -57,23 +57,17 @@ def add_playback_options(p) -> None:
                    help="play int8 even when the export measured it far from fp32")
 
 
-def run(args, shape=None) -> int:
-    """Render ``args.motion``; ``shape`` (1, 6) is the body the motion is retargeted to (default Anny's)."""
+def check_args(args):
+    """The options' checks and the output's claim (:mod:`morf.io.outputs`), before anything heavy is
+    loaded: a bad option or a refused output costs a fraction of a second. Returns (background, claim)."""
     from morf.errors import InputError
-    from morf.motion.clip import resample
-    from morf.raster.camera_paths import front_camera, orbit_camera
-    from morf.playback.motion_input import load_playback_motion
-    from morf.playback.player import open_player
-    from morf.playback.video_sink import VideoSink, claim_sink
-    from morf.progress import progress
-
-    command = f"morf {getattr(args, 'command', None) or 'play'}"
+    from morf.playback.video_sink import claim_sink
 
     try:
         bg = tuple(int(v) for v in args.background.split(","))
-        assert len(bg) == 3
+        assert len(bg) == 3 and all(0 <= v <= 255 for v in bg)
     except (ValueError, AssertionError):
-        raise InputError(f"--background must be R,G,B, got {args.background!r}") from None
+        raise InputError(f"--background must be R,G,B with each from 0 to 255, got {args.background!r}") from None
     if not 0 < args.fps <= 1000:  # also refuses nan
         raise InputError(f"--fps must be positive (a frame rate of at most 1000), got {args.fps}")
     if args.motion_fps is not None and not 0 < args.motion_fps <= 1000:
@@ -82,7 +76,25 @@ def run(args, shape=None) -> int:
         raise InputError(f"--max-frames must be 0 (all frames) or a positive count, got {args.max_frames}")
     if args.size < 32 or args.size > 8192:
         raise InputError(f"--size must be between 32 and 8192 pixels, got {args.size}")
-    claim = claim_sink(args.out, command, args.force)  # before any work: a refused output costs nothing
+    return bg, claim_sink(args.out, command_name(args), args.force)
+
+
+def command_name(args) -> str:
+    return f"morf {getattr(args, 'command', None) or 'play'}"
+
+
+def run(args, shape=None, checked=None) -> int:
+    """Render ``args.motion``; ``shape`` (1, 6) is the body the motion is retargeted to (default
+    Anny's); ``checked``: what :func:`check_args` returned, when the caller ran it already."""
+    from morf.motion.clip import resample
+    from morf.raster.camera_paths import front_camera, orbit_camera
+    from morf.playback.motion_input import load_playback_motion
+    from morf.playback.player import open_player
+    from morf.playback.video_sink import VideoSink
+    from morf.progress import progress
+
+    bg, claim = checked or check_args(args)
+    command = command_name(args)
     precision, notice = args.precision, None
     quality = _int8_psnr(args.avatar)
     if precision == "int8" and not args.force_int8 and quality is not None and quality < INT8_MIN_PSNR_DB:

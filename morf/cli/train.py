@@ -110,14 +110,16 @@ def _base_config(args, project=None):
 
 def run(args) -> int:
     from morf.capture.project import CaptureProject
+
+    project = CaptureProject.open(args.project)  # the cheap checks first: the training stack takes seconds to load
+    if args.name is not None:
+        check_name(args.name, "run name")
+    cfg, reasons = resolve_config(args, project)
+
     from morf.pipeline.control import StageControl, StopRequested
     from morf.progress import progress
     from morf.train.project_run import train_project
 
-    project = CaptureProject.open(args.project)
-    if args.name is not None:
-        check_name(args.name, "run name")
-    cfg, reasons = resolve_config(args, project)
     if reasons:
         from morf.io import atomic_write_text
         from morf.train.project_run import default_run_name

@@ -124,6 +124,19 @@ def replace_folder(tmp: Path, target: Path) -> None:
         shutil.rmtree(old)
 
 
+def previous_avatar_files(folder: str | Path) -> frozenset[str]:
+    """The files an earlier export wrote into ``folder``: its manifest and the files it lists."""
+    try:
+        manifest = json.loads((Path(folder) / MANIFEST).read_text())
+        names = manifest["files"] if manifest.get("format") == FORMAT else {}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return frozenset()
+    if not isinstance(names, dict):
+        return frozenset()
+    return frozenset({MANIFEST} | {n for n in names if isinstance(n, str) and n and "/" not in n
+                                   and "\\" not in n and n not in (".", "..")})
+
+
 def is_avatar_folder(root: str | Path) -> bool:
     """Whether ``root`` holds an avatar folder's manifest (nothing is read or checked)."""
     return (Path(root) / MANIFEST).is_file()

@@ -11,7 +11,6 @@ into place at the end, so a failed export leaves the previous avatar intact.
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 import time
 from dataclasses import dataclass, field
@@ -20,7 +19,7 @@ from typing import Sequence
 
 import numpy as np
 
-from morf.export.avatar_folder import FORMAT, MANIFEST, RENDERERS, replace_folder, write_arrays, write_manifest
+from morf.export.avatar_folder import MANIFEST, RENDERERS, replace_folder, write_arrays, write_manifest
 from morf.export.calibration_views import closer_scales, mosaic, zoomed_camera
 from morf.export.onnx_renderer import OPSET, export_fp32, export_int8
 from morf.export.skeleton import SkinningSkeleton, skeleton_from_body_model
@@ -209,19 +208,6 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
         place_avatar_folder(tmp, out_dir, claim)
     step(5, "done")
     return manifest
-
-
-def previous_avatar_files(folder: str | Path) -> frozenset[str]:
-    """The files an earlier export wrote into ``folder``: its manifest and the files it lists."""
-    try:
-        manifest = json.loads((Path(folder) / MANIFEST).read_text())
-        names = manifest["files"] if manifest.get("format") == FORMAT else {}
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        return frozenset()
-    if not isinstance(names, dict):
-        return frozenset()
-    return frozenset({MANIFEST} | {n for n in names if isinstance(n, str) and n and "/" not in n
-                                   and "\\" not in n and n not in (".", "..")})
 
 
 def place_avatar_folder(tmp: Path, out_dir: Path, claim: OutputClaim | None) -> None:

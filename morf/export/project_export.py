@@ -154,7 +154,7 @@ def export_project(project, cfg: ProjectExportConfig = ProjectExportConfig(), co
 def claim_export_folder(project, cfg: ProjectExportConfig):
     """The output rule (:mod:`morf.io.outputs`) for ``cfg.out``: PROJECT/avatar is the export's own
     place; any other non-empty folder needs ``cfg.force``."""
-    from morf.export.export_avatar import previous_avatar_files
+    from morf.export.avatar_folder import previous_avatar_files
     from morf.io.outputs import claim_output_folder
 
     out = Path(cfg.out) if cfg.out else Path(project.avatar_dir)
