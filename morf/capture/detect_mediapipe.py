@@ -92,7 +92,8 @@ class MediaPipeDetector:
             with _quiet_native_logs():
                 from mediapipe.python.solutions import pose as mp_pose
         except ImportError as e:  # a broken or missing install is the user's environment
-            raise MorfError(f"MediaPipe is not available ({e}); install mediapipe==0.10.14 (see scripts/install.sh)") from None
+            raise MorfError(f"MediaPipe is not installed ({e}): pip install --no-deps mediapipe==0.10.14 (morf brings what "
+                           "it needs; without --no-deps pip adds jax and the non-headless OpenCV)") from None
         with _quiet_native_logs():
             self._pose = mp_pose.Pose(static_image_mode=static_image_mode, model_complexity=1,
                                       enable_segmentation=True, smooth_segmentation=False,

@@ -31,6 +31,9 @@ def add_parser(sub):
                         "files morf export writes; other files there are kept")
     p.add_argument("--motion", default=None, metavar="FILE",
                    help="with --gltf: add this motion (BVH, AMASS or clip .npz) to the .glb as an animation")
+    p.add_argument("--motion-fps", type=float, default=None,
+                   help="with --motion: the frame rate of a motion file that stores none (split SMPL, AIST++ / SMPL "
+                        ".npz); a rate stored in the file wins")
     return p
 
 
@@ -43,6 +46,8 @@ def run(args) -> int:
 
     if args.motion and not args.gltf:
         raise InputError("--motion goes into the glTF file: give --gltf FILE.glb too")
+    if args.motion_fps is not None and not (args.motion and 0 < args.motion_fps <= 1000):
+        raise InputError(f"--motion-fps goes with --motion and must be a frame rate from 0 to 1000, got {args.motion_fps}")
     if args.run is not None:
         check_name(args.run, "run name")
     project = CaptureProject.open(args.project)
@@ -55,7 +60,7 @@ def run(args) -> int:
         if args.gltf:
             from morf.export.gltf_project import export_gltf
 
-            result = export_gltf(project, args.gltf, cfg, motion=args.motion, control=control)
+            result = export_gltf(project, args.gltf, cfg, motion=args.motion, control=control, motion_fps=args.motion_fps)
             manifest = result.manifest
         else:
             manifest = export_project(project, cfg, control)

@@ -12,6 +12,7 @@ def add_parser(sub):
     e.add_argument("motion", help="motion file (BVH, AMASS / AIST++ / SMPL .npz, fits/fits.npz, MoRF clip); "
                                   "see docs/formats.md")
     e.add_argument("--out", required=True, help="output .bvh file")
+    e.add_argument("--force", action="store_true", help="replace an existing --out file")
     e.add_argument("--project", default=None,
                    help="capture project whose fitted body shape sets the skeleton (default: Anny's default body)")
     e.add_argument("--fps", type=float, default=30.0, help="output frame rate (the motion is resampled)")
@@ -27,18 +28,24 @@ def add_parser(sub):
 def run(args) -> int:
     from pathlib import Path
 
+    import sys
+
     from morf.errors import InputError
+    from morf.io.outputs import claim_output_file
+
+    if not 0 < args.fps <= 1000:  # also refuses nan
+        raise InputError(f"--fps must be positive (a frame rate of at most 1000), got {args.fps}")
+    if args.motion_fps is not None and not 0 < args.motion_fps <= 1000:
+        raise InputError(f"--motion-fps must be positive (a frame rate of at most 1000), got {args.motion_fps}")
+    out = Path(args.out)
+    if out.suffix.lower() != ".bvh":
+        raise InputError(f"--out must be a .bvh file, got {out}")
+    claim_output_file(out, "morf motion export", args.force)
+
     from morf.motion import RetargetConfig, load_motion, resample
     from morf.motion.bvh_export import write_clip_bvh
     from morf.motion.library import shared_body_model
 
-    if args.fps <= 0:
-        raise InputError("--fps must be positive")
-    if args.motion_fps is not None and args.motion_fps <= 0:
-        raise InputError("--motion-fps must be positive")
-    out = Path(args.out)
-    if out.suffix.lower() != ".bvh":
-        raise InputError(f"--out must be a .bvh file, got {out}")
     shape = None
     if args.project is not None:
         from morf.capture.project import CaptureProject
@@ -51,6 +58,8 @@ def run(args) -> int:
             raise ProjectError(f"{project.root} has no body fits; run 'morf fit {project.root}' first")
     model = shared_body_model()
     clip = load_motion(args.motion, model, shape, RetargetConfig(fps=args.fps), source_fps=args.motion_fps)
+    for note in clip.notes:
+        print(f"morf motion export: note: {note}", file=sys.stderr)
     if abs(clip.fps - args.fps) > 1e-6:  # clips and Anny poses load at their own rate
         clip = resample(clip, args.fps)
     if clip.rotvecs.shape[1] != len(model.bone_names):

@@ -105,6 +105,8 @@ def run(args, shape=None, checked=None) -> int:
         clip = load_playback_motion(args.motion, player.avatar.skeleton.num_bones, shape, args.motion_fps)
         if notice:  # said once the input is known to be good: a bad motion stays a one-line error
             print(notice, file=sys.stderr)
+        for note in clip.notes:  # what the file holds that the body cannot show (a jaw, an expression)
+            print(f"{command}: note: {note}", file=sys.stderr)
         clip = resample(clip, args.fps)
         rotvecs, transl = clip.rotvecs, clip.transl
         if args.max_frames > 0:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -64,13 +65,15 @@ def gltf_extras(glb: Path, avatar_dir: Path, manifest: dict, bake_info: dict) ->
 
 
 def export_gltf(project, glb: str | Path, cfg: ProjectExportConfig = ProjectExportConfig(), motion: str | None = None,
-                bake: BakeConfig = BakeConfig(), control: StageControl | None = None, body_model=None) -> GltfExport:
+                bake: BakeConfig = BakeConfig(), control: StageControl | None = None, body_model=None,
+                motion_fps: float | None = None) -> GltfExport:
     """Write the trained avatar as ``glb`` and its avatar folder (see the module docstring).
 
     Args:
         project: a CaptureProject with a finished training run.
         glb: the .glb path; cfg: run, avatar folder (``out``) and int8 choices, as for the folder export.
         motion: optional motion file (.npz clip, BVH, AMASS, ...) added as a glTF animation.
+        motion_fps: the frame rate of a motion file that stores none (as ``morf play --motion-fps``).
         bake: views and size of the baked base-colour texture.
     """
     from morf.export.gltf_animation import joint_animation
@@ -101,7 +104,9 @@ def export_gltf(project, glb: str | Path, cfg: ProjectExportConfig = ProjectExpo
     if motion:  # read (and retargeted onto this body) before the long folder export: a bad file fails at once
         from morf.motion import load_motion
 
-        clip = load_motion(motion, model=body_model, shape=trained.shape)
+        clip = load_motion(motion, model=body_model, shape=trained.shape, source_fps=motion_fps)
+        for note in clip.notes:
+            print(f"morf export: note: {note}", file=sys.stderr)
         if clip.rotvecs.shape[1] != len(body_model.bone_names) or clip.num_frames == 0:
             raise InputError(f"{motion}: a motion of {clip.num_frames} frames of {clip.rotvecs.shape[1]} bones; "
                              f"the body has {len(body_model.bone_names)}")

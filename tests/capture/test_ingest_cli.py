@@ -13,6 +13,7 @@ import pytest
 from morf.capture.project import CaptureProject
 from morf.cli.main import main
 from capture_helpers import write_frames, write_masks, write_openpose, write_video
+from tests.conftest import require
 
 
 def snapshot(root: Path) -> dict[str, str]:
@@ -277,7 +278,7 @@ def test_a_video_without_a_person_fails_through_the_command(tmp_path, inputs):
     import subprocess
     import sys
 
-    pytest.importorskip("mediapipe")
+    require("mediapipe")
     video = write_video(tmp_path / "empty room.avi", 3)
     r = subprocess.run([sys.executable, "-m", "morf.cli.main", "ingest", str(tmp_path / "proj"), "--video", str(video)],
                        capture_output=True, text=True, timeout=300)

@@ -10,8 +10,9 @@ from morf.capture.detect_mediapipe import Detection, MediaPipeDetector
 from morf.capture.keypoint_layout import KEYPOINT_NAMES
 from morf.capture.project import CaptureProject
 from morf.cli.main import main
+from tests.conftest import require
 
-pytest.importorskip("mediapipe")
+require("mediapipe")
 
 
 def ingest(capsys, *argv) -> tuple[int, str, str]:

@@ -11,6 +11,7 @@ from morf.capture.video_pyav import quarter_turns, upright
 from morf.cli.main import main
 from morf.errors import ProjectError
 from capture_helpers import frame_image, write_masks, write_openpose, write_timed_video
+from tests.conftest import require
 
 # irregular gaps from 20 to 150 ms, as a phone in dim light records
 TIMES = [0.0, 0.033, 0.1, 0.12, 0.25, 0.3, 0.45, 0.47]
@@ -37,7 +38,7 @@ def test_upright_turns_by_quarter_turns():
 
 
 def test_variable_frame_rate_times_are_recorded(tmp_path, capsys):
-    pytest.importorskip("av")
+    require("av")
     video = write_timed_video(tmp_path / "vfr.mp4", [frame_image(i) for i in range(len(TIMES))], TIMES)
     root = tmp_path / "p"
     said = ingest(capsys, root, video, len(TIMES))
@@ -65,7 +66,7 @@ def test_variable_frame_rate_times_are_recorded(tmp_path, capsys):
 
 
 def test_rotation_metadata_turns_frames_upright(tmp_path, capsys):
-    pytest.importorskip("av")
+    require("av")
     stored = [frame_image(i) for i in range(4)]  # 64x48, a white block left of centre
     video = write_timed_video(tmp_path / "phone.mp4", stored, [i / 30 for i in range(4)], rotation=-90)
     root = tmp_path / "p"
@@ -96,7 +97,7 @@ def test_projects_without_frame_times_still_load(tmp_path):
 
 
 def test_without_pyav_opencv_decodes_as_before(tmp_path, capsys, monkeypatch):
-    pytest.importorskip("av")  # to write the clip
+    require("av")  # to write the clip
     stored = [frame_image(i) for i in range(4)]
     video = write_timed_video(tmp_path / "phone.mp4", stored, [i / 30 for i in range(4)], rotation=-90)
     monkeypatch.setattr("morf.capture.video_pyav.pyav_available", lambda: False)
@@ -112,7 +113,7 @@ def test_without_pyav_opencv_decodes_as_before(tmp_path, capsys, monkeypatch):
 
 def test_webm_without_a_frame_count_is_read_whole(tmp_path, capsys):
     """WebM states no frame count: the estimate from its duration must not make a whole file look cut."""
-    pytest.importorskip("av")
+    require("av")
     from morf.playback.video_sink import VideoSink
 
     sink = VideoSink(tmp_path / "clip.webm", 24.0, (64, 48))

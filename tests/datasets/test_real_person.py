@@ -9,10 +9,11 @@ import pytest
 from morf.capture.project import CaptureProject
 from morf.datasets import ZjuMocapConfig, import_zju_mocap
 from tests.datasets.fakes import zju_camera
+from tests.conftest import require
 
 
 def test_keypoints_land_on_the_masked_person(shared_data, tmp_path):
-    pytest.importorskip("mediapipe")
+    require("mediapipe")
     rgba = cv2.imread(str(shared_data / "images" / "ryota.png"), cv2.IMREAD_UNCHANGED)
     mask = cv2.imread(str(shared_data / "images" / "ryota_mask.png"), cv2.IMREAD_GRAYSCALE) > 127
     bgr = rgba[..., :3]

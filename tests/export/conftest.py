@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from tests.conftest import require
 
 # Enough tiny-preset steps for the renderer's mask to cover the body: after the preset's own 30 the
 # mask was still at its initial 0.13 on an Intel Xeon with AMX (Dice 0.87) and the bake views
@@ -32,4 +33,4 @@ def exported(tmp_path_factory, body_model, gl, one_torch_thread):
     glb = root / "out" / "avatar.glb"
     result = export_gltf(project, glb, ProjectExportConfig(calibration_views=4), motion=str(root / "clip.npz"),
                          body_model=body_model)
-    return result, pytest.importorskip("pygltflib").GLTF2().load(str(glb)), project, clip
+    return result, require("pygltflib").GLTF2().load(str(glb)), project, clip

@@ -20,6 +20,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.conftest import require
+
 REPO = Path(__file__).resolve().parents[2]
 
 
@@ -35,7 +37,7 @@ def _driver():
 _why = _driver().missing_tools()
 if _why:
     pytest.skip(f"three.js in Chromium: {_why}", allow_module_level=True)
-pytest.importorskip("pygltflib")
+require("pygltflib")
 
 from scipy.spatial.transform import Rotation, Slerp  # noqa: E402
 

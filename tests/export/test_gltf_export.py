@@ -13,7 +13,9 @@ import numpy as np
 import pytest
 import torch
 
-pygltflib = pytest.importorskip("pygltflib")
+from tests.conftest import require
+
+pygltflib = require("pygltflib")
 
 from scipy.spatial.transform import Rotation  # noqa: E402
 

@@ -11,6 +11,7 @@ from morf.export.glb import ARRAY_BUFFER, GlbBuilder
 from morf.export.gltf_animation import align_quaternion_signs, joint_animation, moving_joints
 from morf.export.gltf_rig import Y_UP, global_transforms, gltf_rig, pose_nodes, to_gltf_axes, top_influences
 from morf.export.skeleton import SkinningSkeleton
+from tests.conftest import require
 
 
 def random_skeleton(seed: int = 0) -> SkinningSkeleton:
@@ -78,7 +79,7 @@ def test_animation_quaternions_are_sign_aligned_and_timed():
 
 
 def test_glb_container_reads_back_with_pygltflib(tmp_path):
-    pygltflib = pytest.importorskip("pygltflib")
+    pygltflib = require("pygltflib")
     g = GlbBuilder("test")
     pos = g.add_accessor(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32), ARRAY_BUFFER, min_max=True)
     odd = g.add_accessor(np.array([1, 2, 3], np.uint8))  # 3 bytes: the next view must still start aligned

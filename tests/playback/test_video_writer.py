@@ -8,8 +8,9 @@ import pytest
 
 from morf.errors import InputError
 from morf.playback.video_sink import VideoSink
+from tests.conftest import require
 
-av = pytest.importorskip("av")
+av = require("av")
 
 
 def gradient_frames(n: int, w: int, h: int) -> list[np.ndarray]:

@@ -15,6 +15,7 @@ from morf.capture.keypoint_layout import NUM_KEYPOINTS
 from morf.fitting.fits_io import BodyFits, save_fits
 from morf.io import write_image
 from screenshots import WINDOW
+from tests.conftest import require
 
 FRAMES, WIDTH, HEIGHT = 6, 96, 128
 REQUIRE_GL_ENV = "MORF_REQUIRE_GL"  # "1": no headless OpenGL fails the studio tests instead of skipping them
@@ -119,7 +120,7 @@ def make_app(tmp_path, monkeypatch):
     if os.environ.get(REQUIRE_GL_ENV) == "1":
         importlib.import_module("imgui_bundle")  # required: the studio tests must run, not skip
     else:
-        pytest.importorskip("imgui_bundle")
+        require("imgui_bundle")
     from morf.raster.gl_context import GLUnavailable
     from studio.app import StudioApp
 

@@ -7,6 +7,7 @@ import json
 import pytest
 
 from studio import bench
+from tests.conftest import require
 
 
 def test_morf_bench_studio_hands_every_argument_to_the_studio_benchmark():
@@ -29,7 +30,7 @@ def test_cpu_shares_group_threads_by_role_then_by_whose_helpers_they_are():
 
 @pytest.mark.gl
 def test_the_studio_benchmark_plays_an_avatar_and_writes_its_numbers(tiny_avatar_dir, tmp_path):
-    pytest.importorskip("imgui_bundle")
+    require("imgui_bundle")
     shot = tmp_path / "studio.png"
     rc = bench.main(["--avatar", str(tiny_avatar_dir), "--seconds", "1.5", "--warmup", "1", "--headless", "--rounds", "2",
                      "--compare-frames", "2", "--out", str(tmp_path), "--screenshot", str(shot)])

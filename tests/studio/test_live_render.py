@@ -10,6 +10,7 @@ import pytest
 from morf.camera import PinholeCamera
 from screenshots import check_golden
 from studio.live_render import LiveRenderer, LiveRequest
+from tests.conftest import require
 
 CAM = PinholeCamera.look_at(32, 32, 40.0, (0.0, -3.0, 0.0), (0.0, 0.0, 0.0))
 
@@ -213,7 +214,7 @@ def test_pipelining_can_be_turned_off():
 def test_live_panel_golden_with_a_tiny_exported_avatar(make_app, tiny_project, tiny_avatar_dir):
     import shutil
 
-    imgui = pytest.importorskip("imgui_bundle").imgui
+    imgui = require("imgui_bundle").imgui
 
     shutil.copytree(tiny_avatar_dir, tiny_project.avatar_dir)
     app = make_app("capture", unavailable={})
