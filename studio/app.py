@@ -148,7 +148,8 @@ class StudioApp:
         if headless:
             glfw.init_hint(glfw.PLATFORM, glfw.PLATFORM_NULL)
         if not glfw.init():
-            raise GLUnavailable("cannot start GLFW (no display? try --headless-frames N --screenshot PNG)")
+            raise GLUnavailable("cannot start GLFW (no display? try "
+                               "'morf-studio PROJECT --headless-frames N --screenshot PNG')")
         if headless:
             glfw.window_hint(glfw.CONTEXT_CREATION_API, glfw.EGL_CONTEXT_API)
             glfw.window_hint(glfw.VISIBLE, glfw.FALSE)
@@ -553,7 +554,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frame-times", action="store_true", help="print p50 / p95 UI frame times at exit")
     p.add_argument("--stage", metavar="NAME", help="start a stage at launch (fit, train, export; cpu-load for a UI load test)")
     p.add_argument("--preset", metavar="NAME", help="with --stage: the stage's config preset (e.g. train: tiny, cpu, "
-                                                    "gpu; default: the one 'morf fit' / 'morf train' picks)")
+                                                    "gpu; default: the one 'morf fit PROJECT' / 'morf train PROJECT' picks)")
     p.add_argument("--motion", metavar="FILE", help="a .bvh / .npz motion for the live render (5) to play")
     p.add_argument("--panel", type=int, choices=range(1, 6), metavar="1-5", help="panel to show first")
     p.add_argument("--frame", type=int, default=0, metavar="I", help="frame to show first")
@@ -591,7 +592,8 @@ def run_cli(args: argparse.Namespace) -> int:
         raise MorfError("--screenshot needs --headless-frames N")
     headless = bool(args.headless_frames) or not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
     if headless and not args.headless_frames:
-        raise MorfError("no display found (DISPLAY / WAYLAND_DISPLAY unset); use --headless-frames N --screenshot PNG")
+        raise MorfError("no display found (DISPLAY / WAYLAND_DISPLAY unset); use "
+                        "'morf-studio PROJECT --headless-frames N --screenshot PNG'")
     with StudioApp(args.project, size=size, headless=headless, max_fps=args.max_fps, idle_fps=args.idle_fps) as app:
         if args.panel:
             app.state.select_panel(args.panel - 1)

@@ -32,7 +32,8 @@ WARMUP_TIMEOUT_S = 120.0  # longest wait, after the warm-up, for the player and 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="morf bench studio", description="The studio window playing an avatar in its "
-                                "live render panel, timed, and compared with 'morf bench render' on the same avatar.")
+                                "live render panel, timed, and compared with "
+                                "'morf bench render --avatar DIR --out FOLDER' on the same avatar.")
     p.add_argument("--avatar", required=True, help="an exported avatar folder to play")
     p.add_argument("--seconds", type=float, default=20.0, help="timed seconds of playback (after the warm-up)")
     p.add_argument("--warmup", type=float, default=5.0,
@@ -55,10 +56,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "with the last frame's renderer), for comparison")
     p.add_argument("--headless", action="store_true", help="off-screen (EGL) even when DISPLAY is set")
     p.add_argument("--screenshot", metavar="PNG", default=None, help="save the window's last frame")
-    p.add_argument("--no-compare", action="store_true", help="skip the 'morf bench render' measurement")
-    p.add_argument("--compare-frames", type=int, default=60, help="timed frames of the 'morf bench render' measurement")
+    p.add_argument("--no-compare", action="store_true", help="skip the render measurement (morf bench render)")
+    p.add_argument("--compare-frames", type=int, default=60, help="timed frames of the render measurement (morf bench render)")
     p.add_argument("--rounds", type=int, default=3,
-                   help="split the timed seconds into this many rounds with a 'morf bench render' measurement "
+                   help="split the timed seconds into this many rounds with a render measurement (morf bench render) "
                         "before each and after the last, the studio waiting meanwhile; each round is compared "
                         "with the measurements beside it (the host's load drifts between minutes). With "
                         "--with-training the reference is taken before and after the studio only")

@@ -34,7 +34,7 @@ def draw(state: AppState, ui: UiContext) -> None:
         imgui.pop_text_wrap_pos()
     imgui.dummy(ImVec2(0, 12))
     imgui.push_text_wrap_pos(x0 + WIDTH)
-    imgui.text_colored(GREY, "Make a project from a video with 'morf ingest VIDEO PROJECT', or a synthetic one "
-                             "with 'morf synth PROJECT'. Press H for the keys.")
+    imgui.text_colored(GREY, "Make a project from a video with 'morf run PROJECT --video FILE' (ingest, fit, train "
+                             "and export), or a synthetic one with 'morf synth PROJECT'. Press H for the keys.")
     imgui.pop_text_wrap_pos()
     imgui.end_group()
