@@ -38,6 +38,7 @@ from studio.keys import handle_keys  # noqa: E402
 from studio.layout import draw_ui  # noqa: E402
 from studio.live_render import LiveRenderer  # noqa: E402
 from studio.loader import ImageLoader  # noqa: E402
+from studio.motion_browser import MotionBrowser  # noqa: E402
 from studio.panels.live import post_request as post_live_request  # noqa: E402
 from studio.pacing import IDLE_FPS, MAX_FPS, SNAPSHOT_FPS, FramePacer, Wakeup  # noqa: E402
 from studio.player import PoseRenderer, open_live_player, shutdown_motion_loader  # noqa: E402
@@ -81,6 +82,8 @@ class StudioApp:
         motion_dir: the folder the live render's motion picker lists first; None: the motions
             shipped with the project (``morf.motion.library.BUILTIN_MOTIONS``).
         deterministic: a fixed 1/60 s frame time (screenshots, tests); None: when headless.
+        settings: the JSON file recent motion folders are kept in (None: the user's,
+            :func:`studio.motion_browser.settings_path`); ``remember_folders=False`` keeps none.
         max_fps, idle_fps: :meth:`run` draws at most ``max_fps`` frames a second (0: as fast as
             it can, every time round the loop) and at least ``idle_fps`` (see :mod:`studio.pacing`).
     """
@@ -90,7 +93,8 @@ class StudioApp:
                  unavailable: dict[str, str] | None = None,
                  player_opener: Callable[[Path], tuple[Any, str | None]] | None = None,
                  motion_dir: str | os.PathLike | None = None, deterministic: bool | None = None,
-                 max_fps: float = MAX_FPS, idle_fps: float = IDLE_FPS, live_pipelined: bool = True):
+                 max_fps: float = MAX_FPS, idle_fps: float = IDLE_FPS, live_pipelined: bool = True,
+                 settings: Path | None = None, remember_folders: bool = True):
         self._headless = headless
         self._live_pipelined = live_pipelined
         self._fixed_dt = FIXED_DT if (headless if deterministic is None else deterministic) else None
@@ -117,6 +121,10 @@ class StudioApp:
 
             motion_dir = BUILTIN_MOTIONS
         self.state = AppState(motion_dir=str(motion_dir))
+        # the motion folder is listed on a thread of its own, when committed (studio.motion_browser)
+        self.motions = MotionBrowser(on_done=lambda: self._wakeup.notify(0.0), settings=settings,
+                                     remember=remember_folders)
+        self.motions.commit(self.state.motion_dir)
         self.view: ProjectView | None = None
         self.loader: ImageLoader | None = None
         self.textures = TextureCache(self.ctx, None)
@@ -403,7 +411,7 @@ class StudioApp:
                          open_project=self.open_project, live_render=self.live, stage_presets=self._stages.presets,
                          default_presets=self._stages.default_presets, stage_errors=self._stages.errors,
                          frame_ms=1000 * self.frame_times[-1] if self.frame_times else 0.0, live=self.live_panel,
-                         redraw_within=self._wakeup.notify)
+                         redraw_within=self._wakeup.notify, motions=self.motions)
 
     def run(self, max_frames: int | None = None, pace_hz: float | None = None, capture_last: bool = False,
             seconds: float | None = None) -> np.ndarray | None:
@@ -466,7 +474,8 @@ class StudioApp:
         for _ in range(max_frames):
             self.frame()
             if self.textures.settled() and self.worker.pending() == 0 and \
-                    self.worker.latest().review_rev == self._review_rev and (self.live is None or self.live.idle()):
+                    self.worker.latest().review_rev == self._review_rev and (self.live is None or self.live.idle()) \
+                    and self.motions.scanning is None:
                 break
             if time.monotonic() > end:
                 break
@@ -524,6 +533,7 @@ class StudioApp:
         if not stopped:
             print("morf-studio: the running stage did not stop within 15 s; leaving it behind", file=sys.stderr)
         self._close_project()
+        self.motions.close()
         shutdown_motion_loader()
         self._ui_cache.release()
         if self._x_image is not None:

@@ -30,5 +30,6 @@ class UiContext:
     default_presets: dict[str, str] = field(default_factory=dict)  # stage -> preset used when none is chosen
     stage_errors: dict[str, str] = field(default_factory=dict)  # stage -> why its library code failed to load
     frame_ms: float = 0.0  # the UI's own recent frame time
-    live: LivePanelState = field(default_factory=LivePanelState)  # the live render panel's motion list and clip
+    live: LivePanelState = field(default_factory=LivePanelState)  # the live render panel's loaded clip
+    motions: Any = None  # studio.motion_browser.MotionBrowser: the motion folder's listing, off the UI thread
     redraw_within: Callable[[float], None] = lambda seconds: None  # want a frame within this many seconds (any thread)

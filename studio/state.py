@@ -5,7 +5,6 @@ from __future__ import annotations
 
 from concurrent.futures import Future
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from studio.orbit import OrbitCamera
@@ -36,7 +35,8 @@ class AppState:
     playing: bool = False  # frames advance at the capture's fps (Space)
     play_clock: float = 0.0  # seconds accumulated towards the next frame while playing
     note: str = ""  # the UI's own last event in words ("frame 3 dropped")
-    motion_dir: str = ""  # folder the motion picker lists
+    motion_dir: str = ""  # folder the motion picker lists (committed: Enter, a drop, a recent folder)
+    motion_dir_field: str | None = None  # the motion folder field's text while edited (None: motion_dir)
     motion_file: str | None = None  # chosen .bvh / .npz motion
     motion_time: float = 0.0  # seconds into the chosen motion (advances while playing)
     stage_presets: dict[str, str] = field(default_factory=dict)  # stage -> preset chosen in the Training panel
@@ -61,14 +61,13 @@ class ImageRect:
 
 @dataclass
 class LivePanelState:
-    """The live render panel's scratch for the open avatar: the motion list and the loaded clip.
+    """The live render panel's scratch for the open avatar: the loaded clip (the motion list is the
+    app's :class:`studio.motion_browser.MotionBrowser`).
 
     The app owns one and starts a fresh one when the avatar closes; only the panel changes it (the
     app clears ``image_rect`` before each full UI frame).
     """
 
-    motion_dir: str | None = None  # the folder ``motions`` lists (None: not listed yet)
-    motions: list[Path] = field(default_factory=list)  # .bvh / .npz files under it
     clip_path: str | None = None  # the motion file ``clip`` is (being) loaded from
     clip: MotionClip | None = None  # the loaded motion, None while loading or when it failed
     clip_note: str | None = None  # why the motion could not be loaded

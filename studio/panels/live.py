@@ -17,9 +17,11 @@ from imgui_bundle import ImVec2, imgui
 
 from studio.context import UiContext
 from studio.live_render import LiveRenderer, LiveRequest
-from studio.player import list_motions, load_live_motion_async
+from studio.player import load_live_motion_async
 from studio.state import AppState, ImageRect, LivePanelState
 from studio.widgets import GREY, RED, empty_state, remember_item, tex_ref
+
+MOTION_FIELD = "##motion_dir"
 
 SIDEBAR_W = 320
 ANNY_BONES = 104
@@ -159,26 +161,74 @@ def _draw_sidebar(state: AppState, ui: UiContext) -> None:
         state.orbit = type(o)()
     imgui.separator()
     imgui.text("Motion")
-    imgui.set_next_item_width(-1)
-    changed, state.motion_dir = imgui.input_text("##motion_dir", state.motion_dir)
-    if changed or live.motion_dir != state.motion_dir:
-        live.motion_dir = state.motion_dir
-        live.motions = list_motions(state.motion_dir) if state.motion_dir else []
-    motions = live.motions
-    if not motions:
-        imgui.text_colored(GREY, "no .bvh or .npz files in this folder")
-    else:
-        base = Path(state.motion_dir).expanduser()
-        if imgui.begin_list_box("##motions", ImVec2(-1, -60)):
-            for p in motions:
-                name = str(p.relative_to(base)) if p.is_relative_to(base) else p.name
-                if imgui.selectable(name, state.motion_file == str(p))[0]:
-                    state.motion_file = str(p)
-                remember_item(state.item_rects, f"motion:{name}")
-            imgui.end_list_box()
+    _draw_motion_browser(state, ui)
     if live.clip_loading is not None:
         imgui.text_colored(GREY, f"loading {Path(state.motion_file).name} ...")
     elif live.clip_note:
         imgui.text_colored(GREY, live.clip_note)
     elif live.clip is not None:
         imgui.text(f"{Path(state.motion_file).name}: {len(live.clip)} frames at {live.clip.fps:g} fps")
+
+
+def commit_motion_dir(state: AppState, ui: UiContext, folder: str) -> None:
+    """List ``folder`` (on the browser's thread): the path was committed, not just typed."""
+    state.motion_dir, state.motion_dir_field = folder, None
+    if ui.motions is not None:
+        ui.motions.commit(folder)
+
+
+def _draw_motion_browser(state: AppState, ui: UiContext) -> None:
+    """The folder field (listed on Enter, never per keystroke), recent folders, and the listing:
+    motions to pick, files that are no motions greyed with the reason."""
+    browser = ui.motions
+    text = state.motion_dir if state.motion_dir_field is None else state.motion_dir_field
+    imgui.set_next_item_width(-1 - (70 if browser is not None and browser.recent else 0))
+    entered, text = imgui.input_text(MOTION_FIELD, text, imgui.InputTextFlags_.enter_returns_true)
+    remember_item(state.item_rects, "motion_dir")
+    if entered:
+        commit_motion_dir(state, ui, text.strip())
+    else:
+        state.motion_dir_field = text if text != state.motion_dir else None
+    if browser is None:
+        return
+    if browser.recent:
+        imgui.same_line()
+        if imgui.button("Recent", ImVec2(62, 0)):
+            imgui.open_popup("recent_motion_dirs")
+        remember_item(state.item_rects, "motion_dir:recent")
+        if imgui.begin_popup("recent_motion_dirs"):
+            for i, folder in enumerate(list(browser.recent)):
+                if imgui.selectable(folder, folder == state.motion_dir)[0]:
+                    commit_motion_dir(state, ui, folder)
+                remember_item(state.item_rects, f"motion_dir:recent:{i}")
+            imgui.end_popup()
+    if state.motion_dir_field is not None:
+        imgui.text_colored(GREY, "Enter lists this folder")
+    scan = browser.latest()
+    if browser.scanning is not None:
+        imgui.text_colored(GREY, f"listing {browser.scanning} ...")
+        return
+    if scan is None:
+        return
+    if scan.error:
+        imgui.push_text_wrap_pos(0.0)
+        imgui.text_colored(GREY, scan.error)
+        imgui.pop_text_wrap_pos()
+        return
+    if not scan.motions:
+        imgui.text_colored(GREY, "no .bvh or .npz motions in this folder")
+    if scan.entries and imgui.begin_list_box("##motions", ImVec2(-1, -60 - 18 * len(scan.notes))):
+        for e in scan.entries:
+            if e.is_motion:
+                if imgui.selectable(e.name, state.motion_file == str(e.path))[0]:
+                    state.motion_file = str(e.path)
+            else:
+                imgui.begin_disabled()
+                imgui.selectable(f"{e.name}: {e.reason}", False)
+                imgui.end_disabled()
+                if imgui.is_item_hovered(imgui.HoveredFlags_.allow_when_disabled):
+                    imgui.set_tooltip(f"{e.name} cannot be played: {e.reason}")
+            remember_item(state.item_rects, f"motion:{e.name}")
+        imgui.end_list_box()
+    for note in scan.notes:
+        imgui.text_colored(GREY, note)

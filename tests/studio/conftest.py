@@ -87,6 +87,14 @@ def make_tiny_project(root, *, with_fit: bool = True) -> CaptureProject:
     return project
 
 
+@pytest.fixture(autouse=True)
+def studio_settings(tmp_path_factory, monkeypatch):
+    """The studio's settings file (recent motion folders) in a temporary folder, never the user's."""
+    path = tmp_path_factory.mktemp("settings") / "studio.json"
+    monkeypatch.setenv("MORF_STUDIO_SETTINGS", str(path))
+    return path
+
+
 @pytest.fixture
 def tiny_project(tmp_path) -> CaptureProject:
     return make_tiny_project(tmp_path / "capture")
