@@ -39,7 +39,7 @@ from studio.layout import draw_ui  # noqa: E402
 from studio.live_render import LiveRenderer  # noqa: E402
 from studio.loader import ImageLoader  # noqa: E402
 from studio.motion_browser import MotionBrowser  # noqa: E402
-from studio.panels.live import post_request as post_live_request  # noqa: E402
+from studio.panels.live import commit_motion_dir, post_request as post_live_request  # noqa: E402
 from studio.pacing import IDLE_FPS, MAX_FPS, SNAPSHOT_FPS, FramePacer, Wakeup  # noqa: E402
 from studio.player import PoseRenderer, open_live_player, shutdown_motion_loader  # noqa: E402
 from studio.project_view import ProjectView  # noqa: E402
@@ -207,6 +207,12 @@ class StudioApp:
             self.pacer.input()
 
         w = self.window
+        def on_drop(_window, paths):
+            self._dropped.extend(str(p) for p in paths)
+            on_input()
+
+        self._dropped: list[str] = []  # paths dropped on the window, handled by the next full frame
+        glfw.set_drop_callback(w, on_drop)
         for install in (glfw.set_window_focus_callback, glfw.set_cursor_enter_callback, glfw.set_cursor_pos_callback,
                         glfw.set_mouse_button_callback, glfw.set_scroll_callback, glfw.set_key_callback,
                         glfw.set_char_callback, glfw.set_framebuffer_size_callback, glfw.set_window_refresh_callback,
@@ -287,6 +293,7 @@ class StudioApp:
         recovery = imgui.internal.ErrorRecoveryState()
         imgui.internal.error_recovery_store_state(recovery)
         try:
+            self._handle_drops(ui)
             handle_keys(ui.actions)
             advance_playback(self.state, self.view, io.delta_time)
             draw_ui(self.state, ui)
@@ -320,6 +327,26 @@ class StudioApp:
         glfw.swap_buffers(self.window)
         self._back_is_ui = False
         return shot
+
+    def drop(self, paths: list[str]) -> None:
+        """Paths dropped on the window (what GLFW's drop callback hands over); the next frame handles them."""
+        self._dropped.extend(paths)
+        self.pacer.input()
+
+    def _handle_drops(self, ui: UiContext) -> None:
+        """A dropped .bvh / .npz plays in the live render; a dropped folder is listed as the motion
+        folder when a project is open, else it goes in the start screen's path field. Nothing here
+        touches the disk: the browser's thread finds out what a path is."""
+        paths, self._dropped = self._dropped, []
+        for path in paths:
+            if Path(path).suffix.lower() in (".bvh", ".npz"):
+                self.state.motion_file = path
+                self.state.select_panel(LIVE_PANEL)
+            elif self.view is not None:
+                commit_motion_dir(self.state, ui, path)
+                self.state.select_panel(LIVE_PANEL)
+            else:
+                self.state.open_path = path
 
     def _light_frame_ok(self) -> bool:
         """Only the live image would change: the live panel plays, whole on screen, no input since

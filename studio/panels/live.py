@@ -216,8 +216,8 @@ def _draw_motion_browser(state: AppState, ui: UiContext) -> None:
         imgui.pop_text_wrap_pos()
         return
     if not scan.motions:
-        imgui.text_colored(GREY, "no .bvh or .npz motions in this folder")
-    if scan.entries and imgui.begin_list_box("##motions", ImVec2(-1, -60 - 18 * len(scan.notes))):
+        imgui.text_colored(GREY, f"no .bvh or .npz motions in {scan.folder}")
+    if scan.entries and imgui.begin_list_box("##motions", ImVec2(-1, -60 - 36 * len(scan.notes))):
         for e in scan.entries:
             if e.is_motion:
                 if imgui.selectable(e.name, state.motion_file == str(e.path))[0]:
@@ -230,5 +230,7 @@ def _draw_motion_browser(state: AppState, ui: UiContext) -> None:
                     imgui.set_tooltip(f"{e.name} cannot be played: {e.reason}")
             remember_item(state.item_rects, f"motion:{e.name}")
         imgui.end_list_box()
+    imgui.push_text_wrap_pos(0.0)
     for note in scan.notes:
         imgui.text_colored(GREY, note)
+    imgui.pop_text_wrap_pos()
