@@ -17,6 +17,29 @@ def check_keys(cls: type, d: dict, what: str) -> dict:
     return d
 
 
+_KINDS = {"bool": (lambda v: isinstance(v, bool), "true or false"),
+          "int": (lambda v: isinstance(v, int) and not isinstance(v, bool), "a whole number"),
+          "float": (lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v),
+                    "a finite number"),
+          "str": (lambda v: isinstance(v, str), "text")}
+
+
+def check_field_kinds(cfg, what: str, prefix: str = "") -> None:
+    """InputError unless every plain field of dataclass ``cfg`` holds a value of its declared kind
+    (a config file may hold anything): a bool for a switch, a whole number (not a bool) for a count,
+    a finite number for a real, text for a name. Fields of other types (nested configs, optional
+    values) are left to their own checks. ``what`` names the config in messages ("fit config");
+    ``prefix`` goes before the field's name ("renderer.")."""
+    for f in dataclasses.fields(cfg):
+        kind = _KINDS.get(f.type if isinstance(f.type, str) else getattr(f.type, "__name__", ""))
+        if kind is None:
+            continue
+        value = getattr(cfg, f.name)
+        ok, words = kind
+        if not ok(value):
+            raise InputError(f"{what} field {prefix}{f.name} must be {words}, got {value!r}")
+
+
 def raise_first(checks: list[tuple[bool, str]]) -> None:
     """Raise an InputError with the message of the first ``(ok, message)`` that is not ok."""
     for ok, message in checks:

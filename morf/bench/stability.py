@@ -112,10 +112,10 @@ def _set_hidden_turn(root: Path, hidden_deg: float) -> None:
 
 
 def _fit(project, sp: StabilityPreset, model) -> None:
-    from morf.fitting.project_fit import fit_project
+    from morf.fitting.project_fit import fit_progress, fit_project
     from morf.presets import preset as named_preset
 
-    if project.fits_path.is_file() and (project.fits_dir / "filter.json").is_file():
+    if fit_progress(project).complete:  # every output on disk, not only fits.npz (a fit killed midway resumes)
         return
     fit_project(project, named_preset("fit", sp.fit).replace(overlays=False), model=model)
 

@@ -17,6 +17,10 @@ ends. The exit status is 1 when any capture failed.
 
 from __future__ import annotations
 
+import shlex
+
+import shlex
+
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -174,7 +178,7 @@ def run(args) -> int:
     print(_table(list(rows.values())))
     failed = [r for r in rows.values() if r["status"] == "failed"]
     print(f"morf batch: {len(rows) - len(failed)} done, {len(failed)} failed; outcome in {out}"
-          + (f"; fix them and run 'morf batch {source}' again to continue" if failed else ""))
+          + (f"; fix them and continue with: morf batch {shlex.quote(str(source))}" if failed else ""))
     return 1 if failed else 0
 
 

@@ -8,6 +8,7 @@ or training run resumes, so running it again continues where it stopped.
 
 from __future__ import annotations
 
+import shlex
 import time
 from pathlib import Path
 
@@ -92,7 +93,7 @@ def run(args) -> int:
         Step("animation", lambda: Plan("run", animate)),  # the motion may differ from the last run's
     ]
     t_all = time.perf_counter()
-    rc = run_steps(steps, main, "demo", f"morf demo {root}")
+    rc = run_steps(steps, main, "demo", shlex.join(["morf", "demo", str(root)]))
     if rc != 0:
         return rc
     print(f"demo finished in {(time.perf_counter() - t_all) / 60:.1f} min: video {root / 'animation.mp4'}, "

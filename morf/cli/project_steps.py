@@ -4,8 +4,9 @@ itself is :mod:`morf.pipeline.chain`).
 
 What counts as done, and who says so:
     ingest  the project's manifest exists (ingest swaps a finished project in whole).
-    fit     fits/fits.npz and filter.json exist (:func:`morf.fitting.project_fit.fit_progress`);
-            a checkpoint without them is a fit to resume, with the options that started it.
+    fit     fits/done.json names the fit and every output it lists exists: fits.npz, filter.json,
+            an overlay per frame (:func:`morf.fitting.project_fit.fit_progress`); anything less
+            is a fit to resume, with the options that started it.
     train   runs/<name>/avatar.pt exists (``RunDir.is_done``); a run folder with its config
             is resumed from its checkpoint with that very config.
     export  PROJECT/avatar was exported from that run after it finished

@@ -9,31 +9,8 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
-from morf.config_checks import apply_settings, check_keys, raise_first
+from morf.config_checks import apply_settings, check_field_kinds, check_keys, raise_first
 from morf.errors import InputError
-
-
-def check_kinds(cfg, prefix: str) -> None:
-    """InputError unless every plain field of dataclass ``cfg`` holds a value of its declared kind
-    (a config file may hold anything): a bool for a switch, a whole number (not a bool) for a
-    count, a finite number for a real, text for a name. ``prefix`` goes before the field's name."""
-    import math
-
-    for f in dataclasses.fields(cfg):
-        value = getattr(cfg, f.name)
-        if f.type == "bool":
-            ok, words = isinstance(value, bool), "true or false"
-        elif f.type == "int":
-            ok, words = isinstance(value, int) and not isinstance(value, bool), "a whole number"
-        elif f.type == "float":
-            ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-            words = "a finite number"
-        elif f.type == "str":
-            ok, words = isinstance(value, str), "text"
-        else:
-            continue
-        if not ok:
-            raise InputError(f"fit config: {prefix}{f.name} must be {words}, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -49,7 +26,7 @@ class StageConfig:
     offsets: bool = False  # optimise the clothing offsets (when FitConfig.offsets and the silhouette are on)
 
     def validate(self) -> None:
-        check_kinds(self, f"stage {self.name!r} ")
+        check_field_kinds(self, "fit config", f"stage {self.name!r} ")
         if not self.name:
             raise InputError("every fit stage needs a name")
         if self.iterations < 0:
@@ -79,7 +56,7 @@ class FilterConfig:
     min_confidence: float = 0.3  # a keypoint counts as confident above this
 
     def validate(self) -> None:
-        check_kinds(self, "filter.")
+        check_field_kinds(self, "fit config", "filter.")
         checks = [
             (self.residual_factor > 0, f"filter.residual_factor must be positive, got {self.residual_factor}"),
             (self.residual_min_px >= 0, f"filter.residual_min_px must be >= 0, got {self.residual_min_px}"),
@@ -172,7 +149,7 @@ class FitConfig:
 
     def validate(self) -> None:
         """Raise :class:`InputError` naming the first setting that makes no sense."""
-        check_kinds(self, "")
+        check_field_kinds(self, "fit config")
         if not self.stages:
             raise InputError("a fit needs at least one stage")
         for stage in self.stages:

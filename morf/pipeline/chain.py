@@ -9,6 +9,8 @@ was done, resumed or skipped.
 
 from __future__ import annotations
 
+import shlex
+
 import time
 from dataclasses import dataclass
 from typing import Callable, Sequence
@@ -63,14 +65,14 @@ def run_steps(steps: Sequence[Step], command: Callable[[list[str]], int], who: s
             continue
         why = f"resuming ({plan.note}): " if plan.action == "resume" and plan.note else (
             "resuming: " if plan.action == "resume" else "")
-        log(f"{head}: {why}morf {' '.join(plan.argv)}")
+        log(f"{head}: {why}morf {shlex.join(plan.argv)}")
         t0 = time.perf_counter()
         rc = command(list(plan.argv))
         if rc == 130:
-            log(f"morf {who}: stopped during {step.name}; run '{again}' to continue from there")
+            log(f"morf {who}: stopped during {step.name}; to continue from there, run: {again}")
             return rc
         if rc != 0:
-            log(f"morf {who}: {step.name} failed (exit {rc}); fix it and run '{again}' again to continue")
+            log(f"morf {who}: {step.name} failed (exit {rc}); fix it and continue with: {again}")
             return rc
         done = "resumed and done" if plan.action == "resume" else "done"
         log(f"{head}: {done} in {time.perf_counter() - t0:.0f} s")

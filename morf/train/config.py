@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass, field
 
 from morf.avatar.network_configs import RendererConfig, WarpConfig
-from morf.config_checks import apply_settings, check_keys, raise_first
+from morf.config_checks import apply_settings, check_field_kinds, check_keys, raise_first
 from morf.errors import InputError
 
 METHODS = ("morf", "stylepeople", "anr", "rgb")
@@ -145,9 +145,9 @@ class TrainConfig:
         kind (a config file may hold anything), a count, size or rate out of its range. Checked
         wherever a config is made (presets with overrides, ``--set``, config files, run configs read
         back on resume), so a run that would train nothing (``steps`` 0) or divide by zero never starts."""
-        check_field_kinds(self, "")
-        check_field_kinds(self.renderer, "renderer.")
-        check_field_kinds(self.warp, "warp.")
+        check_field_kinds(self, "training config")
+        check_field_kinds(self.renderer, "training config", "renderer.")
+        check_field_kinds(self.warp, "training config", "warp.")
         raise_first(self._range_checks())
         if self.method not in METHODS:
             raise InputError(f"unknown method {self.method!r}; choose one of {', '.join(METHODS)}")
@@ -250,28 +250,6 @@ class TrainConfig:
             return 1.0
         t = min(1.0, (step - start) / (self.steps - start))
         return self.lr_decay_floor + (1.0 - self.lr_decay_floor) * 0.5 * (1.0 + math.cos(math.pi * t))
-
-
-def check_field_kinds(cfg, prefix: str) -> None:
-    """InputError unless every field of dataclass ``cfg`` holds a value of its default's kind: a
-    bool for a switch, an integer (not a bool) for a count, a finite number for a real, text for a
-    name. Nested configs are checked by their own call (``prefix``: "renderer." in messages)."""
-    for f in dataclasses.fields(cfg):
-        default = f.default if f.default is not dataclasses.MISSING else None
-        value = getattr(cfg, f.name)
-        if isinstance(default, bool):
-            ok, words = isinstance(value, bool), "true or false"
-        elif isinstance(default, int):
-            ok, words = isinstance(value, int) and not isinstance(value, bool), "a whole number"
-        elif isinstance(default, float):
-            ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-            words = "a finite number"
-        elif isinstance(default, str):
-            ok, words = isinstance(value, str), "text"
-        else:
-            continue
-        if not ok:
-            raise InputError(f"training config field {prefix}{f.name} must be {words}, got {value!r}")
 
 
 PRESETS: dict[str, TrainConfig] = {

@@ -115,9 +115,8 @@ def test_stopped_fits_and_runs_are_resumed_with_their_own_settings(tmp_path):
 
 def _hint(out: str) -> str:
     """The command line of the retry hint printed after a failed stage."""
-    line = next(line for line in out.splitlines() if "again to continue" in line)
-    hint = line.split("fix it and run ", 1)[1].rsplit(" again to continue", 1)[0]
-    return hint[1:-1] if hint.startswith("'") and hint.endswith("'") else hint
+    line = next(line for line in out.splitlines() if "fix it and continue with: " in line)
+    return line.split("fix it and continue with: ", 1)[1]
 
 
 def test_retry_hint_keeps_every_option_and_works_pasted(tmp_path, capsys):

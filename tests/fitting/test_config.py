@@ -75,7 +75,7 @@ def test_validate_refuses_nonsense_in_replace_and_from_dict(change, words):
 
 
 @pytest.mark.parametrize("change, words", [
-    ({"keypoint_weight": "x"}, "fit config: keypoint_weight must be a finite number, got 'x'"),
+    ({"keypoint_weight": "x"}, "fit config field keypoint_weight must be a finite number, got 'x'"),
     ({"temporal_weight": float("nan")}, "temporal_weight must be a finite number"),
     ({"cpu_threads": 1.5}, "cpu_threads must be a whole number"),
     ({"overlays": "yes"}, "overlays must be true or false"),
