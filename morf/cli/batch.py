@@ -18,9 +18,6 @@ ends. The exit status is 1 when any capture failed.
 from __future__ import annotations
 
 import shlex
-
-import shlex
-
 import time
 from dataclasses import dataclass
 from pathlib import Path
