@@ -18,10 +18,10 @@ import numpy as np
 from morf.camera import PinholeCamera
 from morf.errors import MorfError
 from morf.motion.clip import MotionClip
+import morf.motion.library  # noqa: F401  (imported here on purpose: see below)
 # Imported with the studio, on its main thread: the live panel lists motions on the UI thread while
 # the motion loader's thread imports the motion package too, and a first import of a package racing
 # on two threads can meet it half-initialized ("cannot import name ... partially initialized module").
-from morf.motion.library import motion_library
 
 
 class PoseRenderer(Protocol):
@@ -162,12 +162,6 @@ def shutdown_motion_loader() -> None:
     pool, _MOTION_POOL = _MOTION_POOL, None
     if pool is not None:
         pool.shutdown(wait=False, cancel_futures=True)
-
-
-def list_motions(folder: str | Path) -> list[Path]:
-    """.bvh and .npz files under ``folder`` (recursively, sorted by name), empty when it is not a
-    folder: the library's motion listing (:func:`morf.motion.library.motion_library`)."""
-    return [path for _, path in motion_library(folder)]
 
 
 def as_rgb(image: Any) -> np.ndarray:
