@@ -274,9 +274,16 @@ class CaptureProject:
             return {"drop": [], "keep": []}
         try:
             d = json.loads(p.read_text())
-            return {"drop": sorted(int(i) for i in d.get("drop", [])), "keep": sorted(int(i) for i in d.get("keep", []))}
-        except (json.JSONDecodeError, TypeError, ValueError, AttributeError) as e:
-            raise ProjectError(f"damaged review file {p}: {e}") from None
+            out = {k: d.get(k, []) for k in ("drop", "keep")}
+        except (json.JSONDecodeError, UnicodeDecodeError, AttributeError) as e:
+            raise ProjectError(f"damaged review file {p}: {e}; delete it to start the review afresh") from None
+        for key, frames in out.items():
+            if not isinstance(frames, list) or not all(isinstance(i, int) and not isinstance(i, bool)
+                                                       and 0 <= i < self.num_frames for i in frames):
+                raise ProjectError(f"damaged review file {p}: {key!r} must list frame numbers from 0 to "
+                                   f"{self.num_frames - 1}; delete it to start the review afresh")
+            out[key] = sorted(frames)
+        return out
 
     def set_user_decision(self, i: int, decision: str | None) -> None:
         """Record the user's choice for frame i: "drop", "keep" (overrides the filter) or None."""
