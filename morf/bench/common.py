@@ -10,6 +10,21 @@ from pathlib import Path
 from morf.io import atomic_write_json, atomic_write_text
 
 
+def morf_command() -> list[str]:
+    """The ``morf`` console script a user runs, as a command line: beside this interpreter in a
+    virtual environment, else on PATH. Benchmarks that time or kill whole commands run it."""
+    import shutil
+    import sys
+
+    from morf.errors import MorfError
+
+    beside = Path(sys.executable).with_name("morf")
+    command = str(beside) if beside.is_file() else shutil.which("morf")
+    if command is None:
+        raise MorfError("cannot find the 'morf' command (not beside this Python, not on PATH): install morf first")
+    return [command]
+
+
 def machine_info() -> dict:
     """What the numbers were measured on."""
     import torch

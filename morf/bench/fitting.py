@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import shutil
 import subprocess
-import sys
 import tempfile
 import time
 from dataclasses import asdict, dataclass, replace
@@ -139,13 +138,9 @@ def time_fit_command(project, runs: int, fit_preset: str = "default") -> list[fl
     """Wall seconds of ``morf fit COPY --restart --preset FIT_PRESET`` (the installed command, a
     fresh process each time), ``runs`` times, on a copy of ``project`` without its fits (the user's
     own stay as they are)."""
-    from morf.errors import MorfError
+    from morf.bench.common import morf_command
 
-    # the console script a user runs: beside this interpreter in a virtual environment, else on PATH
-    beside = Path(sys.executable).with_name("morf")
-    command = str(beside) if beside.is_file() else shutil.which("morf")
-    if command is None:
-        raise MorfError("cannot find the 'morf' command to time (not beside this Python, not on PATH)")
+    command = morf_command()[0]
     seconds = []
     with tempfile.TemporaryDirectory(prefix="morf-bench-fit-") as tmp:
         copy = Path(tmp) / "capture"

@@ -116,7 +116,7 @@ def run_quality(out: Path, preset: str, methods: list[str], *, seeds: int = 1, h
         first.setdefault(r.method, r.name)  # each method's column on the sheets: its first scored seed
     ev = evaluate_project(project, EvalConfig(runs=tuple(r.name for r in scored), out=str(out), floor=False,
                                               sheet_runs=tuple(first.values()), lpips=lpips, vgg=vgg,
-                                              refine_poses=refine_poses),
+                                              refine_poses=refine_poses, force=True),  # DIR is the bench's own
                           model, say=print)
     print(format_table(ev))
     keys = sorted(ev.targets, key=lambda k: k != "novel-poses")  # novel poses first, as before

@@ -29,7 +29,6 @@ import re
 import shutil
 import signal
 import subprocess
-import sys
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -49,8 +48,10 @@ _STATUS = re.compile(r"^\[(\d+)/(\d+)\] (\w+): (.*)$")
 
 
 def morf_argv(*args: str) -> list[str]:
-    """A ``morf`` command line for this interpreter (the same code and environment as this one)."""
-    return [sys.executable, "-c", "import sys; from morf.cli.main import main; sys.exit(main())", *args]
+    """A ``morf`` command line, as a user types it (:func:`morf.bench.common.morf_command`)."""
+    from morf.bench.common import morf_command
+
+    return [*morf_command(), *args]
 
 
 def stage_lines(log: str) -> list[tuple[str, str]]:

@@ -4,8 +4,7 @@
 - An existing non-empty output is refused with one line, unless ``force`` is given.
 - With ``force``, only the files the command itself writes are replaced, and only files the same
   command wrote there before (the folder's record of them) are deleted. Anything else stays.
-- An output that is a capture project, lies above one, or is one of a project's own folders is
-  refused even with ``force``: a command never writes into the project it reads unless that is its
+- An output that is a capture project or lies inside one is refused even with ``force``: a command never writes into the project it reads unless that is its
   own place there (``PROJECT/avatar`` for ``morf export``), which the caller names as ``own_place``.
 - A path that exists but is not a regular file or folder (``/dev/full``, a socket) is refused.
 
@@ -59,9 +58,10 @@ def _is_project(folder: Path) -> bool:
     return (folder / PROJECT_MANIFEST).is_file()
 
 
-def _check_not_in_a_project(path: Path, command: str, own_place: Path | None, is_folder: bool = True) -> None:
-    """Refuse a path that is a capture project, lies inside one (other than the command's
-    ``own_place`` there) or, for a folder output, holds one just below it."""
+def _check_not_in_a_project(path: Path, command: str, own_place: Path | None) -> None:
+    """Refuse a path that is a capture project or lies inside one (other than the command's
+    ``own_place`` there). A folder that holds projects is an output like any other: its files
+    are the user's, which the rule keeps, and the projects in it are never written."""
     resolved = path.resolve()
     if own_place is not None and resolved == Path(own_place).resolve():
         return
@@ -69,19 +69,6 @@ def _check_not_in_a_project(path: Path, command: str, own_place: Path | None, is
         if _is_project(parent):
             where = "is the capture project" if parent == resolved else f"lies inside the capture project {parent}"
             raise InputError(f"{path} {where}; {command} never writes there: choose a folder outside the project")
-    if is_folder and resolved.is_dir():
-        # a folder above a project (bounded look: the folder itself and one level down)
-        for child in _children(resolved):
-            if child.is_dir() and _is_project(child):
-                raise InputError(f"{path} holds the capture project {child}; {command} never writes over a project: "
-                                 "choose a new folder")
-
-
-def _children(folder: Path) -> list[Path]:
-    try:
-        return list(folder.iterdir())
-    except OSError:
-        return []
 
 
 def _check_kind(path: Path, want_dir: bool) -> None:
@@ -163,7 +150,7 @@ def claim_output_file(path: str | os.PathLike, command: str, force: bool = False
     """
     path = Path(path)
     _check_kind(path, want_dir=False)
-    _check_not_in_a_project(path, command, None, is_folder=False)
+    _check_not_in_a_project(path, command, None)
     if path.exists() and not force:
         raise InputError(f"{path} already exists; choose a new file name, or pass --force to replace it")
     if not path.parent.exists():
@@ -179,7 +166,7 @@ def staged_folder(target: str | os.PathLike) -> Iterator[Path]:
     built in it, nothing else) when the block fails. The block moves it into place itself.
 
     Its permissions are a normal folder's (``mkdtemp`` makes owner-only folders)."""
-    target = Path(target)
+    target = Path(target).absolute()  # "." has no name to put beside it
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
     umask = os.umask(0)

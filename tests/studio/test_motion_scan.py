@@ -20,7 +20,7 @@ BVH = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n}\nMOTION\nFrames: 1\nFrame Time
 def write_motion_folder(root):
     """Motions of four kinds, files that are no motions, and a project and an avatar whose
     internal .npz files must not be listed."""
-    from conftest import make_tiny_project
+    from tests.studio.conftest import make_tiny_project
 
     root.mkdir(parents=True, exist_ok=True)
     save_npz(root / "turn.npz", rotvecs=np.zeros((8, 104, 3), np.float32), transl=np.zeros((8, 3), np.float32),
@@ -61,7 +61,7 @@ def test_lists_motions_by_header_greys_the_rest_and_leaves_out_internals(tmp_pat
 
 
 def test_a_project_or_avatar_folder_itself_is_refused_with_the_fix(tmp_path):
-    from conftest import make_tiny_project
+    from tests.studio.conftest import make_tiny_project
 
     make_tiny_project(tmp_path / "capture")
     scan = scan_motions(tmp_path / "capture")
