@@ -26,9 +26,12 @@ def run(args) -> int:
     if not is_avatar_folder(project.avatar_dir) and args.avatar is None:
         raise ProjectError(f"{project.root} has no exported avatar yet; run 'morf export {project.root}' first")
     args.avatar = str(avatar)
-    checked = check_args(args)  # before the body model is loaded for the project's shape
+    checked = check_args(args)
 
-    from morf.motion.capture_fits import project_shape
+    def shape():  # loaded only for a motion that is retargeted (torch and the body model: seconds)
+        from morf.motion.capture_fits import project_shape
 
-    return play(args, project_shape(project), checked)
+        return project_shape(project)
+
+    return play(args, shape, checked)
 

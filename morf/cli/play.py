@@ -89,7 +89,7 @@ def run(args, shape=None, checked=None) -> int:
     from morf.motion.clip import resample
     from morf.raster.camera_paths import front_camera, orbit_camera
     from morf.playback.motion_input import load_playback_motion
-    from morf.playback.player import open_player
+    from morf.playback.player import load_avatar, open_player
     from morf.playback.video_sink import VideoSink
     from morf.progress import progress
 
@@ -101,8 +101,9 @@ def run(args, shape=None, checked=None) -> int:
         notice = (f"{command}: this avatar's int8 renderer is only {quality:.1f} dB from fp32 over the image or the "
                   f"person (below {INT8_MIN_PSNR_DB:.0f} dB); playing fp32 instead (--force-int8 to override)")
         precision = "fp32"
-    with open_player(args.avatar, size=args.size, precision=precision, background=bg) as player:
-        clip = load_playback_motion(args.motion, player.avatar.skeleton.num_bones, shape, args.motion_fps)
+    avatar = load_avatar(args.avatar)  # the folder checked, and the motion read, before GL and the renderer start
+    clip = load_playback_motion(args.motion, avatar.skeleton.num_bones, shape, args.motion_fps)
+    with open_player(avatar, size=args.size, precision=precision, background=bg) as player:
         if notice:  # said once the input is known to be good: a bad motion stays a one-line error
             print(notice, file=sys.stderr)
         for note in clip.notes:  # what the file holds that the body cannot show (a jaw, an expression)

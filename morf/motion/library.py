@@ -51,25 +51,25 @@ def load_motion(path: str | os.PathLike, model=None, shape=None, config=None,
         InputError: missing file, unknown suffix, a file of the right suffix but wrong content, or
             numbers out of range (:mod:`morf.motion.checks`).
     """
-    from morf.motion.convert import RetargetConfig
-
     path = Path(path).expanduser()
     suffix = path.suffix.lower()
     if suffix not in MOTION_SUFFIXES:
         raise InputError(f"{path}: not a motion file (expected .bvh or .npz)")
+    if path.is_dir():
+        raise InputError(f"{path} is a folder, not a motion file; give one .bvh or .npz file")
     if not path.is_file():
         raise InputError(f"no such motion file: {path}")
     if source_fps is not None:
         source_fps = check_fps(source_fps, "the frame rate given for the motion")
-    clip = _read_motion(path, model, shape, config or RetargetConfig(), source_fps)
+    clip = _read_motion(path, model, shape, config, source_fps)
     check_clip(clip, f"{path} (as retargeted onto the body)")  # what every reader hands the player and the export
     return clip
 
 
 def _read_motion(path: Path, model, shape, config, source_fps: float | None) -> MotionClip:
-    """:func:`load_motion` by kind, each reader checking the numbers it reads."""
-    from morf.motion.convert import retarget
-
+    """:func:`load_motion` by kind, each reader checking the numbers it reads. ``shape`` may be a
+    function giving it, called only for a motion that is retargeted (a bad file is refused before
+    the body's shape is worked out, and an Anny clip never needs it)."""
     if path.suffix.lower() == ".bvh":
         from morf.motion.bvh import read_bvh
 
@@ -84,7 +84,8 @@ def _read_motion(path: Path, model, shape, config, source_fps: float | None) -> 
         if kind == "fits":
             from morf.motion.capture_fits import clip_from_fits
 
-            return clip_from_fits(path, model if model is not None else shared_body_model(), shape, source_fps, config)
+            return clip_from_fits(path, model if model is not None else shared_body_model(), _value(shape), source_fps,
+                                  _retarget_config(config))
         if kind == "amass":
             from morf.motion.amass import read_amass
 
@@ -99,7 +100,23 @@ def _read_motion(path: Path, model, shape, config, source_fps: float | None) -> 
             source = read_smpl_params(path, arrays, source_fps)
         else:
             raise not_a_motion(path, arrays)
-    return retarget(source, model if model is not None else shared_body_model(), shape, config)
+    from morf.motion.convert import retarget
+
+    return retarget(source, model if model is not None else shared_body_model(), _value(shape), _retarget_config(config))
+
+
+def _retarget_config(config):
+    """``config``, or the default :class:`~morf.motion.convert.RetargetConfig` (its module loads
+    torch: only for a motion that is retargeted)."""
+    if config is not None:
+        return config
+    from morf.motion.convert import RetargetConfig
+
+    return RetargetConfig()
+
+
+def _value(shape):
+    return shape() if callable(shape) else shape
 
 
 def motion_library(folder: str | os.PathLike | None = None) -> list[tuple[str, Path]]:

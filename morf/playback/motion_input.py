@@ -17,7 +17,8 @@ def load_playback_motion(path: str | Path, num_bones: int, shape=None, source_fp
     ``rotvecs`` (T, J, 3) + ``transl`` (T, 3) + ``fps``, MoRF clips, AMASS SMPL-H / SMPL-X,
     AIST++ / SMPL, SMPL / SMPL-X parameters split by body part (``global_orient``, ``body_pose``,
     ...), a capture's ``fits/fits.npz``, BVH), retargeted onto Anny with phenotype
-    ``shape`` (1, 6) (default: Anny's default body). ``source_fps``: the rate of files that store none.
+    ``shape`` (1, 6) (default: Anny's default body; a function giving it is called only when the
+    motion is retargeted). ``source_fps``: the rate of files that store none.
 
     Raises:
         InputError: unreadable, of no known kind, or not ``num_bones`` bones.
@@ -25,6 +26,8 @@ def load_playback_motion(path: str | Path, num_bones: int, shape=None, source_fp
     from morf.motion import load_motion
 
     path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{path} is a folder, not a motion file; give one .bvh or .npz file")
     if not path.is_file():
         raise InputError(f"motion file not found: {path}")
     m = load_motion(path, shape=shape, source_fps=source_fps)

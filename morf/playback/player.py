@@ -283,8 +283,13 @@ def open_renderer(avatar: ExportedAvatar, precision: str, threads: int = 2, spin
     return OnnxRenderer(avatar.renderer_path(precision), threads=threads, spinning=spinning, size=size)
 
 
-def open_player(avatar_dir: str | Path, **kwargs) -> Player:
-    """:class:`Player` with one-line errors for a missing folder."""
+def load_avatar(avatar_dir: str | Path) -> ExportedAvatar:
+    """The avatar folder, checked (:func:`load_exported_avatar`), with a one-line error for a missing one."""
     if not Path(avatar_dir).is_dir():
         raise InputError(f"avatar folder not found: {avatar_dir}")
-    return Player(avatar_dir, **kwargs)
+    return load_exported_avatar(avatar_dir)
+
+
+def open_player(avatar: str | Path | ExportedAvatar, **kwargs) -> Player:
+    """:class:`Player` of an avatar folder (or one already loaded), with one-line errors for a missing folder."""
+    return Player(avatar if isinstance(avatar, ExportedAvatar) else load_avatar(avatar), **kwargs)
