@@ -180,7 +180,9 @@ def check_manifest(manifest: dict, where: str | Path = MANIFEST) -> None:
         raise InputError(f"avatar format version {version} is newer than this morf ({VERSION}); update morf to play it")
     renderer = manifest.get("renderer")
     if not isinstance(renderer, dict):
-        raise damaged(where, "it has no 'renderer' section (the renderer's input layout and size multiple)")
+        problem = "it has no 'renderer' section" if renderer is None else \
+            f"its 'renderer' section must be an object, got {_short(renderer)}"
+        raise damaged(where, f"{problem} (the renderer's input layout and size multiple)")
     if renderer.get("input_layout") not in LAYOUTS:
         raise damaged(where, f"'renderer.input_layout' must be one of {', '.join(LAYOUTS)}, "
                              f"got {_short(renderer.get('input_layout'))}")
