@@ -90,7 +90,7 @@ def _delete(key: str):
 
 MANIFEST_DAMAGE = {
     "no renderer section": (_delete("renderer"), "no 'renderer' section"),
-    "renderer is a list": (_set("renderer", ["nhwc"]), "no 'renderer' section"),
+    "renderer is a list": (_set("renderer", ["nhwc"]), "'renderer' section must be an object, got"),
     "no input layout": (lambda m: m["renderer"].pop("input_layout"), "renderer.input_layout"),
     "unknown input layout": (_set("renderer.input_layout", "nhwcx"), "renderer.input_layout"),
     "size multiple as text": (_set("renderer.size_multiple", "8"), "renderer.size_multiple"),
