@@ -124,3 +124,17 @@ def still_pose():
     rot = (rng.normal(size=(104, 3)) * 0.1).astype(np.float32)
     rot[0] = (0, 0, 0.4)
     return rot, np.array([0.02, 0.0, 0.0], np.float32)
+
+
+@pytest.fixture(scope="session")
+def tiny_avatar(tmp_path_factory, body_model):
+    """A tiny exported avatar whose renderer's mask follows the mesh coverage, so renders are checkable."""
+    from types import SimpleNamespace
+
+    from morf.export.synthetic import build_synthetic_avatar, coverage_renderer, coverage_texture
+
+    out = tmp_path_factory.mktemp("avatar") / "avatar"
+    build_synthetic_avatar(out, body_model=body_model, renderer=coverage_renderer(), texture=coverage_texture(),
+                           image_size=64, calibration_views=3, heldout_views=1,
+                           renderer_cfg=SimpleNamespace(in_channels=16))
+    return out

@@ -10,7 +10,6 @@ say who holds the project, so every writer rewrites them).
 
 from __future__ import annotations
 
-import hashlib
 import os
 import shlex
 import shutil
@@ -23,6 +22,8 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from morf.export.avatar_folder import sha256_of
 
 LOCK_DIR = ".locks"
 COMMAND_TIMEOUT_S = 240  # far above any case; a command that hangs fails its case, not the suite
@@ -77,14 +78,6 @@ def command_env() -> dict:
     return env
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
 def snapshot(root: Path) -> dict[str, tuple]:
     """Every entry under ``root`` (relative path -> what it is), symlinks not followed, lock files
     left out. Files: ("file", size, sha256, mtime_ns); folders: ("dir",); links: ("link", target)."""
@@ -108,7 +101,7 @@ def snapshot(root: Path) -> dict[str, tuple]:
                 out[rel] = ("dir",)
             elif stat.S_ISREG(st.st_mode):
                 try:
-                    out[rel] = ("file", st.st_size, _sha256(p), st.st_mtime_ns)
+                    out[rel] = ("file", st.st_size, sha256_of(p), st.st_mtime_ns)
                 except PermissionError:
                     out[rel] = ("file", st.st_size, "unreadable", st.st_mtime_ns)
             else:

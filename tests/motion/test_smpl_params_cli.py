@@ -3,7 +3,6 @@
 layout renders the very same frames, and a bad file is one line."""
 
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -14,15 +13,9 @@ from smpl_param_files import hand_motion, write_single_fit, write_smpl_matrices,
 
 
 @pytest.fixture(scope="module")
-def avatar(tmp_path_factory, body_model):
-    """A tiny exported avatar whose renderer's mask follows the mesh coverage (the person shows)."""
-    from morf.export.synthetic import build_synthetic_avatar, coverage_renderer, coverage_texture
-
-    out = tmp_path_factory.mktemp("avatar") / "avatar"
-    build_synthetic_avatar(out, body_model=body_model, renderer=coverage_renderer(), texture=coverage_texture(),
-                           image_size=64, calibration_views=3, heldout_views=1,
-                           renderer_cfg=SimpleNamespace(in_channels=16))
-    return out
+def avatar(tiny_avatar):
+    """The shared tiny exported avatar (tests/conftest.py): its mask follows the mesh coverage."""
+    return tiny_avatar
 
 
 @pytest.fixture(scope="module")
