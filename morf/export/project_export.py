@@ -148,7 +148,19 @@ def export_project(project, cfg: ProjectExportConfig = ProjectExportConfig(), co
     if claim.path.resolve() != Path(project.avatar_dir).resolve():  # outside the project: nothing there to lock
         return _export(project, cfg, claim, control, body_model)
     with project_lock(project.root, "export"):
+        _remove_stale_builds(Path(project.avatar_dir))
         return _export(project, cfg, claim, control, body_model)
+
+
+def _remove_stale_builds(avatar_dir: Path) -> None:
+    """Folders an export killed mid-way left beside PROJECT/avatar (``.avatar.<random>.tmp``, made by
+    :func:`morf.io.outputs.staged_folder`): the export's own, and with the lock held no other export
+    is building one now."""
+    import shutil
+
+    for stale in avatar_dir.parent.glob(f".{avatar_dir.name}.*.tmp"):
+        if stale.is_dir() and not stale.is_symlink():
+            shutil.rmtree(stale, ignore_errors=True)
 
 
 def claim_export_folder(project, cfg: ProjectExportConfig):

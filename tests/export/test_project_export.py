@@ -97,3 +97,17 @@ def test_a_run_trained_on_zoomed_crops_is_calibrated_as_close_as_the_player_draw
     plain = export_project(trained_capture, ProjectExportConfig(run="morf-tiny", out=str(tmp_path / "p"),
                                                                 calibration_views=4), body_model=body_model)
     assert "playback_scale" not in plain["int8_quality"]  # no zoomed crops: the training views' scale is the player's
+
+
+def test_builds_a_killed_export_left_beside_the_avatar_are_removed(tmp_path):
+    from morf.export.project_export import _remove_stale_builds
+
+    (tmp_path / ".avatar.k1ll3d.tmp").mkdir()
+    (tmp_path / ".avatar.k1ll3d.tmp" / "mesh.npz").write_bytes(b"half")
+    keep = [tmp_path / ".avatar.old.txt", tmp_path / "avatar.tmp", tmp_path / ".avatar-notes.tmp"]
+    for p in keep:
+        p.write_text("the user's")
+    (tmp_path / ".eval.x.tmp").mkdir()  # another command's
+    _remove_stale_builds(tmp_path / "avatar")
+    assert not (tmp_path / ".avatar.k1ll3d.tmp").exists()
+    assert all(p.read_text() == "the user's" for p in keep) and (tmp_path / ".eval.x.tmp").is_dir()
