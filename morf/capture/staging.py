@@ -21,6 +21,7 @@ from typing import Iterator
 
 from morf.capture.project import FITS_DIR, CaptureProject
 from morf.errors import ProjectError
+from morf.io.atomic import process_umask
 from morf.io.lock import held_locks
 
 # Folders whose content was made from the current frames; replacing the frames orphans them.
@@ -71,7 +72,7 @@ def staged_folder(root: Path) -> Iterator[Path]:
     try:
         root.parent.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=f".{root.name}.ingest-", dir=root.parent))
-        os.chmod(staging, 0o777 & ~_umask())  # mkdtemp makes it private; a project is an ordinary folder
+        os.chmod(staging, 0o777 & ~process_umask())  # mkdtemp makes it private; a project is an ordinary folder
     except OSError as e:
         _remove_empty(made)
         raise ProjectError(f"cannot write in {root.parent}: {e.strerror or e}") from None
@@ -107,12 +108,6 @@ def _remove_empty(folders: list[Path]) -> None:
             folder.rmdir()
         except OSError:
             return
-
-
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
 
 
 def swap_in(staging: Path, root: Path) -> None:

@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Iterator
 
 from morf.errors import InputError
-from morf.io.atomic import atomic_write_json
+from morf.io.atomic import atomic_write_json, process_umask
 
 RECORD = ".morf-output.json"
 PROJECT_MANIFEST = "morf_project.json"  # morf.capture.project.MANIFEST, named here to stay import-light
@@ -104,8 +104,8 @@ def _plain_name(name: str) -> bool:
 
 
 def claim_output_folder(path: str | os.PathLike, command: str, force: bool = False, *,
-                        previous: frozenset[str] | None = None, own_place: str | os.PathLike | None = None,
-                        replaces_own_place: bool = True) -> OutputClaim:
+                        previous: frozenset[str] | None = None,
+                        own_place: str | os.PathLike | None = None) -> OutputClaim:
     """Check that ``command`` may write the folder ``path``; an InputError (one line) when not.
 
     Args:
@@ -114,9 +114,9 @@ def claim_output_folder(path: str | os.PathLike, command: str, force: bool = Fal
             existing non-empty folder; never anything else.
         previous: the names the command wrote there before, when it keeps that list itself (the
             avatar manifest); default: the folder's ``.morf-output.json`` record.
-        own_place: the command's own place inside a project (``PROJECT/avatar``): allowed there.
-        replaces_own_place: at ``own_place``, a re-run replaces the command's earlier output
-            without ``force`` (files of others are still kept, and still need ``force``).
+        own_place: the command's own place inside a project (``PROJECT/avatar``): allowed there,
+            and a re-run replaces the command's earlier output there without ``force`` (files of
+            others are still kept, and still need ``force``).
     """
     path = Path(path)
     _check_kind(path, want_dir=True)
@@ -136,7 +136,7 @@ def claim_output_folder(path: str | os.PathLike, command: str, force: bool = Fal
         if foreign:
             raise InputError(f"{path} already holds files {command} did not write ({_listing(foreign)}); choose a new "
                              f"folder, or pass --force to replace only the files {command} writes")
-        if not (at_own_place and replaces_own_place):
+        if not at_own_place:
             raise InputError(f"{path} already holds an earlier output of {command}; pass --force to replace it, or "
                              "choose a new folder")
     return OutputClaim(path, True, frozenset(previous), foreign)
@@ -169,9 +169,7 @@ def staged_folder(target: str | os.PathLike) -> Iterator[Path]:
     target = Path(target).absolute()  # "." has no name to put beside it
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o777 & ~umask)
+    os.chmod(tmp, 0o777 & ~process_umask())
     try:
         yield tmp
     except BaseException:
