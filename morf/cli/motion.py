@@ -31,12 +31,10 @@ def run(args) -> int:
     import sys
 
     from morf.errors import InputError
+    from morf.cli.play import check_rates
     from morf.io.outputs import claim_output_file
 
-    if not 0 < args.fps <= 1000:  # also refuses nan
-        raise InputError(f"--fps must be positive (a frame rate of at most 1000), got {args.fps}")
-    if args.motion_fps is not None and not 0 < args.motion_fps <= 1000:
-        raise InputError(f"--motion-fps must be positive (a frame rate of at most 1000), got {args.motion_fps}")
+    check_rates(args)
     out = Path(args.out)
     if out.suffix.lower() != ".bvh":
         raise InputError(f"--out must be a .bvh file, got {out}")

@@ -68,15 +68,22 @@ def check_args(args):
         assert len(bg) == 3 and all(0 <= v <= 255 for v in bg)
     except (ValueError, AssertionError):
         raise InputError(f"--background must be R,G,B with each from 0 to 255, got {args.background!r}") from None
-    if not 0 < args.fps <= 1000:  # also refuses nan
-        raise InputError(f"--fps must be positive (a frame rate of at most 1000), got {args.fps}")
-    if args.motion_fps is not None and not 0 < args.motion_fps <= 1000:
-        raise InputError(f"--motion-fps must be positive (a frame rate of at most 1000), got {args.motion_fps}")
+    check_rates(args)
     if args.max_frames < 0:
         raise InputError(f"--max-frames must be 0 (all frames) or a positive count, got {args.max_frames}")
     if args.size < 32 or args.size > 8192:
         raise InputError(f"--size must be between 32 and 8192 pixels, got {args.size}")
     return bg, claim_sink(args.out, command_name(args), args.force)
+
+
+def check_rates(args) -> None:
+    """``--fps`` and ``--motion-fps`` (when given): positive frame rates of at most 1000 (nan refused too)."""
+    from morf.errors import InputError
+
+    if not 0 < args.fps <= 1000:
+        raise InputError(f"--fps must be positive (a frame rate of at most 1000), got {args.fps}")
+    if args.motion_fps is not None and not 0 < args.motion_fps <= 1000:
+        raise InputError(f"--motion-fps must be positive (a frame rate of at most 1000), got {args.motion_fps}")
 
 
 def command_name(args) -> str:

@@ -18,21 +18,13 @@ from pathlib import Path
 
 import pytest
 
+from tests.test_layers import _docstrings  # the same walk: which string constants are docstrings
+
 STUDIO = Path(__file__).resolve().parents[2] / "studio"
 QUOTED = re.compile(r"'((?:morf|morf-studio) [^']+)'")
 # placeholder words in suggested commands -> what a user would type there
 PLACEHOLDERS = {"PROJECT": "capture", "NEWFOLDER": "new-capture", "FILE": "clip.mp4", "VIDEO": "clip.mp4",
                 "N": "3", "PNG": "shot.png", "DIR": "avatar", "FOLDER": "out", "RUN": "run1", "NAME": "run1"}
-
-
-def _docstring_nodes(tree: ast.AST) -> set[int]:
-    ids = set()
-    for node in ast.walk(tree):
-        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and node.body:
-            first = node.body[0]
-            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant):
-                ids.add(id(first.value))
-    return ids
 
 
 def suggested_commands() -> list[tuple[str, str]]:
@@ -41,7 +33,7 @@ def suggested_commands() -> list[tuple[str, str]]:
     found = []
     for path in sorted(STUDIO.rglob("*.py")):
         tree = ast.parse(path.read_text(), str(path))
-        skip = _docstring_nodes(tree)
+        skip = _docstrings(tree)
         for node in ast.walk(tree):
             if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in skip:
                 for m in QUOTED.finditer(node.value):
