@@ -24,13 +24,13 @@ def test_a_refused_process_and_its_children_cannot_get_amx_and_int8_still_comput
     r = _child("""
         import ctypes, subprocess, sys
         import numpy as np
-        from morf.amx_permission import ARCH_REQ_XCOMP_PERM, SYS_ARCH_PRCTL, XFEATURE_XTILEDATA, amx_permitted, refuse_amx
+        from morf.machine.amx_permission import ARCH_REQ_XCOMP_PERM, SYS_ARCH_PRCTL, XFEATURE_XTILEDATA, amx_permitted, refuse_amx
         refuse_amx()
         libc = ctypes.CDLL(None, use_errno=True)
         assert libc.syscall(SYS_ARCH_PRCTL, ARCH_REQ_XCOMP_PERM, XFEATURE_XTILEDATA) == -1
         assert ctypes.get_errno() == 1  # EPERM: the filter's answer, on any x86-64 CPU
         assert not amx_permitted()
-        child = subprocess.run([sys.executable, "-c", "from morf.amx_permission import amx_permitted; "
+        child = subprocess.run([sys.executable, "-c", "from morf.machine.amx_permission import amx_permitted; "
                                 "print(amx_permitted())"], capture_output=True, text=True)
         assert child.stdout.strip() == "False", child.stderr
         import onnx, onnxruntime as ort
@@ -52,7 +52,7 @@ def test_a_refused_process_and_its_children_cannot_get_amx_and_int8_still_comput
 @linux_x86_64
 def test_amx_already_granted_cannot_be_refused():
     r = _child("""
-        from morf.amx_permission import amx_permitted, refuse_amx
+        from morf.machine.amx_permission import amx_permitted, refuse_amx
         from morf.errors import InputError
         if not amx_permitted():
             print("no amx")

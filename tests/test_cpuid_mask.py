@@ -11,8 +11,8 @@ import textwrap
 
 import pytest
 
-from morf.cpu_features import cpu_flags
-from morf.cpuid_mask import CLASSES, supported
+from morf.machine.features import cpu_flags
+from morf.machine.cpuid_mask import CLASSES, supported
 
 needs_faulting = pytest.mark.skipif(supported() is not None or not (shutil.which("cc") or shutil.which("gcc")),
                                     reason="needs Linux CPUID faulting (cpuid_fault) and a C compiler")
@@ -20,7 +20,7 @@ needs_faulting = pytest.mark.skipif(supported() is not None or not (shutil.which
 
 def _masked(code: str, cpu_class: str, tmp_path, timeout=120) -> subprocess.CompletedProcess:
     """``code`` run by a Python that first re-runs itself under the mask, as ``morf bench --cpu-as`` does."""
-    prologue = f"from morf.cpuid_mask import run_as\nrun_as({cpu_class!r})\n"
+    prologue = f"from morf.machine.cpuid_mask import run_as\nrun_as({cpu_class!r})\n"
     env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
     return subprocess.run([sys.executable, "-c", prologue + textwrap.dedent(code)], capture_output=True, text=True,
                           timeout=timeout, env=env)
@@ -30,8 +30,8 @@ CHECK = """
     import llvmlite.binding as llvm
     import numpy as np, onnxruntime as ort
     from onnx import TensorProto, helper
-    from morf.cpuid_mask import active_class, answered_cpuids
-    from morf.cpu_features import cpu_summary
+    from morf.machine.cpuid_mask import active_class, answered_cpuids
+    from morf.machine.features import cpu_summary
     feats = llvm.get_host_cpu_features()
     print("class", active_class(), "avx512f", feats.get("avx512f", False), "avx512vnni", feats.get("avx512vnni", False),
           "amx", feats.get("amx-int8", False), "avx2", feats.get("avx2", False))
@@ -91,12 +91,12 @@ def test_a_real_segfault_still_reaches_the_programs_handler_or_kills_the_process
 
 
 def test_an_unknown_class_or_a_machine_without_faulting_is_a_clear_error(tmp_path, monkeypatch):
-    from morf.cpuid_mask import run_as
+    from morf.machine.cpuid_mask import run_as
     from morf.errors import InputError
 
     with pytest.raises(InputError, match="unknown CPU class 'avx9'"):
         run_as("avx9")
-    monkeypatch.setattr("morf.cpuid_mask.supported", lambda: "no CPUID faulting here")
+    monkeypatch.setattr("morf.machine.cpuid_mask.supported", lambda: "no CPUID faulting here")
     with pytest.raises(InputError, match="--cpu-as avx2: no CPUID faulting here"):
         run_as("avx2")
 

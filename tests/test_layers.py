@@ -18,8 +18,9 @@ MORF = Path(__file__).resolve().parents[1] / "morf"
 # Lowest first. A layer may import itself and any layer before it. Within "foundation" the small
 # shared modules may import each other.
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("foundation", ("morf", "morf.errors", "morf.config_checks", "morf.io", "morf.camera", "morf.progress", "morf.cpu_features",
-                    "morf.pipeline", "morf.resources", "morf.lazy", "morf.compiled")),  # resources: shipped shaders, font, sample motions; lazy: package attributes on first use
+    ("foundation", ("morf", "morf.errors", "morf.config_checks", "morf.io", "morf.camera", "morf.progress",
+                    "morf.pipeline", "morf.resources", "morf.lazy")),  # resources: the loader of the shipped files; lazy: package attributes on first use
+    ("machine", ("morf.machine",)),  # CPU capability probes, CPUID mask, AMX permission, numba probe
     ("scale", ("morf.scale",)),  # Ray: where tasks run, what they hold, a list of calls run as tasks
     ("capture", ("morf.capture",)),  # the project folder, video, keypoints, masks
     ("datasets", ("morf.datasets",)),  # standard datasets imported as capture projects
@@ -34,6 +35,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("motion", ("morf.motion",)),  # motion files (a capture's fits among them), retargeting
     ("export", ("morf.export",)),  # the avatar folder, int8 ONNX, glTF (animations from motion)
     ("playback", ("morf.playback",)),  # torch-free player of an avatar folder
+    ("web", ("morf.web",)),  # the browser player's build: an avatar folder and motions for resources/web
     ("evaluate", ("morf.evaluate",)),  # morf eval
     ("bench", ("morf.bench",)),  # morf bench
     ("cli", ("morf.cli",)),  # morf ...

@@ -1,27 +1,105 @@
-"""The shipped files live inside the package and an installed wheel carries every one of them."""
+"""The shipped files live in the top-level ``resources/`` folder, every user reaches them through
+:mod:`morf.resources`, and a wheel built from the tree carries every one of them where the loader
+finds them once installed."""
 
 from __future__ import annotations
 
-import fnmatch
-import tomllib
+import ast
+import os
+import shutil
+import subprocess
+import sys
+import zipfile
 from pathlib import Path
 
-from morf.resources import FONT, MOTIONS, ROOT, SHADERS
+import pytest
+
+from morf.errors import MorfError
+from morf.resources import FONT, MOTIONS, ROOT, SHADERS, WEB, resource, shader_source
 
 REPO = Path(__file__).resolve().parents[1]
+WHEEL_SOURCES = ("pyproject.toml", "setup.py", "README.md", "morf", "studio", "resources")
 
 
-def test_every_shipped_file_is_package_data_of_the_wheel():
-    data = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]
-    patterns = data["morf.resources"]
-    files = [p.relative_to(ROOT).as_posix() for p in ROOT.rglob("*") if p.is_file() and p.suffix != ".py"
-             and "__pycache__" not in p.parts]
-    assert files
-    missing = [f for f in files if not any(fnmatch.fnmatch(f, pat) for pat in patterns)]
-    assert not missing, f"not listed as package data in pyproject.toml: {missing}"
+def shipped_files() -> list[str]:
+    return sorted(p.relative_to(ROOT).as_posix() for p in ROOT.rglob("*")
+                  if p.is_file() and "__pycache__" not in p.parts)
 
 
-def test_the_paths_point_inside_the_package():
+def test_the_checkout_reads_the_top_level_folder():
+    assert ROOT == REPO / "resources"
     assert FONT.is_file() and SHADERS.is_dir() and sorted(MOTIONS.glob("*.npz"))
-    for path in (FONT, SHADERS, MOTIONS):
-        assert path.resolve().is_relative_to(REPO / "morf")
+    assert WEB.parent == ROOT  # the browser player's folder is served by the same loader
+    assert "#version" in shader_source("neural_raster_vs.glsl")
+
+
+def test_a_missing_shipped_file_is_one_line_naming_it():
+    with pytest.raises(MorfError, match=r"shipped file shaders/nope\.glsl is missing.*reinstall"):
+        resource("shaders", "nope.glsl")
+
+
+def _code_strings(path: Path) -> list[tuple[int, str]]:
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    docs = {id(n.body[0].value) for n in ast.walk(tree)
+            if isinstance(n, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and n.body
+            and isinstance(n.body[0], ast.Expr) and isinstance(n.body[0].value, ast.Constant)}
+    return [(n.lineno, n.value) for n in ast.walk(tree)
+            if isinstance(n, ast.Constant) and isinstance(n.value, str) and id(n) not in docs]
+
+
+def test_no_module_finds_a_shipped_file_around_the_loader():
+    """Shipped files are found through morf.resources alone: no other module spells their folder."""
+    offenders = [f"{path.relative_to(REPO)}:{line}: {text!r}"
+                 for path in [*(REPO / "morf").rglob("*.py"), *(REPO / "studio").rglob("*.py")]
+                 if path != REPO / "morf" / "resources.py"
+                 for line, text in _code_strings(path)
+                 if text in ("resources", "_resources") or text.startswith(("resources/", "morf/resources"))]
+    assert not offenders, "\n".join(offenders)
+
+
+@pytest.fixture(scope="module")
+def built_wheel(tmp_path_factory) -> Path:
+    """The wheel of a copy of the tree (so the build leaves nothing in the working tree), built
+    offline by the setuptools of this environment."""
+    src = tmp_path_factory.mktemp("src")
+    for name in WHEEL_SOURCES:
+        if (REPO / name).is_dir():
+            shutil.copytree(REPO / name, src / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        else:
+            shutil.copy2(REPO / name, src / name)
+    out = tmp_path_factory.mktemp("wheel")
+    r = subprocess.run([sys.executable, "-m", "pip", "wheel", str(src), "--no-deps", "--no-build-isolation", "--no-index",
+                        "-q", "-w", str(out)], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    (wheel,) = out.glob("morf_studio-*.whl")
+    return wheel
+
+
+def test_the_wheel_carries_every_shipped_file(built_wheel):
+    names = set(zipfile.ZipFile(built_wheel).namelist())
+    files = shipped_files()
+    assert len(files) >= 7  # font + licence, three motions, the shaders
+    missing = [f for f in files if f"morf/_resources/{f}" not in names]
+    assert not missing, f"shipped files left out of the wheel: {missing}"
+    assert "morf/machine/cpuid_mask.c" in names and "morf/train/trainer.py" in names  # data and namespace packages
+
+
+def test_the_installed_wheel_finds_its_files_through_the_loader(built_wheel, tmp_path):
+    """Installed into a bare folder and imported without the checkout on the path (``-S``: no
+    site-packages, so the editable install of this checkout cannot answer instead)."""
+    target = tmp_path / "site"
+    r = subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "--no-index", "-q", "--target", str(target),
+                        str(built_wheel)], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); import morf.resources as r; "
+            "print(r.ROOT); print(r.FONT.is_file(), len(list(r.MOTIONS.glob('*.npz'))), "
+            "'#version' in r.shader_source('neural_raster_fs.glsl'))")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    r = subprocess.run([sys.executable, "-S", "-c", code, str(target)], capture_output=True, text=True, cwd=tmp_path,
+                       env=env, timeout=60)
+    assert r.returncode == 0, r.stderr
+    root, checks = r.stdout.splitlines()
+    assert Path(root) == target / "morf" / "_resources"
+    assert checks == f"True {len(list(MOTIONS.glob('*.npz')))} True"
+    installed = sorted(p.relative_to(root).as_posix() for p in Path(root).rglob("*") if p.is_file())
+    assert installed == shipped_files()

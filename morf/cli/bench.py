@@ -11,7 +11,7 @@ import importlib
 import subprocess
 import sys
 
-from morf.cpuid_mask import CLASSES as CPU_CLASSES
+from morf.machine.cpuid_mask import CLASSES as CPU_CLASSES
 
 BENCHMARKS = {
     "fitting": "mesh fitting against ground truth, with the paper's ablation",
@@ -60,7 +60,7 @@ def run(args) -> int:
         print("usage: morf bench {" + ",".join([*BENCHMARKS, *APP_BENCHMARKS]) + "} --out DIR")
         return 1
     if args.cpu_as:
-        from morf.cpuid_mask import run_as
+        from morf.machine.cpuid_mask import run_as
 
         run_as(args.cpu_as)  # re-runs this command under the mask unless it already is
     return int(args._bench_run(args) or 0)

@@ -18,7 +18,7 @@ import numpy as np
 import onnx
 
 from morf.export.onnx_graph import COMPOSITE_PREFIX, OPAQUE_PREFIX, _attr, _const_value, _producer
-from morf.compiled import numba_available
+from morf.machine.compiled import numba_available
 from morf.export.compiled_tail import HeadStage, TailShader, TailSpec
 
 MAX_LEVELS = 2  # the most a pixel channel may differ from the whole graph's (rounding)

@@ -1,7 +1,7 @@
 """Small sample motions made here from a few sinusoids, directly in Anny's pose parameters:
-an idle sway and a walk cycle (in place, and walking forward). Written to morf/resources/motions by
+an idle sway and a walk cycle (in place, and walking forward). Written to resources/motions by
 
-    python -m morf.motion.procedural --out morf/resources/motions
+    python -m morf.motion.procedural --out resources/motions
 
 Angles are in degrees about Anny's world-aligned axes (X to the person's left, Y backwards,
 Z up), applied in each bone's parent frame: about X, a negative angle swings a hanging limb
@@ -21,6 +21,7 @@ from morf.motion.anny_rest import TargetRest, target_rest
 from morf.motion.clip import MotionClip, save_clip
 from morf.motion.so3 import matrix_to_rotvec
 from morf.motion.so3 import swing as swing_rotation
+from morf.resources import MOTIONS
 
 
 def _rot(x=0.0, y=0.0, z=0.0) -> np.ndarray:
@@ -154,7 +155,7 @@ def build_samples(model, fps: float = 30.0) -> list[MotionClip]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description="Write the procedural sample motions as .npz clips.")
-    ap.add_argument("--out", default="morf/resources/motions", help="output folder")
+    ap.add_argument("--out", default=str(MOTIONS), help="output folder (default: the shipped motions)")
     ap.add_argument("--fps", type=float, default=30.0)
     args = ap.parse_args(argv)
     from morf.body import load_body_model

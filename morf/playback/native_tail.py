@@ -13,7 +13,6 @@ from pathlib import Path
 
 import numpy as np
 
-from morf.compiled import numba_available
 from morf.export.compiled_tail import TailShader, TailSpec
 
 ENV = "MORF_NATIVE_TAIL"
@@ -21,6 +20,8 @@ ENV = "MORF_NATIVE_TAIL"
 
 def enabled() -> bool:
     """Whether the player may use the native tail (``MORF_NATIVE_TAIL=0`` turns it off)."""
+    from morf.machine.compiled import numba_available  # the machine probes load only when asked
+
     return os.environ.get(ENV, "1") != "0" and numba_available()
 
 

@@ -253,7 +253,7 @@ def choose_raster(kind: str, ctx) -> str:
     """"gl" or "cpu" for a player's ``raster`` argument (see :class:`Player`)."""
     import os
 
-    from morf.compiled import numba_available
+    from morf.machine.compiled import numba_available
     from morf.raster.gl_context import software_gl
 
     if kind == "auto":

@@ -23,8 +23,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from morf.compiled import numba_available
-
 from morf.camera import GL_FRONT_FACE
 from morf.raster.gl_context import software_gl
 from morf.raster.texture_quant import ZERO_POINT, QuantizedTexture
@@ -70,6 +68,8 @@ def _skin_on_cpu(ctx) -> bool:
     """Skin with numba on the CPU where GL itself runs on the CPU (Mesa's llvmpipe runs vertex
     shaders on one thread: 2 ms of a 640x640 frame against 0.12 ms for the loop); on a GPU the
     vertex shader skins for free."""
+    from morf.machine.compiled import numba_available  # the machine probes load only when asked
+
     return numba_available() and software_gl(ctx)
 
 

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[2]
-CLIP = REPO / "morf" / "resources" / "motions" / "idle_sway.npz"  # a MoRF clip: rotvecs (120, 104, 3)
+CLIP = REPO / "resources" / "motions" / "idle_sway.npz"  # a MoRF clip: rotvecs (120, 104, 3)
 FRAMES = 8  # frames kept from the clip: enough to play, cheap to read
 
 

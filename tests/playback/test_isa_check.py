@@ -28,7 +28,7 @@ def test_the_emulated_cpu_has_no_avx512_and_renders_the_same_image(tiny_avatar):
 
 
 def test_the_masked_cpu_takes_the_avx2_kernels_and_renders_the_same_image(tiny_avatar, tmp_path):
-    from morf.cpuid_mask import supported
+    from morf.machine.cpuid_mask import supported
 
     if supported() is not None or not (shutil.which("cc") or shutil.which("gcc")):
         pytest.skip("needs CPUID faulting and a C compiler")

@@ -8,6 +8,10 @@ from __future__ import annotations
 
 import functools
 
+from morf.machine.amx_permission import amx_permitted
+from morf.machine.cpuid_mask import CLASSES, active_class
+from morf.machine.flags import host_flags
+
 # /proc/cpuinfo flags that matter for our kernels
 FLAGS_OF_INTEREST = ("avx2", "fma", "avx512f", "avx512_vnni", "avx_vnni", "avx512_bf16", "amx_bf16", "amx_int8",
                      "amx_tile")
@@ -17,28 +21,9 @@ FLAGS_OF_INTEREST = ("avx2", "fma", "avx512f", "avx512_vnni", "avx_vnni", "avx51
 def cpu_flags() -> frozenset[str]:
     """The CPU's feature flags (Linux ``/proc/cpuinfo``; empty where it cannot be read), less
     those a CPUID mask hides from this process (``morf bench --cpu-as``)."""
-    flags: frozenset[str] = frozenset()
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("flags"):
-                    flags = frozenset(line.split(":", 1)[1].split())
-                    break
-    except OSError:
-        pass
-    masked = cpuid_mask_class()
-    if masked:
-        from morf.cpuid_mask import CLASSES
-
-        flags = flags - set(CLASSES[masked][1])
-    return flags
-
-
-def cpuid_mask_class() -> str | None:
-    """The smaller CPU class this process's CPUID answers as (``morf bench --cpu-as``), or None."""
-    from morf.cpuid_mask import active_class
-
-    return active_class()
+    flags = host_flags()
+    masked = active_class()
+    return flags - set(CLASSES[masked][1]) if masked else flags
 
 
 def native_bf16() -> bool:
@@ -54,13 +39,11 @@ def native_bf16() -> bool:
 def cpu_summary() -> dict:
     """The flags of :data:`FLAGS_OF_INTEREST` this CPU has, for benchmark records and logs, and
     whether the kernel lets this process use AMX (``amx_usable``; a CPU flag is not enough)."""
-    from morf.amx_permission import amx_permitted
-
     flags = cpu_flags()
     has_amx = "amx_tile" in flags
     summary = {"flags": [f for f in FLAGS_OF_INTEREST if f in flags], "native_bf16": native_bf16(),
                "amx_usable": bool(has_amx and amx_permitted())}
-    masked = cpuid_mask_class()
+    masked = active_class()  # the smaller CPU class of ``morf bench --cpu-as``, or None
     if masked:
         summary["cpuid_masked_to"] = masked
     return summary

@@ -1,6 +1,6 @@
 /* Make this process (and every process it starts) see a smaller x86 CPU through CPUID.
 
-   Loaded with LD_PRELOAD by `morf bench --cpu-as CLASS ...` (morf/cpuid_mask.py). Linux
+   Loaded with LD_PRELOAD by `morf bench --cpu-as CLASS ...` (morf/machine/cpuid_mask.py). Linux
    can make the CPUID instruction fault (arch_prctl ARCH_SET_CPUID, CPUs with "cpuid_fault"); the
    fault lands in a SIGSEGV handler here, which runs the real CPUID with faulting briefly off,
    clears the feature bits the chosen CPU class lacks and resumes after the instruction. Libraries
@@ -29,7 +29,7 @@
 #define ARCH_SET_CPUID 0x1012
 #endif
 
-/* Read by morf/cpuid_mask.py: 0 = not masking, 1 = avx2, 2 = avx512-vnni;
+/* Read by morf/machine/cpuid_mask.py: 0 = not masking, 1 = avx2, 2 = avx512-vnni;
    morf_cpuid_mask_faults counts the CPUID instructions answered. */
 int morf_cpuid_mask_level = 0;
 volatile unsigned long morf_cpuid_mask_faults = 0;

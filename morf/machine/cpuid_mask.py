@@ -20,8 +20,9 @@ import tempfile
 from pathlib import Path
 
 from morf.errors import InputError
+from morf.machine.flags import host_flags
 
-# class -> (what it stands for, the /proc/cpuinfo flags it lacks that morf.cpu_features reports)
+# class -> (what it stands for, the /proc/cpuinfo flags it lacks that morf.machine.features reports)
 CLASSES = {
     "avx2": ("AVX2 + FMA only: no AVX-512, no VNNI, no AMX (Intel Haswell to Comet Lake, AMD Zen 2)",
              ("avx512f", "avx512_vnni", "avx_vnni", "avx512_bf16", "amx_bf16", "amx_int8", "amx_tile")),
@@ -84,9 +85,7 @@ def supported() -> str | None:
     """None when this machine can mask CPUID, else why not."""
     if not sys.platform.startswith("linux"):
         return "CPUID faulting is a Linux feature"
-    from morf.cpu_features import cpu_flags
-
-    if "cpuid_fault" not in cpu_flags():
+    if "cpuid_fault" not in host_flags():
         return "this CPU (or its hypervisor) does not offer CPUID faulting ('cpuid_fault' is not in /proc/cpuinfo)"
     return None
 
