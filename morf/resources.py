@@ -48,3 +48,9 @@ def resource(*parts: str) -> Path:
 def shader_source(name: str) -> str:
     """The text of ``resources/shaders/<name>`` (a GLSL stage)."""
     return resource("shaders", name).read_text(encoding="utf-8")
+
+
+def shader_stages(stem: str) -> dict[str, str]:
+    """``vertex_shader`` and ``fragment_shader`` of the program ``stem`` (``<stem>_vs.glsl``,
+    ``<stem>_fs.glsl``), as moderngl's ``ctx.program(**shader_stages(stem))`` takes them."""
+    return {"vertex_shader": shader_source(f"{stem}_vs.glsl"), "fragment_shader": shader_source(f"{stem}_fs.glsl")}

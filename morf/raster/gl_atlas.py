@@ -10,33 +10,11 @@ import numpy as np
 
 from morf.body.render_mesh import RenderMesh
 from morf.raster.gl_context import GLState, gl_state, with_gl_context
-
-_VERT = """
-#version 330
-in vec2 in_uv;
-in vec4 in_attr;
-out vec4 v_attr;
-void main() {
-    v_attr = in_attr;
-    // texture row 0 is v = 1, and read-back row 0 is NDC y = -1: put v = 1 at y = -1
-    gl_Position = vec4(2.0 * in_uv.x - 1.0, 1.0 - 2.0 * in_uv.y, 0.0, 1.0);
-}
-"""
-
-_FRAG = """
-#version 330
-in vec4 v_attr;
-layout(location = 0) out vec4 out_attr;
-layout(location = 1) out vec4 out_cover;
-void main() {
-    out_attr = v_attr;
-    out_cover = vec4(1.0);
-}
-"""
+from morf.resources import shader_stages
 
 
 def _program(state: GLState):
-    return state.cached(("program", "atlas"), lambda: state.ctx.program(vertex_shader=_VERT, fragment_shader=_FRAG))
+    return state.cached(("program", "atlas"), lambda: state.ctx.program(**shader_stages("gl_atlas")))
 
 
 @with_gl_context

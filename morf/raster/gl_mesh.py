@@ -15,33 +15,7 @@ from morf.body.render_mesh import RenderMesh
 from morf.camera import PinholeCamera
 from morf.raster.gl_buffers import as_vertices, camera_uniforms, mesh_buffers, mesh_vao, set_uniforms
 from morf.raster.gl_context import GLState, gl_state, with_gl_context
-
-_VERT = """
-#version 330
-uniform mat4 view;
-uniform mat4 proj;
-in vec3 in_pos;
-in vec2 in_uv;
-out vec2 v_uv;
-out float v_depth;
-void main() {
-    vec4 pc = view * vec4(in_pos, 1.0);
-    v_uv = in_uv;
-    v_depth = pc.z;
-    gl_Position = proj * pc;
-}
-"""
-
-_FRAG = """
-#version 330
-in vec2 v_uv;
-in float v_depth;
-layout(location = 0) out vec4 out_attr;
-void main() {
-    // face id + 1 so that the cleared value 0 means background; exact in float32 below 2^24
-    out_attr = vec4(v_uv, v_depth, float(gl_PrimitiveID + 1));
-}
-"""
+from morf.resources import shader_stages
 
 
 @dataclass(frozen=True)
@@ -63,7 +37,7 @@ class Rasterization:
 
 
 def _program(state: GLState):
-    return state.cached(("program", "uv"), lambda: state.ctx.program(vertex_shader=_VERT, fragment_shader=_FRAG))
+    return state.cached(("program", "uv"), lambda: state.ctx.program(**shader_stages("gl_mesh")))
 
 
 def _framebuffer(state: GLState, width: int, height: int):

@@ -15,20 +15,7 @@ import numpy as np
 from morf.camera import GL_FRONT_FACE, PinholeCamera
 from morf.raster.gl_buffers import camera_uniforms, set_uniforms
 from morf.raster.gl_context import GLState, gl_state, with_gl_context
-
-_VERT = """
-#version 330
-uniform mat4 view;
-uniform mat4 proj;
-in vec3 in_pos;
-void main() { gl_Position = proj * view * vec4(in_pos, 1.0); }
-"""
-
-_FRAG = """
-#version 330
-out float covered;
-void main() { covered = 1.0; }
-"""
+from morf.resources import shader_stages
 
 
 def _faces_key(faces: np.ndarray) -> str:
@@ -40,7 +27,7 @@ def _mesh(state: GLState, faces: np.ndarray, num_vertices: int):
     ctx = state.ctx
 
     def make():
-        prog = state.cached(("program", "silhouette"), lambda: ctx.program(vertex_shader=_VERT, fragment_shader=_FRAG))
+        prog = state.cached(("program", "silhouette"), lambda: ctx.program(**shader_stages("gl_silhouette")))
         vbo = ctx.buffer(reserve=num_vertices * 12)
         ibo = ctx.buffer(np.ascontiguousarray(faces, np.int32).tobytes())
         vao = ctx.vertex_array(prog, [(vbo, "3f", "in_pos")], index_buffer=ibo, index_element_size=4)

@@ -14,40 +14,8 @@ from morf.camera import PinholeCamera
 from morf.errors import InputError
 from morf.raster.gl_buffers import as_vertices, camera_uniforms, mesh_buffers, mesh_vao, set_uniforms
 from morf.raster.gl_context import GLState, current, gl_state, with_gl_context
+from morf.resources import shader_stages
 
-_VERT = """
-#version 330
-uniform mat4 view;
-uniform mat4 proj;
-in vec3 in_pos;
-in vec3 in_normal;
-in vec2 in_uv;
-out vec2 v_uv;
-out vec3 v_normal_cam;
-void main() {
-    vec4 pc = view * vec4(in_pos, 1.0);
-    v_uv = in_uv;
-    v_normal_cam = mat3(view) * in_normal;
-    gl_Position = proj * pc;
-}
-"""
-
-_FRAG = """
-#version 330
-uniform sampler2D tex;
-uniform float shading;
-uniform vec3 light_cam;
-in vec2 v_uv;
-in vec3 v_normal_cam;
-layout(location = 0) out vec4 out_rgba;
-void main() {
-    // Texture rows are stored top first while v points up: sample at t = 1 - v.
-    vec3 albedo = texture(tex, vec2(v_uv.x, 1.0 - v_uv.y)).rgb;
-    float lambert = max(dot(normalize(v_normal_cam), light_cam), 0.0);
-    float light = mix(1.0, 0.35 + 0.75 * lambert, shading);
-    out_rgba = vec4(clamp(albedo * light, 0.0, 1.0), 1.0);
-}
-"""
 
 # Light from slightly above the camera (camera y points down, the camera looks along +z).
 _DEFAULT_LIGHT_CAM = (0.0, -0.45, -1.0)
@@ -107,7 +75,7 @@ def render_mesh_normals(vertices: np.ndarray, mesh: RenderMesh) -> np.ndarray:
 
 def _program(state: GLState):
     return state.cached(("program", "textured"),
-                        lambda: state.ctx.program(vertex_shader=_VERT, fragment_shader=_FRAG))
+                        lambda: state.ctx.program(**shader_stages("gl_textured")))
 
 
 def _framebuffers(state: GLState, width: int, height: int, samples: int):

@@ -26,9 +26,8 @@ import numpy as np
 from morf.camera import GL_FRONT_FACE
 from morf.raster.gl_context import software_gl
 from morf.raster.texture_quant import ZERO_POINT, QuantizedTexture
-from morf.resources import SHADERS
+from morf.resources import shader_source
 
-SHADER_DIR = SHADERS
 NEAR, FAR = 0.05, 100.0  # the same clip planes as the training rasterizer (morf.raster.gl_buffers)
 NUM_CHANNELS = 16
 # Renderer input layouts: "nhwc" (1, H, W, 16) is the read-back as it is (onnxruntime's int8
@@ -73,10 +72,6 @@ def _skin_on_cpu(ctx) -> bool:
     return numba_available() and software_gl(ctx)
 
 
-def load_shader(name: str) -> str:
-    return (SHADER_DIR / name).read_text()
-
-
 class NeuralRasterizer:
     """Renders the 16-channel neural rasterization of a posed mesh into one RGBA32UI attachment.
 
@@ -104,15 +99,15 @@ class NeuralRasterizer:
             self._bone_indices = np.ascontiguousarray(mesh.bone_indices, np.int32)
             self._bone_weights = np.ascontiguousarray(mesh.bone_weights, np.float32)
             self._posed = np.empty_like(self._rest)
-            self.program = ctx.program(vertex_shader=load_shader("neural_raster_posed_vs.glsl"),
-                                       fragment_shader=load_shader("neural_raster_fs.glsl"))
+            self.program = ctx.program(vertex_shader=shader_source("neural_raster_posed_vs.glsl"),
+                                       fragment_shader=shader_source("neural_raster_fs.glsl"))
             pos = ctx.buffer(reserve=self._posed.nbytes, dynamic=True)
             self._buffers = [pos, uv]
             self.vao = ctx.vertex_array(self.program, [(pos, "3f", "in_position"), (uv, "2f", "in_uv")],
                                         index_buffer=self._index, index_element_size=4)
         else:
-            vs = load_shader("neural_raster_vs.glsl").replace("#version 330 core", f"#version 330 core\n#define NUM_BONES {num_bones}", 1)
-            self.program = ctx.program(vertex_shader=vs, fragment_shader=load_shader("neural_raster_fs.glsl"))
+            vs = shader_source("neural_raster_vs.glsl").replace("#version 330 core", f"#version 330 core\n#define NUM_BONES {num_bones}", 1)
+            self.program = ctx.program(vertex_shader=vs, fragment_shader=shader_source("neural_raster_fs.glsl"))
             self._buffers = [
                 ctx.buffer(np.ascontiguousarray(mesh.rest_vertices, np.float32).tobytes()), uv,
                 ctx.buffer(np.ascontiguousarray(mesh.bone_indices, np.int32).tobytes()),
