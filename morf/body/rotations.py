@@ -21,22 +21,10 @@ def axis_angle_to_matrix(rotvec: torch.Tensor) -> torch.Tensor:
 
 
 def matrix_to_axis_angle(R: torch.Tensor) -> torch.Tensor:
-    """(..., 3, 3) rotation matrices -> (..., 3) axis-angle in [0, pi]."""
+    """(..., 3, 3) rotation matrices -> (..., 3) axis-angle in [0, pi] (roma, a dependency of
+    anny and declared by morf; imported here so the torch-only callers of the other function do
+    not load it)."""
     import roma
 
     return roma.rotmat_to_rotvec(R)
 
-
-def euler_to_matrix_torch(angles_deg: torch.Tensor, order: str) -> torch.Tensor:
-    """Intrinsic Euler angles (..., 3) in degrees applied in ``order`` (e.g. "ZYX", as in BVH).
-
-    R = R_order[0] @ R_order[1] @ R_order[2].
-    """
-    rad = torch.deg2rad(angles_deg)
-    out = None
-    for i, axis in enumerate(order.upper()):
-        v = torch.zeros(*rad.shape[:-1], 3, dtype=rad.dtype, device=rad.device)
-        v[..., "XYZ".index(axis)] = rad[..., i]
-        Ri = axis_angle_to_matrix(v)
-        out = Ri if out is None else out @ Ri
-    return out

@@ -1,6 +1,8 @@
-"""``morf export PROJECT [--run NAME] [--out DIR] [--gltf FILE.glb [--motion FILE]]``: the trained
-avatar as a portable folder (uint8 neural texture, shaped render mesh, skeleton, fp32 + int8 ONNX
-renderers, manifest); with ``--gltf`` also as a rigged glTF 2.0 binary whose folder sits beside it.
+"""``morf export PROJECT [--run NAME] [--out DIR] [--gltf FILE.glb [--motion FILE]] [--mesh FILE]``:
+the trained avatar as a portable folder (uint8 neural texture, shaped render mesh, skeleton, fp32 +
+int8 ONNX renderers, manifest); with ``--gltf`` also as a rigged glTF 2.0 binary whose folder sits
+beside it; with ``--mesh`` also the fitted body as a PLY / OBJ file
+(:mod:`morf.export.mesh_file`).
 
 A thin wrapper over :func:`morf.export.project_export.export_project` (which the studio calls too)
 and :func:`morf.export.gltf_project.export_gltf`.
@@ -31,6 +33,9 @@ def add_parser(sub):
                         "files morf export writes; other files there are kept")
     p.add_argument("--motion", default=None, metavar="FILE",
                    help="with --gltf: add this motion (BVH, AMASS or clip .npz) to the .glb as an animation")
+    p.add_argument("--mesh", default=None, metavar="FILE.ply|FILE.obj",
+                   help="also write the fitted body (rest pose, the project's fitted shape, texture coordinates; metres, "
+                        "Z up) as a PLY or OBJ mesh for other tools")
     p.add_argument("--motion-fps", type=float, default=None,
                    help="with --motion: the frame rate of a motion file that stores none (split SMPL, AIST++ / SMPL "
                         ".npz); a rate stored in the file wins")
@@ -50,6 +55,11 @@ def run(args) -> int:
         raise InputError(f"--motion-fps goes with --motion and must be a frame rate from 0 to 1000, got {args.motion_fps}")
     if args.run is not None:
         check_name(args.run, "run name")
+    if args.mesh:
+        from morf.export.mesh_file import check_mesh_path
+        from morf.io.outputs import claim_output_file
+
+        claim_output_file(check_mesh_path(args.mesh), "morf export", args.force)  # refused before the long export
     project = CaptureProject.open(args.project)
     cfg = ProjectExportConfig(run=args.run, out=args.out, input_layout=args.layout,
                               calibration_views=args.calibration_views, fits=args.fits,
@@ -80,7 +90,17 @@ def run(args) -> int:
     print(f"exported {out} ({size:.1f} MB) from run {manifest['source']['run']}; int8 vs fp32 on "
           f"{q['views']} {q['on']} views: PSNR {q['psnr_db']:.1f} dB (person {q['psnr_person_db']:.1f}), "
           f"SSIM {q['ssim']:.4f}" + _closer_check(q))
+    if args.mesh:
+        _write_mesh(out, args.mesh)
     return 0
+
+
+def _write_mesh(avatar_dir: Path, path: str) -> None:
+    from morf.export.avatar_folder import load_exported_avatar
+    from morf.export.mesh_file import write_body_mesh
+
+    written = write_body_mesh(load_exported_avatar(avatar_dir, verify=False).mesh, path)
+    print(f"wrote {written.path}: the fitted body, {written.vertices} vertices, {written.faces} triangles")
 
 
 def _closer_check(q: dict) -> str:

@@ -193,13 +193,8 @@ def export_fp32(renderer, scales: np.ndarray, path: str | os.PathLike, layout: s
     """Write the fp32 renderer with a uint8 input (see module docstring). ``opaque``: hold the
     mask at 1 this many pixels inside the body mesh (:func:`~morf.export.onnx_graph.opaque_body`;
     None: the torch renderer's mask as it is)."""
-    model = uint8_input(_export_float_graph(widen_input(renderer, len(scales)), scales, sample_hw)[0], FLOAT_INPUT, layout)
-    uint8_colour_head(model, layout)
-    if opaque is not None:
-        opaque_body(model, opaque)
-    append_composite(model)
-    onnx.checker.check_model(model)
-    _save(model, path)
+    model = _export_float_graph(widen_input(renderer, len(scales)), scales, sample_hw)[0]
+    _finish(model, path, layout, opaque, quantized=False)
 
 
 class _Calibration:
@@ -295,13 +290,7 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
         best = max(scores, key=lambda name: scores[name])
         q = onnx.load(candidates[best])
     q.metadata_props.add(key="int8_calibration", value=f"{best} ({', '.join(f'{k} {v:.1f} dB' for k, v in scores.items())})")
-    q = uint8_input(q, FLOAT_INPUT, layout, quantized=True)
-    uint8_colour_head(q, layout)
-    if opaque is not None:
-        opaque_body(q, opaque)
-    append_composite(q)
-    onnx.checker.check_model(q)
-    _save(q, path)
+    _finish(q, path, layout, opaque, quantized=True)
     return {"calibration": best, "scores_db": {k: round(v, 2) for k, v in scores.items()}}
 
 
@@ -379,6 +368,19 @@ def float_nodes(model: onnx.ModelProto, last_out: str | None, half_head: bool = 
         if head_low:  # the last convolution is downstream of it too
             names += [n for n in downstream_nodes(model, head_low[-1].output[0]) if n not in names]
     return names
+
+
+def _finish(model: onnx.ModelProto, path: str | os.PathLike, layout: str, opaque: int | None, quantized: bool) -> None:
+    """The steps both graphs end with: the uint8 ``raster`` input in ``layout``, the texture
+    colour read from its bytes, the opaque body (``opaque`` pixels; None: none), the composited
+    ``image`` output; checked, then written atomically to ``path``."""
+    model = uint8_input(model, FLOAT_INPUT, layout, quantized=quantized)
+    uint8_colour_head(model, layout)
+    if opaque is not None:
+        opaque_body(model, opaque)
+    append_composite(model)
+    onnx.checker.check_model(model)
+    _save(model, path)
 
 
 def _save(model: onnx.ModelProto, path: str | os.PathLike) -> None:

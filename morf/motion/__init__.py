@@ -11,18 +11,15 @@ it); retargeting and ground contact (``retarget``, ``place_on_ground`` and their
 body model and are loaded on first use.
 """
 
-import importlib
-
+from morf.lazy import lazy_attributes
 from morf.motion.clip import MotionClip, load_clip, resample, save_clip
 from morf.motion.library import BUILTIN_MOTIONS, load_motion, motion_library
 
-# ``retarget`` here is the function of morf.motion.convert, not the submodule of that name: the
-# submodule (torch-free) is loaded now and dropped from this namespace, so the name resolves below.
-importlib.import_module("morf.motion.retarget")
-del globals()["retarget"]
-
-_LAZY = {"RetargetConfig": "morf.motion.convert", "retarget": "morf.motion.convert",
-         "GroundConfig": "morf.motion.ground", "place_on_ground": "morf.motion.ground"}
+# ``retarget`` is the function of morf.motion.convert; the rotation math it uses is the submodule
+# ``retargeting``, so no submodule shadows the name.
+__getattr__, __dir__ = lazy_attributes(__name__, {
+    "RetargetConfig": "morf.motion.convert", "retarget": "morf.motion.convert",
+    "GroundConfig": "morf.motion.ground", "place_on_ground": "morf.motion.ground"})
 
 __all__ = [
     "BUILTIN_MOTIONS",
@@ -37,9 +34,3 @@ __all__ = [
     "retarget",
     "save_clip",
 ]
-
-
-def __getattr__(name):
-    if name in _LAZY:
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module 'morf.motion' has no attribute {name!r}")

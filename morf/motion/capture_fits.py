@@ -23,7 +23,7 @@ from morf.motion.checks import MAX_PHENOTYPE, check_fps, check_range, check_rotv
 from morf.motion.clip import MotionClip, at_uniform_times, resample
 from morf.motion.convert import RetargetConfig
 from morf.motion.ground import place_on_ground
-from morf.motion.retarget import heading_turn
+from morf.motion.retargeting import heading_turn
 from morf.motion.so3 import matrix_to_rotvec, rotvec_to_matrix, swing
 
 FITS_DEFAULT_FPS = 30.0  # fits outside a capture project with a known frame rate

@@ -11,7 +11,7 @@ from morf.motion.anny_rest import target_rest
 from morf.motion.clip import MotionClip, resample
 from morf.motion.ground import GroundConfig, place_on_ground
 from morf.motion.joint_maps import JointMap
-from morf.motion.retarget import retarget_rotations, turn_and_shift
+from morf.motion.retargeting import retarget_rotations, turn_and_shift
 from morf.motion.skeleton import SourceMotion
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import torch
 
 from morf.body.model import BodyPose
-from morf.motion.retarget import Retargeted
+from morf.motion.retargeting import Retargeted
 
 # (label, Anny bone at the segment start, Anny bone at its end); the source segment runs between
 # the joints the joint map assigns to the same two bones.
@@ -68,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
     from morf.motion.anny_rest import target_rest
     from morf.motion.convert import RetargetConfig, retarget
     from morf.motion.ground import GroundConfig, foot_points, foot_skate
-    from morf.motion.retarget import retarget_rotations
+    from morf.motion.retargeting import retarget_rotations
 
     ap = argparse.ArgumentParser(description="Check how a retargeted motion follows its source.")
     ap.add_argument("file", help=".bvh or AMASS .npz")

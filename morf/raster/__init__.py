@@ -9,7 +9,7 @@ Names are loaded on first use so that torch-free code (the exported-avatar playe
 ``morf.raster.neural_raster`` without pulling in torch through the other modules.
 """
 
-import importlib
+from morf.lazy import lazy_attributes
 
 _WHERE = {
     "bake_vertex_attributes": "gl_atlas", "dilate_charts": "gl_atlas",
@@ -23,8 +23,4 @@ _WHERE = {
 
 __all__ = sorted(_WHERE)
 
-
-def __getattr__(name):
-    if name in _WHERE:
-        return getattr(importlib.import_module(f"morf.raster.{_WHERE[name]}"), name)
-    raise AttributeError(f"module 'morf.raster' has no attribute {name!r}")
+__getattr__, __dir__ = lazy_attributes(__name__, {name: f"morf.raster.{module}" for name, module in _WHERE.items()})

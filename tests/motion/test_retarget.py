@@ -5,7 +5,7 @@ import torch
 from morf.body.model import BodyPose
 from morf.motion.anny_rest import FootPointEvaluator, target_rest
 from morf.motion.convert import RetargetConfig, retarget
-from morf.motion.retarget import retarget_rotations, turn_and_shift
+from morf.motion.retargeting import retarget_rotations, turn_and_shift
 from morf.motion.skeleton import SourceMotion
 from morf.motion.so3 import axis_rotation
 from morf.motion.validate import direction_errors
