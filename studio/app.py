@@ -29,11 +29,13 @@ from imgui_bundle import imgui, implot  # before glfw: glfw must load imgui-bund
 import glfw  # noqa: E402  (import order above is required)
 import moderngl  # noqa: E402
 
-from morf.errors import MorfError  # noqa: E402
+from morf.errors import InputError, MorfError  # noqa: E402
 from morf.raster.gl_context import GLUnavailable  # noqa: E402
 from studio.actions import advance_playback, make_actions  # noqa: E402
-from studio.commands import Command, OpenProject, StartStage  # noqa: E402
+from studio.commands import Command, OpenProject, RunPipeline, StartStage  # noqa: E402
 from studio.context import UiContext  # noqa: E402
+from studio.drops import DropClassifier, kind_by_name, suggested_folder  # noqa: E402
+from studio.input_events import KeyQueue  # noqa: E402
 from studio.keys import handle_keys  # noqa: E402
 from studio.layout import draw_ui  # noqa: E402
 from studio.live_render import LiveRenderer  # noqa: E402
@@ -41,6 +43,7 @@ from studio.loader import ImageLoader  # noqa: E402
 from studio.motion_browser import MotionBrowser  # noqa: E402
 from studio.panels.live import commit_motion_dir, post_request as post_live_request  # noqa: E402
 from studio.pacing import IDLE_FPS, MAX_FPS, SNAPSHOT_FPS, FramePacer, Wakeup  # noqa: E402
+from studio.pipeline_run import STAGES as PIPELINE_STAGES, PipelineRequest  # noqa: E402
 from studio.player import PoseRenderer, open_live_player, shutdown_motion_loader  # noqa: E402
 from studio.project_view import ProjectView  # noqa: E402
 from studio.sizes import parse_window_size  # noqa: E402
@@ -65,6 +68,7 @@ LIVE_PANEL = PANELS.index("Live render")
 # as much as a live frame's rasterization: at 0.25 s the UI skipped about one live frame in twenty
 FULL_FRAME_INTERVAL_S = 0.5
 RASTER_WAIT_S = 0.02  # the longest a light frame waits for the live render's rasterization
+DEFAULT_MOTION = "walk_forward.npz"  # of the shipped motions: what a freshly made avatar plays
 
 
 class StudioApp:
@@ -125,6 +129,8 @@ class StudioApp:
         self.motions = MotionBrowser(on_done=lambda: self._wakeup.notify(0.0), settings=settings,
                                      remember=remember_folders)
         self.motions.commit(self.state.motion_dir)
+        self.drops = DropClassifier(on_done=lambda: self._wakeup.notify(0.0))  # dropped folders, looked into off the UI thread
+        self._project_rev = self._stage_rev = 0  # the worker's counters last acted on (studio.snapshot)
         self.view: ProjectView | None = None
         self.loader: ImageLoader | None = None
         self.textures = TextureCache(self.ctx, None)
@@ -193,42 +199,87 @@ class StudioApp:
         style.window_rounding = style.frame_rounding = style.tab_rounding = 2.0
         if FONT_PATH.is_file():
             io.fonts.add_font_from_file_ttf(str(FONT_PATH), FONT_SIZE)
-        imgui.backends.glfw_init_for_opengl(self._window_addr, True)
+        imgui.backends.glfw_init_for_opengl(self._window_addr, False)  # the app's callbacks feed it
         imgui.backends.opengl3_init("#version 330")
         # GLFW's null platform never reports the cursor entering the window; without this,
         # injected mouse positions are dropped.
         imgui.backends.glfw_cursor_enter_callback(self._window_addr, 1)
 
     def _init_input_callbacks(self) -> None:
-        """Input and window changes ask for a frame. Installed before imgui's backend, which
-        chains to them from its own callbacks; the window ones imgui does not use."""
+        """The window's callbacks, installed here rather than by imgui's backend: keys and
+        characters wait in :attr:`keys` for the next frame (:mod:`studio.input_events`), mouse
+        and window events go to imgui's backend at once; every one of them asks for a frame."""
         def on_input(*_):
             self._inputs += 1
             self.pacer.input()
 
-        w = self.window
+        w, b = self.window, imgui.backends
+        self.keys = KeyQueue()
+        self._dropped: list[str] = []  # paths dropped on the window, handled by the next full frame
+
+        def on_key(_w, key, scancode, action, _mods):
+            self.keys.key(key, scancode, action, glfw.get_key_name(key, scancode))
+            on_input()
+
+        def on_char(_w, codepoint):
+            self.keys.char(codepoint)
+            on_input()
+
+        def on_focus(_w, focused):
+            b.glfw_window_focus_callback(self._window_addr, focused)
+            if not focused:
+                self.keys.focus_lost()
+            on_input()
+
+        def forward(to_imgui):
+            def callback(_w, *args):
+                to_imgui(self._window_addr, *args)
+                on_input()
+            return callback
+
         def on_drop(_window, paths):
             self._dropped.extend(str(p) for p in paths)
             on_input()
 
-        self._dropped: list[str] = []  # paths dropped on the window, handled by the next full frame
+        glfw.set_key_callback(w, on_key)
+        glfw.set_char_callback(w, on_char)
+        glfw.set_window_focus_callback(w, on_focus)
+        glfw.set_cursor_enter_callback(w, forward(b.glfw_cursor_enter_callback))
+        glfw.set_cursor_pos_callback(w, forward(b.glfw_cursor_pos_callback))
+        glfw.set_mouse_button_callback(w, forward(b.glfw_mouse_button_callback))
+        glfw.set_scroll_callback(w, forward(b.glfw_scroll_callback))
         glfw.set_drop_callback(w, on_drop)
-        for install in (glfw.set_window_focus_callback, glfw.set_cursor_enter_callback, glfw.set_cursor_pos_callback,
-                        glfw.set_mouse_button_callback, glfw.set_scroll_callback, glfw.set_key_callback,
-                        glfw.set_char_callback, glfw.set_framebuffer_size_callback, glfw.set_window_refresh_callback,
+        for install in (glfw.set_framebuffer_size_callback, glfw.set_window_refresh_callback,
                         glfw.set_window_iconify_callback):
             install(w, on_input)
 
     # ---- project ------------------------------------------------------------------------
     def open_project(self, path: str) -> bool:
         """Open a project folder; on failure the start screen shows why. True when it opened."""
+        opened = self._open_view(path)
+        self.send(OpenProject(str(self.view.root) if opened else None))
+        return opened
+
+    def start_pipeline(self, request: PipelineRequest) -> None:
+        """Make (or continue) a project as 'morf run' does, in the worker; the project opens here
+        as soon as its frames exist (see :meth:`_follow_worker`)."""
+        if self.worker.latest().busy:
+            self.state.note = f"'{self.worker.latest().stage}' is still running: stop it first"
+            return
+        self.state.project_error = None
+        self.state.new_folder = request.root
+        self.send(RunPipeline(request))
+
+    def _open_view(self, path: str) -> bool:
+        """The UI's side of opening a project (the worker is told by the caller, or opened it itself)."""
         self._close_project()
         self.state.open_path = path
         try:
             view = ProjectView.open(path)
         except MorfError as e:
             self.state.project_root, self.state.project_error = None, str(e)
-            self.send(OpenProject(None))
+            if not self.state.new_folder and not Path(path).exists():
+                self.state.new_folder = path  # a new folder: the start screen offers to make it from a video
             return False
         self.view = view
         self.state.project_root, self.state.project_error = str(view.root), None
@@ -238,7 +289,6 @@ class StudioApp:
         self.textures = TextureCache(self.ctx, self.loader)
         if view.avatar_ready():
             self._open_live(view.project.avatar_dir)
-        self.send(OpenProject(str(view.root)))
         return True
 
     def _close_project(self) -> None:
@@ -279,6 +329,7 @@ class StudioApp:
         t0 = time.perf_counter()
         glfw.poll_events()
         self._inputs_at_full = self._inputs
+        self.keys.feed(imgui.get_io())  # a chord's modifier release may wait a frame (studio.input_events)
         imgui.backends.opengl3_new_frame()
         imgui.backends.glfw_new_frame()
         io = imgui.get_io()
@@ -334,19 +385,44 @@ class StudioApp:
         self.pacer.input()
 
     def _handle_drops(self, ui: UiContext) -> None:
-        """A dropped .bvh / .npz plays in the live render; a dropped folder is listed as the motion
-        folder when a project is open, else it goes in the start screen's path field. Nothing here
-        touches the disk: the browser's thread finds out what a path is."""
+        """Dropped paths do the obvious thing (:mod:`studio.drops`): a video or a folder of frames
+        fills the start screen's new project, a project opens, a .bvh / .npz plays in the live
+        render, another folder becomes the motion folder. Videos and motions are told by name at
+        once; folders are looked into on the drop thread and acted on when it answers."""
         paths, self._dropped = self._dropped, []
         for path in paths:
-            if Path(path).suffix.lower() in (".bvh", ".npz"):
-                self.state.motion_file = path
-                self.state.select_panel(LIVE_PANEL)
-            elif self.view is not None:
-                commit_motion_dir(self.state, ui, path)
-                self.state.select_panel(LIVE_PANEL)
+            kind = kind_by_name(path)
+            if kind is not None and not self.drops.busy:
+                self._apply_drop(path, kind, ui)
             else:
-                self.state.open_path = path
+                self.drops.add(path)
+        for path, kind in self.drops.take():
+            self._apply_drop(path, kind, ui)
+
+    def _apply_drop(self, path: str, kind: str, ui: UiContext) -> None:
+        name = Path(path).name or path
+        if kind == "motion":
+            self.state.motion_file = path
+            self.state.select_panel(LIVE_PANEL)
+        elif kind in ("video", "frames"):
+            if self.view is not None:
+                if self.worker.latest().busy:
+                    self.state.note = f"'{self.worker.latest().stage}' is running: stop it before starting a project from {name}"
+                    return
+                self._close_project()
+                self.state.project_root = None
+                self.send(OpenProject(None))
+            self.state.new_source, self.state.new_folder = path, suggested_folder(path)
+            self.state.note = f"new project from {name}: check its folder, then Make avatar"
+        elif kind == "project":
+            self.open_project(path)
+        elif kind == "folder" and self.view is not None:
+            commit_motion_dir(self.state, ui, path)
+            self.state.select_panel(LIVE_PANEL)
+        else:
+            self.state.open_path = path if kind == "folder" else self.state.open_path
+            self.state.note = (f"{name}: drop a video, a folder of frames, a capture project, or a motion file "
+                               "(.bvh, .npz) once an avatar is exported")
 
     def _light_frame_ok(self) -> bool:
         """Only the live image would change: the live panel plays, whole on screen, no input since
@@ -357,7 +433,7 @@ class StudioApp:
         lp = self.live_panel
         if self.state.panel != LIVE_PANEL or not self.state.playing or lp.clip is None or lp.clip_loading is not None:
             return False
-        if self._inputs != self._inputs_at_full or self.textures.backlog():
+        if self._inputs != self._inputs_at_full or self.keys.pending or self.textures.backlog():
             return False
         if time.perf_counter() - self._last_full_t >= FULL_FRAME_INTERVAL_S:
             return False
@@ -414,9 +490,35 @@ class StudioApp:
         self.light_frame_count += 1
         self.frame_times.append(time.perf_counter() - t0)
 
+    def _follow_worker(self, snap) -> bool:
+        """Open the project a pipeline run made (the Frames panel: review starts while the body is
+        fitted); True when a pipeline stage ended since the last frame (its files are new)."""
+        if snap.project_rev != self._project_rev:
+            self._project_rev = snap.project_rev
+            if snap.project and (self.view is None or Path(snap.project).resolve() != self.view.root.resolve()):
+                if self._open_view(snap.project):
+                    self.state.select_panel(0)
+        ended = snap.stage_rev != self._stage_rev
+        self._stage_rev = snap.stage_rev
+        return ended
+
+    def _play_made_avatar(self, snap) -> None:
+        """A pipeline run finished its export: play the avatar in the live render panel."""
+        if snap.chain_step is None or snap.state != "finished" or snap.stage != PIPELINE_STAGES[-1]:
+            return
+        if self.view is None or not self.view.avatar_ready():
+            return
+        from morf.motion.library import BUILTIN_MOTIONS
+
+        self.state.motion_file = self.state.motion_file or str(BUILTIN_MOTIONS / DEFAULT_MOTION)
+        self.state.select_panel(LIVE_PANEL)
+        self.state.playing = True
+
     def _ui_context(self) -> UiContext:
         snap = self.worker.latest()
-        stage_ended = self._was_busy and not snap.busy
+        busy_ended = self._was_busy and not snap.busy
+        rev_ended = self._follow_worker(snap)
+        stage_ended = busy_ended or rev_ended
         self._was_busy = snap.busy
         if snap.review_rev != self._review_rev or stage_ended:
             self._review_rev = snap.review_rev
@@ -425,9 +527,13 @@ class StudioApp:
                     self.view.refresh() if stage_ended else self.view.reload_decisions()
                 except MorfError as e:
                     self.state.note = str(e)
-                # a finished export may have replaced the avatar: play the new one
-                if stage_ended and self.view.avatar_ready() and (self.live is None or snap.stage == "export"):
+                # a finished export may have replaced the avatar: play the new one (a pipeline run's
+                # export ends twice: its step, then the run)
+                new_export = snap.stage == "export" and (rev_ended or snap.chain_step is None)
+                if stage_ended and self.view.avatar_ready() and (self.live is None or new_export):
                     self._open_live(self.view.project.avatar_dir)
+                if busy_ended:
+                    self._play_made_avatar(snap)
         self.textures.pump()
         frame = self.live.latest() if self.live is not None else None
         if frame is not None and frame.seq != self._live_seq:
@@ -435,7 +541,8 @@ class StudioApp:
             self.live_stats.append((frame.fps, frame.render_ms))
         return UiContext(view=self.view, textures=self.textures, snapshot=snap, send=self.send,
                          stages=self._stage_status, stage_labels=self._stage_labels, actions=self._actions,
-                         open_project=self.open_project, live_render=self.live, stage_presets=self._stages.presets,
+                         open_project=self.open_project, start_pipeline=self.start_pipeline, live_render=self.live,
+                         stage_presets=self._stages.presets,
                          default_presets=self._stages.default_presets, stage_errors=self._stages.errors,
                          frame_ms=1000 * self.frame_times[-1] if self.frame_times else 0.0, live=self.live_panel,
                          redraw_within=self._wakeup.notify, motions=self.motions)
@@ -483,7 +590,7 @@ class StudioApp:
 
     def _schedule_animation(self) -> None:
         """Ask for the frames that time itself brings: frame playback, uploads left for later."""
-        if self.textures.backlog():
+        if self.textures.backlog() or self.keys.pending:
             self.pacer.want_within(0.0)
         v = self.view
         if self.state.playing and v is not None and v.num_frames and self.state.panel != LIVE_PANEL:
@@ -561,6 +668,7 @@ class StudioApp:
             print("morf-studio: the running stage did not stop within 15 s; leaving it behind", file=sys.stderr)
         self._close_project()
         self.motions.close()
+        self.drops.close()
         shutdown_motion_loader()
         self._ui_cache.release()
         if self._x_image is not None:
@@ -583,7 +691,11 @@ class StudioApp:
 # ---- command line ---------------------------------------------------------------------------
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="morf-studio", description="MoRF Studio: review captures, train and play avatars.")
-    p.add_argument("project", nargs="?", help="capture project folder to open")
+    p.add_argument("project", nargs="?", help="capture project folder to open (with --video: the new project's folder)")
+    p.add_argument("--video", metavar="FILE", help="make the project from this video (or folder of frames) in the studio: "
+                                                   "ingest, fit, train and export, as 'morf run PROJECT --video FILE' does")
+    p.add_argument("--until", choices=PIPELINE_STAGES, default="export",
+                   help="with --video: stop after this stage (default export)")
     p.add_argument("--size", default="1280x800", help="window size WxH (default 1280x800)")
     p.add_argument("--headless-frames", type=int, metavar="N",
                    help="render N frames off-screen (no display needed) and exit")
@@ -591,7 +703,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frame-times", action="store_true", help="print p50 / p95 UI frame times at exit")
     p.add_argument("--stage", metavar="NAME", help="start a stage at launch (fit, train, export; cpu-load for a UI load test)")
     p.add_argument("--preset", metavar="NAME", help="with --stage: the stage's config preset (e.g. train: tiny, cpu, "
-                                                    "gpu; default: the one 'morf fit PROJECT' / 'morf train PROJECT' picks)")
+                                                    "gpu; default: the one 'morf fit PROJECT' / 'morf train PROJECT' picks); "
+                                                    "with --video: the training size, as for 'morf run PROJECT --video FILE'")
     p.add_argument("--motion", metavar="FILE", help="a .bvh / .npz motion for the live render (5) to play")
     p.add_argument("--panel", type=int, choices=range(1, 6), metavar="1-5", help="panel to show first")
     p.add_argument("--frame", type=int, default=0, metavar="I", help="frame to show first")
@@ -631,7 +744,14 @@ def run_cli(args: argparse.Namespace) -> int:
     if headless and not args.headless_frames:
         raise MorfError("no display found (DISPLAY / WAYLAND_DISPLAY unset); use "
                         "'morf-studio PROJECT --headless-frames N --screenshot PNG'")
-    with StudioApp(args.project, size=size, headless=headless, max_fps=args.max_fps, idle_fps=args.idle_fps) as app:
+    if args.video and not args.project:
+        raise InputError("--video makes a new project: give its folder first, 'morf-studio NEWFOLDER --video FILE'")
+    if args.video and args.stage:
+        raise InputError("--video runs every stage from ingest on; --stage runs one on an existing project: give one")
+    opened = None if args.video else args.project
+    with StudioApp(opened, size=size, headless=headless, max_fps=args.max_fps, idle_fps=args.idle_fps) as app:
+        if args.video:
+            app.start_pipeline(PipelineRequest(args.project, args.video, args.until, args.preset))
         if args.panel:
             app.state.select_panel(args.panel - 1)
         if app.view is not None:
@@ -643,7 +763,7 @@ def run_cli(args: argparse.Namespace) -> int:
         if args.stage:
             app.send(StartStage(args.stage, {"preset": args.preset} if args.preset else {}))
         if args.headless_frames:
-            if args.screenshot and not args.stage:
+            if args.screenshot and not (args.stage or args.video):
                 app.settle()  # every image decoded and uploaded: a complete picture
             shot = app.run(args.headless_frames, pace_hz=60.0, capture_last=bool(args.screenshot))
             if args.screenshot and shot is not None:

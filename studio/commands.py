@@ -6,6 +6,10 @@ They are plain frozen values: the UI never hands the worker a model, an array or
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from studio.pipeline_run import PipelineRequest
 
 
 @dataclass(frozen=True)
@@ -14,6 +18,14 @@ class StartStage:
 
     stage: str
     options: dict = field(default_factory=dict)  # stage-specific overrides of the default config
+
+
+@dataclass(frozen=True)
+class RunPipeline:
+    """Make (or continue) a project as ``morf run`` does: ingest, fit, train, export; a
+    :class:`studio.pipeline_run.PipelineRequest` says which folder, from what, and how far."""
+
+    request: "PipelineRequest"
 
 
 @dataclass(frozen=True)
@@ -57,4 +69,4 @@ class Shutdown:
     """Stop any stage and end the worker thread."""
 
 
-Command = StartStage | Pause | Resume | Stop | DropFrame | RestoreFrame | OpenProject | Shutdown
+Command = StartStage | RunPipeline | Pause | Resume | Stop | DropFrame | RestoreFrame | OpenProject | Shutdown

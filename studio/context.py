@@ -24,6 +24,7 @@ class UiContext:
     stage_labels: dict[str, str]  # stage name -> button text
     actions: dict[str, Callable[[], None]]  # keyboard actions (buttons reuse them)
     open_project: Callable[[str], bool]  # the start screen's "Open"
+    start_pipeline: Callable[[Any], None] = lambda request: None  # "Make avatar": a studio.pipeline_run.PipelineRequest
     live_render: Any = None  # studio.live_render.LiveRenderer, when an avatar was exported
     player_note: str | None = None  # why there is no player
     stage_presets: dict[str, tuple[str, ...]] = field(default_factory=dict)  # stage -> its config presets

@@ -55,6 +55,10 @@ class Snapshot:
         message: the worker's last event in words ("frame 12 dropped").
         review_rev: increases whenever the worker changed review.json.
         project: the project folder the worker has open, or None.
+        project_rev: increases when the worker opened a project on its own (the project a
+            pipeline run just ingested): the UI opens it too.
+        chain_step: (i, n) while step i of a pipeline run's n steps runs, else None.
+        stage_rev: increases whenever a stage of a pipeline run ended (the UI re-reads what it wrote).
     """
 
     seq: int = 0
@@ -69,6 +73,9 @@ class Snapshot:
     message: str = ""
     review_rev: int = 0
     project: str | None = None
+    project_rev: int = 0
+    chain_step: tuple[int, int] | None = None
+    stage_rev: int = 0
 
     @property
     def busy(self) -> bool:

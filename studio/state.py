@@ -24,6 +24,9 @@ class AppState:
     project_root: str | None = None  # the open project's folder, None on the start screen
     project_error: str | None = None  # why the last open failed (shown on the start screen)
     open_path: str = ""  # the start screen's path field
+    new_source: str = ""  # the start screen's new project: a video file or a folder of frames ...
+    new_folder: str = ""  # ... the project folder it makes ...
+    new_preset: str | None = None  # ... and the training size (None: the one 'morf run' picks)
     panel: int = 0  # index into PANELS
     panel_request: int | None = None  # a panel chosen by key; the tab bar selects it next frame
     frame: int = 0  # the current frame index

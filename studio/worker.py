@@ -10,6 +10,7 @@ and review.json is only ever written by this thread.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import queue
 import sys
 import threading
@@ -23,7 +24,7 @@ import numpy as np
 from morf.capture.project import CaptureProject
 from morf.errors import MorfError
 from morf.pipeline.control import Progress, StageControl, StopRequested
-from studio.commands import (Command, DropFrame, OpenProject, Pause, RestoreFrame, Resume,
+from studio.commands import (Command, DropFrame, OpenProject, Pause, RestoreFrame, Resume, RunPipeline,
                              Shutdown, StartStage, Stop)
 from studio.snapshot import LossCurve, Mailbox, Snapshot
 
@@ -153,6 +154,8 @@ class Worker:
             command = self._commands.get()
             if isinstance(command, StartStage):
                 self._run_stage(command)
+            elif isinstance(command, RunPipeline):
+                self._run_pipeline(command)
             else:
                 self._apply(command, None)
             self._done += 1
@@ -189,8 +192,9 @@ class Worker:
                     self._done -= 1  # applied later, counted then
                     return
                 self._open(command.root)
-            elif isinstance(command, StartStage):
-                self._publish(message=f"'{self._snap.stage}' is still running; stop it before starting '{command.stage}'")
+            elif isinstance(command, (StartStage, RunPipeline)):
+                what = command.stage if isinstance(command, StartStage) else "a pipeline run"
+                self._publish(message=f"'{self._snap.stage}' is still running; stop it before starting {what}")
         except MorfError as e:
             self._publish(error=str(e), message="")
         except Exception as e:  # a broken command must not end the worker
@@ -234,7 +238,7 @@ class Worker:
 
     def _open(self, root: str | None) -> None:
         self._project = None if root is None else CaptureProject.open(root)
-        self._publish(project=root, state="idle", stage=None, progress=None, curves={}, error=None,
+        self._publish(project=root, state="idle", stage=None, chain_step=None, progress=None, curves={}, error=None,
                       message="" if root is None else f"opened {Path(root).name}")
 
     def _run_stage(self, command: StartStage) -> None:
@@ -247,6 +251,58 @@ class Worker:
         if self._project is None:
             self._publish(error=f"open a project before running '{name}'")
             return
+        control = self._begin(name)
+        project = self._project
+        self._finish(name, control, lambda: fn(project, control, dict(command.options)))
+
+    def _run_pipeline(self, command: RunPipeline) -> None:
+        """ingest -> fit -> train -> export as ``morf run`` chains them (studio.pipeline_run); each
+        stage publishes as its own (name, progress, curves, clock), and the project is opened as
+        soon as ingest made it, so the UI shows the frames while the body is fitted."""
+        from morf.pipeline.chain import Step, run_steps
+        from studio.pipeline_run import plan_steps, stage_runner
+
+        request = command.request
+        control = self._begin("ingest", chain_step=None)
+
+        def run() -> None:
+            steps = plan_steps(request)  # checks the folder and the video first: a bad start fails at once
+            n = len(steps)
+            planned = [Step(s.name, functools.partial(self._next_step, request.root, s, i, n))
+                       for i, s in enumerate(steps, 1)]
+            rc = run_steps(planned, stage_runner(control), "studio", request.again_command(), log=self._log)
+            self._open_made(request.root)
+            self._publish(stage_rev=self._snap.stage_rev + 1)
+            if rc not in (0, 130):
+                raise MorfError(f"stopped with exit status {rc}")
+
+        self._finish(self._snap.stage or "ingest", control, run, again=request.again_command())
+
+    def _next_step(self, root: str, step, index: int, total: int):
+        """Plan step ``index`` of ``total`` of a pipeline run, and publish it as the running stage."""
+        if index > 1:  # the step before ended: its files are on disk, and the project exists
+            self._open_made(root)
+            self._publish(stage_rev=self._snap.stage_rev + 1)
+        self._curves, self._run_start, self._paused_total, self._last_report = {}, time.monotonic(), 0.0, None
+        self._publish(stage=step.name, chain_step=(index, total), progress=None, curves={}, elapsed_s=0.0,
+                      seconds_per_step=None, eta_s=None, message=f"{step.name} ({index} of {total})")
+        return step.plan()
+
+    def _open_made(self, root: str) -> None:
+        """Open the project a pipeline run made, unless it is open already."""
+        if not CaptureProject.is_project(Path(root)):
+            return
+        if self._project is not None and self._project.root.resolve() == Path(root).resolve():
+            return
+        self._project = CaptureProject.open(root)
+        self._publish(project=str(root), project_rev=self._snap.project_rev + 1)
+
+    def _log(self, line: str) -> None:
+        """A pipeline run's status line ('[2/4] fit: skipped ...'): printed as ``morf run`` prints it."""
+        print(line, flush=True)
+        self._publish(message=line)
+
+    def _begin(self, name: str, **changes) -> _WorkerControl:
         if self._stage_threads:
             import torch  # the stages use it anyway; imported here, not at app start
 
@@ -255,10 +311,14 @@ class Worker:
         self._control, self._curves = control, {}
         self._run_start, self._paused_total, self._paused_since, self._last_report = time.monotonic(), 0.0, None, None
         self._publish(state="running", stage=name, progress=None, curves={}, error=None, elapsed_s=0.0,
-                      seconds_per_step=None, eta_s=None, message=f"{name} started")
+                      seconds_per_step=None, eta_s=None, message=f"{name} started", **{"chain_step": None, **changes})
+        return control
+
+    def _finish(self, name: str, control: _WorkerControl, body: Callable[[], Any], again: str | None = None) -> None:
+        """Run ``body`` (a stage) and publish how it ended; errors are shown, never raised."""
         state, error = "finished", None
         try:
-            fn(self._project, control, dict(command.options))
+            body()
             if control.stop_requested:
                 state = "stopped"
         except StopRequested:
@@ -270,8 +330,11 @@ class Worker:
             state, error = "failed", f"{type(e).__name__}: {e}"
         finally:
             self._control = None
-        self._publish(state=state, error=error, elapsed_s=self._elapsed(), eta_s=None,
-                      message=f"{name} {state}")
+        name = self._snap.stage or name
+        message = f"{name} {state}"
+        if again and state in ("stopped", "failed"):
+            message += f"; Make avatar (Training panel) continues from here, as does: {again}"
+        self._publish(state=state, error=error, elapsed_s=self._elapsed(), eta_s=None, message=message)
 
     def _elapsed(self) -> float:
         paused = self._paused_total + (time.monotonic() - self._paused_since if self._paused_since else 0.0)

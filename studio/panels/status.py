@@ -15,7 +15,8 @@ def describe(ui: UiContext) -> str:
     s = ui.snapshot
     if s.stage is None:
         return "Ready." if ui.view is not None else "No project open."
-    text = f"{s.stage.capitalize()}: {STATE_WORDS.get(s.state, s.state)}"
+    step = f" ({s.chain_step[0]} of {s.chain_step[1]})" if s.chain_step else ""
+    text = f"{s.stage.capitalize()}{step}: {STATE_WORDS.get(s.state, s.state)}"
     p = s.progress
     if p is not None:
         text += f", step {p.step}" + (f" of {p.total}" if p.total else "")

@@ -6,6 +6,7 @@ from imgui_bundle import ImVec2, imgui, implot
 
 from studio.commands import Pause, Resume, StartStage, Stop
 from studio.context import UiContext
+from studio.pipeline_run import PipelineRequest
 from studio.snapshot import STATE_WORDS
 from studio.state import AppState
 from studio.widgets import GREY, RED, fit_size, hms, remember_item, tex_ref
@@ -21,7 +22,8 @@ def draw(state: AppState, ui: UiContext) -> None:
     if snap.stage is None:
         _on_disk(state, ui)
         return
-    imgui.text(f"{snap.stage}: {STATE_WORDS.get(snap.state, snap.state)}")
+    step = f" ({snap.chain_step[0]} of {snap.chain_step[1]})" if snap.chain_step else ""
+    imgui.text(f"{snap.stage}{step}: {STATE_WORDS.get(snap.state, snap.state)}")
     p = snap.progress
     if p is not None and p.message:
         imgui.same_line()
@@ -124,6 +126,8 @@ def _stage_buttons(state: AppState, ui: UiContext) -> None:
         imgui.end_disabled()
         if why is not None and hovered:
             imgui.set_tooltip(why)
+    imgui.same_line(spacing=16)
+    _make_avatar_button(state, ui)
     imgui.same_line(spacing=30)
     imgui.begin_disabled(not snap.busy)
     if snap.state == "paused":
@@ -143,6 +147,20 @@ def _stage_buttons(state: AppState, ui: UiContext) -> None:
             remember_item(state.item_rects, f"stage-error:{name}")
         elif why:
             imgui.text_colored(GREY, f"{label}: not available ({why})")
+
+
+def _make_avatar_button(state: AppState, ui: UiContext) -> None:
+    """Every stage still to do, as 'morf run PROJECT' does it: done ones skipped, a stopped one resumed."""
+    imgui.begin_disabled(ui.snapshot.busy or ui.view is None or bool(ui.stage_errors))
+    if imgui.button("Make avatar") and ui.view is not None:
+        preset = state.stage_presets.get("train")
+        ui.start_pipeline(PipelineRequest(str(ui.view.root), preset=preset))
+    remember_item(state.item_rects, "make_avatar")
+    hovered = imgui.is_item_hovered(imgui.HoveredFlags_.allow_when_disabled)
+    imgui.end_disabled()
+    if hovered:
+        imgui.set_tooltip("fit, train and export what is not done yet (finished stages are skipped, a stopped one "
+                          "resumes), as 'morf run PROJECT' does")
 
 
 def _loss_plot(snap, height: float) -> None:

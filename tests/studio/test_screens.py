@@ -128,7 +128,7 @@ def test_start_screen_opens_a_typed_path(make_app, tiny_project):
     app = make_app(None)
     app.settle()
     assert app.view is None
-    app.click(560, 260)  # the path field
+    app.click_item("open_path")
     assert imgui.get_io().want_text_input
     app.press(K.d)  # typing, not a review key: nothing is dropped
     app.type_text("capture")

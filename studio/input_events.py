@@ -1,0 +1,125 @@
+"""Keys and characters from GLFW to imgui, a frame's worth at a time, in order, none dropped.
+
+imgui's GLFW backend hands each event to imgui the moment GLFW reports it, and reads the modifier
+keys' state from GLFW at that moment. When a frame takes long (software GL on a busy machine:
+70-130 ms was measured), one poll of the window brings a whole chord at once: Ctrl down, A down,
+Ctrl up. imgui then sees A pressed in the frame Ctrl was released in, and Ctrl+A types nothing
+and selects nothing (in a real X window driven by xdotool it failed in 3 of 4 tries).
+
+So the app installs the key and character callbacks itself (:class:`KeyQueue`): events wait in a
+queue and :meth:`KeyQueue.feed` hands them to imgui at the start of a frame. It stops before a
+modifier is released once a key it modified was pressed in the same frame: the release (and what
+follows) waits for the next frame. The modifier state imgui gets is the events' own, in order.
+Mouse and window events still go straight to imgui's backend.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import glfw
+from imgui_bundle import imgui
+
+K = imgui.Key
+# modifier keys -> the imgui modifier they hold down
+MODIFIERS = {glfw.KEY_LEFT_CONTROL: K.mod_ctrl, glfw.KEY_RIGHT_CONTROL: K.mod_ctrl,
+             glfw.KEY_LEFT_SHIFT: K.mod_shift, glfw.KEY_RIGHT_SHIFT: K.mod_shift,
+             glfw.KEY_LEFT_ALT: K.mod_alt, glfw.KEY_RIGHT_ALT: K.mod_alt,
+             glfw.KEY_LEFT_SUPER: K.mod_super, glfw.KEY_RIGHT_SUPER: K.mod_super}
+CHORD_MODIFIERS = (K.mod_ctrl, K.mod_alt, K.mod_super)  # a key pressed with one of these is a shortcut
+
+_NAMED = {
+    "TAB": "tab", "LEFT": "left_arrow", "RIGHT": "right_arrow", "UP": "up_arrow", "DOWN": "down_arrow",
+    "PAGE_UP": "page_up", "PAGE_DOWN": "page_down", "HOME": "home", "END": "end", "INSERT": "insert",
+    "DELETE": "delete", "BACKSPACE": "backspace", "SPACE": "space", "ENTER": "enter", "ESCAPE": "escape",
+    "APOSTROPHE": "apostrophe", "COMMA": "comma", "MINUS": "minus", "PERIOD": "period", "SLASH": "slash",
+    "SEMICOLON": "semicolon", "EQUAL": "equal", "LEFT_BRACKET": "left_bracket", "BACKSLASH": "backslash",
+    "RIGHT_BRACKET": "right_bracket", "GRAVE_ACCENT": "grave_accent", "CAPS_LOCK": "caps_lock",
+    "SCROLL_LOCK": "scroll_lock", "NUM_LOCK": "num_lock", "PRINT_SCREEN": "print_screen", "PAUSE": "pause",
+    "KP_DECIMAL": "keypad_decimal", "KP_DIVIDE": "keypad_divide", "KP_MULTIPLY": "keypad_multiply",
+    "KP_SUBTRACT": "keypad_subtract", "KP_ADD": "keypad_add", "KP_ENTER": "keypad_enter", "KP_EQUAL": "keypad_equal",
+    "LEFT_SHIFT": "left_shift", "LEFT_CONTROL": "left_ctrl", "LEFT_ALT": "left_alt", "LEFT_SUPER": "left_super",
+    "RIGHT_SHIFT": "right_shift", "RIGHT_CONTROL": "right_ctrl", "RIGHT_ALT": "right_alt",
+    "RIGHT_SUPER": "right_super", "MENU": "menu",
+}
+# characters a layout may put on a key -> the GLFW key imgui names after them (as imgui's backend
+# translates them: Ctrl+A is the key that types 'a' on the user's layout)
+_CHAR_KEYS = {"`": glfw.KEY_GRAVE_ACCENT, "-": glfw.KEY_MINUS, "=": glfw.KEY_EQUAL, "[": glfw.KEY_LEFT_BRACKET,
+              "]": glfw.KEY_RIGHT_BRACKET, "\\": glfw.KEY_BACKSLASH, ",": glfw.KEY_COMMA, ";": glfw.KEY_SEMICOLON,
+              "'": glfw.KEY_APOSTROPHE, ".": glfw.KEY_PERIOD, "/": glfw.KEY_SLASH}
+
+
+def _key_table() -> dict[int, imgui.Key]:
+    table = {getattr(glfw, f"KEY_{name}"): getattr(K, key) for name, key in _NAMED.items()}
+    table.update({glfw.KEY_A + i: getattr(K, chr(ord("a") + i)) for i in range(26)})
+    table.update({glfw.KEY_0 + i: getattr(K, f"_{i}") for i in range(10)})
+    table.update({glfw.KEY_KP_0 + i: getattr(K, f"keypad{i}") for i in range(10)})
+    table.update({getattr(glfw, f"KEY_F{i}"): getattr(K, f"f{i}") for i in range(1, 25)})
+    return table
+
+
+KEYS = _key_table()
+
+
+def translated(key: int, name: str | None) -> int:
+    """The key as the user's layout labels it: ``name`` is GLFW's name for the key (one character
+    for printable keys); keypad keys stay as they are."""
+    if glfw.KEY_KP_0 <= key <= glfw.KEY_KP_EQUAL or not name or len(name) != 1:
+        return key
+    c = name.lower()
+    if "0" <= c <= "9":
+        return glfw.KEY_0 + ord(c) - ord("0")
+    if "a" <= c <= "z":
+        return glfw.KEY_A + ord(c) - ord("a")
+    return _CHAR_KEYS.get(c, key)
+
+
+class KeyQueue:
+    """GLFW key and character events, held until :meth:`feed` hands them to imgui."""
+
+    def __init__(self):
+        self._events: deque = deque()
+        self._held: set[int] = set()  # modifier keys down, as far as the events fed so far say
+
+    # ---- GLFW callbacks (the UI thread, while it polls the window) -----------------------
+    def key(self, key: int, scancode: int, action: int, name: str | None = None) -> None:
+        """A key event; ``name``: GLFW's name for it (:func:`glfw.get_key_name`). Repeats are
+        left to imgui, which makes its own."""
+        if action in (glfw.PRESS, glfw.RELEASE):
+            self._events.append((translated(key, name) if key not in MODIFIERS else key, action == glfw.PRESS))
+
+    def char(self, codepoint: int) -> None:
+        self._events.append((None, codepoint))
+
+    def focus_lost(self) -> None:
+        """imgui forgets the keys held when the window loses focus; so does the queue."""
+        self._held.clear()
+
+    @property
+    def pending(self) -> int:
+        return len(self._events)
+
+    # ---- the frame --------------------------------------------------------------------------
+    def feed(self, io: imgui.IO) -> int:
+        """Hand queued events to imgui, up to the release of a modifier that a key pressed in
+        this batch went with; returns how many were handed over."""
+        chord, n = False, 0
+        while self._events:
+            key, value = self._events[0]
+            if key is None:
+                io.add_input_character(value)
+            elif key in MODIFIERS:
+                if not value and chord:
+                    break  # Ctrl up after Ctrl+A down: next frame, so imgui sees the chord
+                self._held.add(key) if value else self._held.discard(key)
+                mod = MODIFIERS[key]
+                io.add_key_event(mod, any(MODIFIERS[k] == mod for k in self._held))
+                io.add_key_event(KEYS[key], value)
+            else:
+                if value and any(MODIFIERS[k] in CHORD_MODIFIERS for k in self._held):
+                    chord = True
+                if key in KEYS:
+                    io.add_key_event(KEYS[key], value)
+            self._events.popleft()
+            n += 1
+        return n
