@@ -146,14 +146,3 @@ CMU_OLD_MAP = _cmu_old()
 # Most joints first: a skeleton with SMPL-X hands takes the map that drives them.
 KNOWN_MAPS = (SMPL_DETAIL_MAP, SMPL_MAP, CMU_MAP, CMU_OLD_MAP)
 
-
-def map_for(skeleton) -> JointMap:
-    """The documented map whose joints a :class:`~morf.motion.skeleton.SourceSkeleton` has; otherwise
-    the fuzzy name matcher's (:func:`morf.motion.name_matching.match_joint_map`)."""
-    have = set(skeleton.names)
-    for jm in KNOWN_MAPS:
-        if jm.source_joints() <= have:
-            return jm
-    from morf.motion.name_matching import match_joint_map
-
-    return match_joint_map(skeleton)

@@ -14,7 +14,7 @@ import re
 import numpy as np
 
 from morf.errors import InputError
-from morf.motion.joint_maps import Anchor, JointMap, limb_anchors
+from morf.motion.joint_maps import KNOWN_MAPS, Anchor, JointMap, limb_anchors
 from morf.motion.skeleton import SourceSkeleton
 
 _TOKENS = re.compile(r"[A-Z]+(?=[A-Z][a-z])|[A-Z]?[a-z]+|[A-Z]+|\d+")
@@ -176,3 +176,13 @@ def _spine_anchors(sk: SourceSkeleton, rest: np.ndarray, root: int, head: int) -
     # Each anchor's Anny direction runs to the next anchored bone: the span its source segment covers.
     nxt = [b for b, _, _ in out[1:]] + ["head"]
     return [Anchor(b, j, t, e) for (b, j, e), t in zip(out, nxt)] + [Anchor("head", sk.names[head])]
+
+
+def map_for(skeleton) -> JointMap:
+    """The documented map whose joints a :class:`~morf.motion.skeleton.SourceSkeleton` has; otherwise
+    the fuzzy name matcher's (:func:`match_joint_map`)."""
+    have = set(skeleton.names)
+    for jm in KNOWN_MAPS:
+        if jm.source_joints() <= have:
+            return jm
+    return match_joint_map(skeleton)

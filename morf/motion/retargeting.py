@@ -29,7 +29,8 @@ import numpy as np
 from scipy.ndimage import minimum_filter1d
 
 from morf.errors import InputError
-from morf.motion.joint_maps import SPREAD_BONES, JointMap, map_for
+from morf.motion.joint_maps import SPREAD_BONES, JointMap
+from morf.motion.name_matching import map_for
 from morf.motion.skeleton import SourceMotion, forward_kinematics, to_z_up
 from morf.motion.so3 import axis_rotation, fraction, frame_from, matrix_to_rotvec, rotvec_to_matrix, swing
 

@@ -1,6 +1,7 @@
 import pytest
 
-from morf.motion.joint_maps import CMU_MAP, CMU_OLD_MAP, SMPL_MAP, map_for
+from morf.motion.joint_maps import CMU_MAP, CMU_OLD_MAP, SMPL_MAP
+from morf.motion.name_matching import map_for
 from morf.motion.name_matching import match_joint_map, name_tokens
 from motion_helpers import tpose_skeleton
 
