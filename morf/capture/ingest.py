@@ -1,5 +1,9 @@
 """``ingest``: a video or images -> a capture project (frames, 2D keypoints, person masks).
 
+Images given without a frame rate (``--frames DIR`` without ``--fps``) are recorded as unordered
+views (a photo set: the manifest's ``unordered_views``), which fitting treats as views from
+several sides with no neighbours in time; with ``--fps`` they are a clip.
+
 Keypoints come from MediaPipe, or from OpenPose JSON files (``keypoints``); masks from
 MediaPipe's segmentation, or from mask images (``masks``). When a frame shows several people
 the largest is followed (:mod:`morf.capture.people`); the choice is printed and recorded in
@@ -85,6 +89,7 @@ class IngestResult:
     rechosen: tuple[int, ...]  # frames where the followed person was chosen afresh
     replaced: bool  # an existing project was replaced
     warnings: tuple[str, ...]
+    unordered_views: bool = False  # images without a frame rate: recorded as a photo set
 
 
 def output_size(width: int, height: int, resize: int | None) -> tuple[float, int, int]:
@@ -191,7 +196,8 @@ def ingest(project: str | Path, config: IngestConfig, control: StageControl | No
         raise ProjectError(f"writing the project {root} failed: {e}") from None
     detected = sum(1 for _, lab in rows if lab.found)
     return IngestResult(root, len(rows), out_w, out_h, detected, labeller.people_seen,
-                        tuple(labeller.rechosen_frames), replaced, tuple(source.warnings + labeller.warnings))
+                        tuple(labeller.rechosen_frames), replaced, tuple(source.warnings + labeller.warnings),
+                        unordered_views=source.kind != "video" and (config.fps or source.fps) is None)
 
 
 def _nobody_found(frames: int, source: FrameSource, config: IngestConfig) -> str:
@@ -249,6 +255,8 @@ def _write_outputs(staging: Path, rows, labeller: FrameLabeller, scale: float, s
     if source.kind == "video":
         record.update(decoder=source.decoder, rotation=source.rotation)
     top = {"frame_ext": ext, "ingest": record}
+    if fps is None and source.kind != "video":
+        top["unordered_views"] = True  # photos of a person, not a clip: no frame is another's neighbour
     if timing.times is not None:
         top["frame_times"] = [round(float(t), 6) for t in timing.times]  # microseconds are plenty
     project = CaptureProject.create(

@@ -6,7 +6,10 @@ Layout (format "morf-capture", version 1)::
       morf_project.json   manifest: version, source, frame count, image size, fps, camera,
                           frame_ext (".png" or ".jpg"), frame_times (optional: seconds of each
                           frame since the video's first, its presentation times; absent in
-                          projects made from images, before PyAV decoding, or with --fps), and an
+                          projects made from images, before PyAV decoding, or with --fps),
+                          unordered_views (optional, true: the frames are photos of the person from
+                          several sides in no particular order, e.g. images ingested without
+                          --fps; no frame rate, no times, no neighbours), and an
                           "ingest" section (source frames, scale, people seen, where the focal
                           length came from, timing, rotation, warnings)
       frames/000000.png   RGB frames (PNG; JPEG for long videos)
@@ -97,6 +100,13 @@ def check_manifest(manifest: dict, path: Path) -> None:
             raise bad(key, f"a whole number from 0 to {high}")
     if manifest.get("fps") is not None and not _number(manifest["fps"], 1e-3, 1e4):
         raise bad("fps", "a frame rate between 0.001 and 10000, or absent")
+    unordered = manifest.get("unordered_views", False)
+    if not isinstance(unordered, bool):
+        raise bad("unordered_views", "true or false")
+    if unordered and (manifest.get("fps") is not None or manifest.get("frame_times") is not None):
+        raise ProjectError(f"damaged project manifest {path}: 'unordered_views' is true but the manifest also gives "
+                           "a frame rate or frame times; remove one, or make the project again with 'morf ingest' "
+                           "(with --fps for a clip, without it for a photo set)")
     if manifest.get("frame_ext", ".png") not in (".png", ".jpg"):
         raise bad("frame_ext", "'.png' or '.jpg'")
     cam = manifest.get("camera")
@@ -192,6 +202,12 @@ class CaptureProject:
     @property
     def fps(self) -> float | None:
         return self.manifest.get("fps")
+
+    @property
+    def unordered_views(self) -> bool:
+        """The frames are views of the person in no particular order (a photo set): nothing may
+        treat neighbouring frames as close in time."""
+        return bool(self.manifest.get("unordered_views", False))
 
     def frame_times(self) -> np.ndarray | None:
         """(N,) float64 seconds of each frame since the source's first: the video's presentation

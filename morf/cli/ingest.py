@@ -22,7 +22,9 @@ def add_parser(sub):
     p.add_argument("--max-frames", type=int, metavar="N", help="keep at most N frames (after --every)")
     p.add_argument("--every", type=int, default=1, metavar="K", help="keep every K-th frame (default 1)")
     p.add_argument("--resize", type=int, metavar="PX", help="scale frames so the longest side is PX pixels")
-    p.add_argument("--fps", type=float, help="source frame rate (overrides the video's; the project gets fps/K)")
+    p.add_argument("--fps", type=float, help="source frame rate (overrides the video's; the project gets fps/K). Images given without it are "
+                        "recorded as unordered views (a photo set: each fitted on its own, no smoothing between "
+                        "neighbours); give it for images that are the frames of a clip")
     p.add_argument("--focal", type=float, metavar="PX",
                    help="focal length in source pixels (default: EXIF when present, else 1.2 x the longest side)")
     p.add_argument("--frame-format", choices=("auto", "png", "jpg"), default="auto",
@@ -48,4 +50,6 @@ def run(args) -> int:
     what = "replaced" if result.replaced else "created"
     print(f"{what} {result.root}: {result.num_frames} frames, {result.width}x{result.height}")
     print(f"person found in {result.detected} of {result.num_frames} frames")  # never 0: ingest refuses that
+    if result.unordered_views:
+        print("frames recorded as unordered views (a photo set); give --fps if they are the frames of a clip")
     return 0

@@ -52,6 +52,8 @@ class FilterConfig:
     iou_drop: float = 0.12  # silhouette IoU this far below the sequence median (when masks exist)
     jump_factor: float = 4.0  # pose change to BOTH neighbours above this many times the median change ...
     jump_min_deg: float = 12.0  # ... and above this many degrees (mean of the 3 bones that moved most)
+    max_twist_deg: float = 30.0  # pelvis-shoulder twist above this many degrees (twist.py)
+    limit_excess_deg: float = 25.0  # a fitted bone further than this outside its joint limits (pose_prior.py)
     min_keypoints: int = 6  # fewer confident keypoints than this counts as a detection failure
     min_confidence: float = 0.3  # a keypoint counts as confident above this
 
@@ -63,6 +65,8 @@ class FilterConfig:
             (self.iou_drop >= 0, f"filter.iou_drop must be >= 0, got {self.iou_drop}"),
             (self.jump_factor > 0, f"filter.jump_factor must be positive, got {self.jump_factor}"),
             (self.jump_min_deg >= 0, f"filter.jump_min_deg must be >= 0 degrees, got {self.jump_min_deg}"),
+            (0 < self.max_twist_deg <= 180, f"filter.max_twist_deg must lie in (0, 180] degrees, got {self.max_twist_deg}"),
+            (self.limit_excess_deg > 0, f"filter.limit_excess_deg must be positive degrees, got {self.limit_excess_deg}"),
             (self.min_keypoints >= 0, f"filter.min_keypoints must be >= 0, got {self.min_keypoints}"),
             (0 <= self.min_confidence <= 1, f"filter.min_confidence must lie in [0, 1], got {self.min_confidence}"),
         ]
@@ -77,6 +81,9 @@ class FitConfig:
     shared_shape: bool = True  # one shape for all frames (else one per frame)
     silhouette: bool = True  # Dice loss between the rendered body silhouette and the person mask
     temporal: bool = True  # L2 between adjacent frames' pose vectors and translations
+    # scale the temporal terms and the heading choice by how far apart frames are (frame times, else
+    # the heading change; none between unordered views: frame_spacing.py); off: every pair 33 ms apart
+    frame_spacing: bool = True
     frame_filter: bool = True  # flag unreliable frames in fits/filter.json
 
     stages: tuple[StageConfig, ...] = field(default_factory=default_stages)
@@ -86,6 +93,8 @@ class FitConfig:
     keypoint_robust_sigma: float = 5.0  # Geman-McClure scale, percent of the image height
     pose_prior_weight: float = 0.02  # joint-limit prior
     pose_l2_weight: float = 0.002  # weak pull towards the rest A-pose
+    twist_weight: float = 100.0  # pelvis-shoulder twist beyond twist_limit_deg (twist.py)
+    twist_limit_deg: float = 25.0  # twist the penalty allows for free
     shape_weight: float = 0.5  # shape regularisation towards the default phenotype
     temporal_weight: float = 300.0  # adjacent-frame pose differences (radians^2); tuned on the default capture
     temporal_transl_weight: float = 3e4  # adjacent-frame translation differences (metres^2)
@@ -154,7 +163,7 @@ class FitConfig:
             raise InputError("a fit needs at least one stage")
         for stage in self.stages:
             stage.validate()
-        weights = ("keypoint_weight", "pose_prior_weight", "pose_l2_weight", "shape_weight", "temporal_weight",
+        weights = ("keypoint_weight", "pose_prior_weight", "pose_l2_weight", "twist_weight", "shape_weight", "temporal_weight",
                    "temporal_transl_weight", "silhouette_weight", "offset_smooth_weight", "offset_l2_weight",
                    "yaw_switch_weight")
         checks = [(getattr(self, w) >= 0, f"{w} must be >= 0, got {getattr(self, w)}") for w in weights]
@@ -169,6 +178,7 @@ class FitConfig:
              f"offsets start at 0: need offset_min <= 0 <= offset_max, got [{self.offset_min}, {self.offset_max}]"),
             (self.offset_lr > 0, f"offset_lr must be positive, got {self.offset_lr}"),
             (self.proxy_cell > 0, f"proxy_cell must be positive metres, got {self.proxy_cell}"),
+            (0 <= self.twist_limit_deg < 180, f"twist_limit_deg must lie in [0, 180) degrees, got {self.twist_limit_deg}"),
             (self.yaw_hypotheses >= 1, f"yaw_hypotheses must be >= 1, got {self.yaw_hypotheses}"),
             (self.chunk_frames >= 1, f"chunk_frames must be >= 1, got {self.chunk_frames}"),
             (self.cpu_threads >= 0, f"cpu_threads must be >= 0 (0: keep torch's setting), got {self.cpu_threads}"),

@@ -12,6 +12,7 @@ from morf.body.model import BodyPose
 from morf.camera import PinholeCamera
 from morf.fitting.losses import keypoint_residual_px, worst_keypoint_residual_px
 from morf.fitting.offsets import dressed_vertices
+from morf.fitting.twist import twist_deg
 from morf.raster.soft_silhouette import front_facing, hard_coverage
 
 
@@ -24,6 +25,7 @@ class FitEvaluation:
         silhouette_iou_body: (N,) the same for the body alone (equal to silhouette_iou without offsets).
         keypoint_worst_px: (N,) mean of the 3 largest keypoint distances (what the filter judges).
         projected_keypoints: (N, 23, 2) fitted keypoints in pixels.
+        twist_deg: (N,) pelvis-shoulder twist of the fitted body, degrees (twist.py).
     """
 
     keypoint_residual_px: np.ndarray
@@ -31,6 +33,7 @@ class FitEvaluation:
     silhouette_iou: np.ndarray
     projected_keypoints: np.ndarray
     silhouette_iou_body: np.ndarray
+    twist_deg: np.ndarray
 
 
 def posed_chunks(model, rotvecs: torch.Tensor, transl: torch.Tensor, shape: torch.Tensor,
@@ -84,9 +87,11 @@ def evaluate_fit(model, rotvecs: torch.Tensor, transl: torch.Tensor, shape: torc
     proj = np.zeros((N, keypoints.shape[1], 2), np.float32)
     ious = np.full(N, np.nan, np.float32)
     ious_body = ious.copy()
+    twist = np.zeros(N, np.float32)
     faces = model.faces
     for sl, out in posed_chunks(model, rotvecs, transl, shape):
         proj[sl] = camera.project(out.keypoints3d).cpu().numpy()
+        twist[sl] = twist_deg(out.keypoints3d.cpu().numpy())
         if masks_eval is not None:
             h, w = masks_eval.shape[1:]
             sil = silhouettes(out.vertices, faces, camera, eval_scale, w, h)
@@ -100,4 +105,4 @@ def evaluate_fit(model, rotvecs: torch.Tensor, transl: torch.Tensor, shape: torc
     p, k = torch.as_tensor(proj), torch.as_tensor(keypoints)
     res = keypoint_residual_px(p, k, min_confidence).numpy().astype(np.float32)
     worst = worst_keypoint_residual_px(p, k, 3, min_confidence).numpy().astype(np.float32)
-    return FitEvaluation(res, worst, ious, proj, ious_body)
+    return FitEvaluation(res, worst, ious, proj, ious_body, twist)

@@ -13,11 +13,13 @@ from typing import Callable
 import torch
 
 from morf.body.rotations import axis_angle_to_matrix
+from morf.fitting import frame_spacing
 from morf.fitting.config import FitConfig
 from morf.fitting.evaluate import evaluate_fit
 from morf.fitting.fit_body import FitBody
 from morf.fitting.fits_io import BodyFits
-from morf.fitting.frame_filter import filter_frames, pose_change_deg
+from morf.fitting.frame_filter import filter_frames, limit_excess, pose_change_deg
+from morf.fitting.frame_spacing import FrameSpacing
 from morf.fitting.global_init import fit_global
 from morf.fitting.inputs import FitInputs
 from morf.fitting.offsets import proxy_edges, spread_to_mesh
@@ -36,6 +38,7 @@ class FitState:
         rotvecs: (N, J, 3) full model axis-angles; transl: (N, 3); shape: (1 or N, S).
         stage: number of completed stages.
         offsets: (Vp,) clothing offsets of the silhouette proxy's vertices (empty when none).
+        spacing: how far apart the fit took the frames to be (None before the first stage).
     """
 
     rotvecs: torch.Tensor
@@ -43,6 +46,7 @@ class FitState:
     shape: torch.Tensor
     stage: int
     offsets: torch.Tensor = field(default_factory=lambda: torch.zeros(0))
+    spacing: FrameSpacing | None = None
 
 
 def default_device() -> torch.device:
@@ -59,6 +63,19 @@ def cpu_threads(n: int):
         yield
     finally:
         torch.set_num_threads(previous)
+
+
+def known_spacing(inputs: FitInputs, cfg: FitConfig) -> FrameSpacing | None:
+    """How far apart the frames are, where the capture says: unordered views, or frame times;
+    None when only the fit's first stage can tell (from the heading change between frames)."""
+    N = inputs.num_frames
+    if not cfg.frame_spacing:
+        return frame_spacing.dense(N)
+    if inputs.unordered:
+        return frame_spacing.unordered(N)
+    if inputs.frame_times is not None and len(inputs.frame_times) == N:
+        return frame_spacing.from_times(inputs.frame_times)
+    return None
 
 
 def _problem(model, inputs: FitInputs, cfg: FitConfig, device: torch.device) -> FitProblem:
@@ -102,6 +119,8 @@ def _fit_sequence(model, inputs, cfg, control, start, device, on_stage) -> FitSt
         params.load_state(start.rotvecs.to(device), start.transl.to(device), start.shape.to(device),
                           start.offsets.to(device))
         done = start.stage
+        spacing = start.spacing or known_spacing(inputs, cfg) or frame_spacing.from_heading(
+            axis_angle_to_matrix(start.rotvecs[:, 0]).numpy())
     else:
         first = cfg.stages[0]
         control.report(Progress(stage="fit", message=f"fitting {first.name}, stage 1/{len(cfg.stages)}"))
@@ -109,24 +128,27 @@ def _fit_sequence(model, inputs, cfg, control, start, device, on_stage) -> FitSt
             rest_kp = model(model.zero_pose(1), shape0).keypoints3d[0]
         g = fit_global(inputs.keypoints, inputs.camera, rest_kp.cpu(), hypotheses=cfg.yaw_hypotheses,
                        iterations=first.iterations, lr=first.lr, scale=0.01 * inputs.camera.height,
-                       sigma=cfg.keypoint_robust_sigma, switch_weight=cfg.yaw_switch_weight, control=control)
+                       sigma=cfg.keypoint_robust_sigma, switch_weight=cfg.yaw_switch_weight,
+                       spacing=known_spacing(inputs, cfg), control=control)
         params = FitParameters(N, len(model.bone_names), bone_ids, g.root.to(device), g.transl.to(device),
                                shape0, cfg.shared_shape, n_off).to(device)
-        done = 1
-        state = _stage_done(params, done, on_stage)
+        done, spacing = 1, g.spacing
+        state = _stage_done(params, done, on_stage, spacing)
+    problem.pair_weights = torch.as_tensor(spacing.temporal_weights(), dtype=problem.keypoints.dtype, device=device)
     for k in range(done, len(cfg.stages)):
         stage = cfg.stages[k]
         run_stage(problem, params, cfg, stage, stage_number=k + 1, control=control)
-        state = _stage_done(params, k + 1, on_stage)
+        state = _stage_done(params, k + 1, on_stage, spacing)
     return state  # what the last checkpoint holds (a resumed fit with nothing left returns ``start``)
 
 
-def _stage_done(params: FitParameters, stage: int, on_stage: Callable[[FitState], None] | None) -> FitState:
+def _stage_done(params: FitParameters, stage: int, on_stage: Callable[[FitState], None] | None,
+                spacing: FrameSpacing) -> FitState:
     """Hand the state after ``stage`` to ``on_stage`` (the checkpoint) and go on from that very
     state, as a fit resumed from the checkpoint does: the parameters are rebuilt from the saved
     rotvecs and shape (the root's delta folded into its rotation, the shape through its logit),
     so a fit killed after any stage and resumed ends with the same numbers as one that ran through."""
-    state = _state(params, stage)
+    state = _state(params, stage, spacing)
     if on_stage is not None:
         on_stage(state)
     device = params.transl.device
@@ -135,13 +157,13 @@ def _stage_done(params: FitParameters, stage: int, on_stage: Callable[[FitState]
     return state
 
 
-def _state(params: FitParameters, stage: int) -> FitState:
+def _state(params: FitParameters, stage: int, spacing: FrameSpacing) -> FitState:
     """The parameters after ``stage`` as tensors of their own (a copy: never views of the
     parameters, which later stages go on changing)."""
     with torch.no_grad():
         pose = params.pose()
         return FitState(*(t.detach().float().cpu().clone() for t in (pose.rotvecs, pose.transl, params.shape())),
-                        stage, params.offsets.detach().float().cpu().clone())
+                        stage, params.offsets.detach().float().cpu().clone(), spacing)
 
 
 def finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple[BodyFits, dict[int, str]]:
@@ -162,15 +184,20 @@ def _finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tupl
                     keypoint_residual_px=ev.keypoint_residual_px, keypoint_worst_px=ev.keypoint_worst_px,
                     silhouette_iou=ev.silhouette_iou, silhouette_iou_body=ev.silhouette_iou_body,
                     offsets=None if offsets is None else offsets.cpu().numpy(),
-                    projected_keypoints=ev.projected_keypoints, config=cfg.to_dict())
+                    projected_keypoints=ev.projected_keypoints, config=cfg.to_dict(), twist_deg=ev.twist_deg)
     rejected: dict[int, str] = {}
     if cfg.frame_filter:
         bone_ids = [model.bone_index(b) for b in FIT_BONES]
         root = axis_angle_to_matrix(state.rotvecs[:, 0]).numpy()
         change = pose_change_deg(root, state.rotvecs[:, bone_ids].numpy())
         confident = (inputs.keypoints[..., 2] > cfg.filter.min_confidence).sum(1)
+        with torch.no_grad():
+            excess = JointLimitPrior(model).to(device).excess_deg(rv[:, bone_ids]).cpu().numpy()
+        spacing = state.spacing or known_spacing(inputs, cfg) or frame_spacing.from_heading(root)
         rejected = filter_frames(residual_px=ev.keypoint_worst_px, confident=confident, detected=inputs.detected,
                                  iou=ev.silhouette_iou if inputs.masks_eval is not None else None,
-                                 change_deg=change, image_height=inputs.camera.height, cfg=cfg.filter)
+                                 change_deg=change, image_height=inputs.camera.height, cfg=cfg.filter,
+                                 twist_deg=ev.twist_deg, limits=limit_excess(excess, FIT_BONES),
+                                 neighbours=spacing.neighbours())
     return fits, dict(sorted(rejected.items()))
 

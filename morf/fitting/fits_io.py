@@ -34,6 +34,8 @@ class BodyFits:
             of the shaped rest mesh, or None. The fitted surface of frame i is the body skinned
             from ``rest_vertices + offsets[:, None] * rest_normals``:
             ``morf.fitting.offsets.dressed_vertices(model, model(pose, shape), shape, offsets)``.
+        twist_deg: (N,) float32 pelvis-shoulder twist of the fitted body, degrees
+            (``morf.fitting.twist``), or None in fits written before it was measured.
     """
 
     rotvecs: np.ndarray
@@ -46,6 +48,7 @@ class BodyFits:
     config: dict
     silhouette_iou_body: np.ndarray | None = None
     offsets: np.ndarray | None = None
+    twist_deg: np.ndarray | None = None
 
     @property
     def num_frames(self) -> int:
@@ -63,7 +66,7 @@ FITS_ONLY_KEYS = ("keypoint_residual_px", "projected_keypoints")
 
 def save_fits(path: str | Path, fits: BodyFits) -> None:
     """Atomically write ``fits`` (a project's is ``project.fits_path``)."""
-    extra = {k: getattr(fits, k).astype(np.float32) for k in ("silhouette_iou_body", "offsets")
+    extra = {k: getattr(fits, k).astype(np.float32) for k in ("silhouette_iou_body", "offsets", "twist_deg")
              if getattr(fits, k) is not None}
     save_npz(path, rotvecs=fits.rotvecs.astype(np.float32), transl=fits.transl.astype(np.float32),
              shape=fits.shape.astype(np.float32), keypoint_residual_px=fits.keypoint_residual_px.astype(np.float32),
@@ -81,7 +84,8 @@ def read_fits(path: str | Path) -> BodyFits:
                         keypoint_residual_px=d["keypoint_residual_px"], keypoint_worst_px=d["keypoint_worst_px"],
                         silhouette_iou=d["silhouette_iou"],
                         projected_keypoints=d["projected_keypoints"], config=json.loads(str(d["config"])),
-                        silhouette_iou_body=d.get("silhouette_iou_body"), offsets=d.get("offsets"))
+                        silhouette_iou_body=d.get("silhouette_iou_body"), offsets=d.get("offsets"),
+                        twist_deg=d.get("twist_deg"))
     except (KeyError, ValueError) as e:
         raise ProjectError(f"damaged fits file {path}: {e}") from None
     N = fits.rotvecs.shape[0]
@@ -104,20 +108,26 @@ def load_fits(project) -> BodyFits:
 
 
 def save_checkpoint(path: Path, *, stage: int, rotvecs: np.ndarray, transl: np.ndarray, shape: np.ndarray,
-                    config: dict, offsets: np.ndarray | None = None) -> None:
-    """Parameters after ``stage`` completed stages (resume point); ``offsets``: (Vp,) proxy offsets."""
+                    config: dict, offsets: np.ndarray | None = None, gaps: np.ndarray | None = None,
+                    spacing: str = "") -> None:
+    """Parameters after ``stage`` completed stages (resume point); ``offsets``: (Vp,) proxy offsets;
+    ``gaps`` (N-1,) and ``spacing``: the frame spacing the fit found (``morf.fitting.frame_spacing``),
+    kept so that a resumed fit smooths exactly as the one it continues."""
     off = np.zeros(0, np.float32) if offsets is None else offsets.astype(np.float32)
+    extra = {} if gaps is None else {"gaps": np.asarray(gaps, np.float64), "spacing": np.array(spacing)}
     save_npz(path, stage=np.array(stage), rotvecs=rotvecs.astype(np.float32), transl=transl.astype(np.float32),
-             shape=shape.astype(np.float32), offsets=off, config=np.array(json.dumps(config, sort_keys=True)))
+             shape=shape.astype(np.float32), offsets=off, config=np.array(json.dumps(config, sort_keys=True)), **extra)
 
 
 def read_checkpoint(path: Path) -> dict | None:
-    """The checkpoint as a dict (stage, rotvecs, transl, shape, offsets, config) or None if unreadable."""
+    """The checkpoint as a dict (stage, rotvecs, transl, shape, offsets, config, gaps, spacing; gaps
+    None in checkpoints without them) or None if unreadable."""
     if not path.is_file():
         return None
     try:
         d = load_npz(path)
         return {"stage": int(d["stage"]), "rotvecs": d["rotvecs"], "transl": d["transl"], "shape": d["shape"],
-                "offsets": d.get("offsets", np.zeros(0, np.float32)), "config": json.loads(str(d["config"]))}
+                "offsets": d.get("offsets", np.zeros(0, np.float32)), "config": json.loads(str(d["config"])),
+                "gaps": d.get("gaps"), "spacing": str(d["spacing"]) if "spacing" in d else ""}
     except (ProjectError, KeyError, ValueError):
         return None

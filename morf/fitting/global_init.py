@@ -5,7 +5,9 @@ The body is held rigid in its rest pose. Depth starts from the torso length in p
 several orientations about the body's up axis are fitted to the torso and head keypoints in
 parallel, and a dynamic programme over the sequence picks one per frame that fits well and
 turns little between frames (a person turning in place shows front, side and back views, and a
-single start would fall into the mirror-image solution on some of them).
+single start would fall into the mirror-image solution on some of them). What a turn between two
+frames costs depends on how far apart they are (:mod:`morf.fitting.frame_spacing`): photos 45
+degrees apart may turn 45 degrees, and unordered views pick their headings each on its own.
 """
 
 from __future__ import annotations
@@ -18,7 +20,9 @@ import torch
 from morf.body.rotations import axis_angle_to_matrix
 from morf.camera import PinholeCamera
 from morf.errors import InputError
+from morf.fitting import frame_spacing
 from morf.fitting.adam import Adam
+from morf.fitting.frame_spacing import FrameSpacing
 from morf.fitting.losses import keypoint_loss
 from morf.fitting.params import yaw_candidates, yaw_matrix
 
@@ -32,11 +36,13 @@ class GlobalInit:
     """Fields:
         root: (N, 3, 3) root rotations; transl: (N, 3) translations (metres).
         loss: (N,) keypoint loss of the chosen hypothesis.
+        spacing: how far apart the frames are, as given or (without frame times) as found here.
     """
 
     root: torch.Tensor
     transl: torch.Tensor
     loss: torch.Tensor
+    spacing: FrameSpacing
 
 
 def canonical_rotation(camera: PinholeCamera, dtype=torch.float32) -> torch.Tensor:
@@ -77,8 +83,9 @@ def torso_depth_and_centre(points: np.ndarray, rest_kp: np.ndarray, fy: float, m
     return depth[nearest], centre[nearest], ok
 
 
-def _choose_sequence(loss: torch.Tensor, R: torch.Tensor, switch_weight: float) -> torch.Tensor:
-    """Viterbi over frames: (N, K) losses, (N, K, 3, 3) rotations -> (N,) chosen hypotheses."""
+def _choose_sequence(loss: torch.Tensor, R: torch.Tensor, switch_weight: torch.Tensor) -> torch.Tensor:
+    """Viterbi over frames: (N, K) losses, (N, K, 3, 3) rotations, (N-1,) cost of a squared turn
+    between each pair of neighbours -> (N,) chosen hypotheses."""
     N, K = loss.shape
     cost = loss[0].clone()
     back = torch.zeros(N, K, dtype=torch.long)
@@ -86,7 +93,7 @@ def _choose_sequence(loss: torch.Tensor, R: torch.Tensor, switch_weight: float) 
         rel = torch.einsum("jab,kac->jkbc", R[t - 1], R[t])  # R_prev^T R_cur
         cos = ((rel.diagonal(dim1=-2, dim2=-1).sum(-1) - 1) / 2).clamp(-1, 1)
         turn = torch.acos(cos) ** 2
-        total = cost[:, None] + switch_weight * turn  # (j, k)
+        total = cost[:, None] + switch_weight[t - 1] * turn  # (j, k)
         cost, back[t] = total.min(0)
         cost = cost + loss[t]
     path = torch.zeros(N, dtype=torch.long)
@@ -98,12 +105,15 @@ def _choose_sequence(loss: torch.Tensor, R: torch.Tensor, switch_weight: float) 
 
 def fit_global(points: np.ndarray, camera: PinholeCamera, rest_kp: torch.Tensor, *, hypotheses: int,
                iterations: int, lr: float, scale: float, sigma: float, switch_weight: float,
-               control=None) -> GlobalInit:
+               spacing: FrameSpacing | None = None, control=None) -> GlobalInit:
     """Rigid fit of the rest-pose body to each frame's torso and head keypoints.
 
     Args:
         points: (N, 23, 3) detections; rest_kp: (23, 3) rest keypoints (root at the origin).
         scale, sigma: keypoint loss units (see :func:`keypoint_loss`).
+        spacing: how far apart the frames are; None when the capture does not say (no frame times,
+            not unordered): then the headings are chosen as for a video, the heading changes
+            between them give the gaps, and the headings are chosen again with those gaps.
     """
     dtype = rest_kp.dtype
     N, K = points.shape[0], max(1, hypotheses)
@@ -141,6 +151,13 @@ def fit_global(points: np.ndarray, camera: PinholeCamera, rest_kp: torch.Tensor,
     with torch.no_grad():
         loss, R = losses()
         norm = loss / w.sum()
-        path = _choose_sequence(norm, R, switch_weight)
         ar = torch.arange(N)
-        return GlobalInit(root=R[ar, path], transl=transl[ar, path].detach(), loss=loss[ar, path])
+
+        def choose(s: FrameSpacing) -> torch.Tensor:
+            return _choose_sequence(norm, R, switch_weight * torch.as_tensor(s.switch_weights(), dtype=dtype))
+
+        path = choose(spacing or frame_spacing.dense(N))
+        if spacing is None:
+            spacing = frame_spacing.from_heading(R[ar, path].numpy())
+            path = choose(spacing)
+        return GlobalInit(root=R[ar, path], transl=transl[ar, path].detach(), loss=loss[ar, path], spacing=spacing)

@@ -21,6 +21,8 @@ class FitInputs:
         mask_scale: h / image height (the silhouette raster's scale).
         masks_eval: (N, he, we) bool person masks at the evaluation resolution, or None.
         eval_scale: he / image height.
+        frame_times: (N,) seconds of each frame (the capture's times, or index / fps), or None.
+        unordered: the frames are views in no particular order (a photo set), not a clip.
     """
 
     keypoints: np.ndarray
@@ -30,6 +32,8 @@ class FitInputs:
     mask_scale: float = 1.0
     masks_eval: np.ndarray | None = None
     eval_scale: float = 1.0
+    frame_times: np.ndarray | None = None
+    unordered: bool = False
 
     @property
     def num_frames(self) -> int:
@@ -77,4 +81,6 @@ def load_fit_inputs(project, camera: PinholeCamera, silhouette_resolution: int, 
                 raise InputError(f"mask {i} is {m.shape[1]}x{m.shape[0]}, frames are {W}x{H}")
             masks[i] = downsample_mask(m, sw, sh)
             masks_eval[i] = downsample_mask(m, ew, eh) >= 0.5
-    return FitInputs(points, kp.detected.astype(bool), camera, masks, sh / H, masks_eval, eh / H)
+    unordered = project.unordered_views
+    return FitInputs(points, kp.detected.astype(bool), camera, masks, sh / H, masks_eval, eh / H,
+                     None if unordered else project.frame_times(), unordered)

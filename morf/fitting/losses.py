@@ -1,4 +1,11 @@
-"""Loss terms of the body fit (pure functions, batched over frames)."""
+"""Loss terms of the body fit (pure functions, batched over frames).
+
+Per-frame terms take the frames' tensors and return (N,) losses; sequence terms return one loss
+per neighbour pair (N-1,) or per shape. :mod:`morf.fitting.optimize` weights and sums them (its
+``_data_terms`` for per-frame terms of the posed body, ``_sequence_terms`` for the rest): a new
+term is a function here, a weight in ``FitConfig`` and one line there. The pelvis-shoulder twist
+penalty lives with its measure in :mod:`morf.fitting.twist`.
+"""
 
 from __future__ import annotations
 
@@ -65,19 +72,23 @@ def dice_loss_per_frame(pred: torch.Tensor, target: torch.Tensor, eps: float = 1
     return 1.0 - (2.0 * inter + eps) / (total + eps)
 
 
-def temporal_loss(x: torch.Tensor) -> torch.Tensor:
-    """(N-1,) squared L2 between adjacent frames of (N, ...) parameters."""
+def temporal_loss(x: torch.Tensor, pair_weights: torch.Tensor | None = None) -> torch.Tensor:
+    """(N-1,) squared L2 between adjacent frames of (N, ...) parameters, times ``pair_weights``
+    (N-1,) when given (how close each pair of neighbours is: ``FrameSpacing.temporal_weights``)."""
     if x.shape[0] < 2:
         return x.new_zeros(0)
-    return (x[1:] - x[:-1]).pow(2).reshape(x.shape[0] - 1, -1).sum(-1)
+    d = (x[1:] - x[:-1]).pow(2).reshape(x.shape[0] - 1, -1).sum(-1)
+    return d if pair_weights is None else d * pair_weights
 
 
-def rotation_temporal_loss(R: torch.Tensor) -> torch.Tensor:
-    """(N-1,) squared Frobenius distance between adjacent rotations (N, 3, 3); about angle^2
-    for small turns, and free of the axis-angle wrap at pi."""
+def rotation_temporal_loss(R: torch.Tensor, pair_weights: torch.Tensor | None = None) -> torch.Tensor:
+    """(N-1,) squared Frobenius distance between adjacent rotations (N, 3, 3), times
+    ``pair_weights`` (N-1,) when given; about angle^2 for small turns, and free of the axis-angle
+    wrap at pi."""
     if R.shape[0] < 2:
         return R.new_zeros(0)
-    return 0.5 * (R[1:] - R[:-1]).pow(2).sum((-2, -1))
+    d = 0.5 * (R[1:] - R[:-1]).pow(2).sum((-2, -1))
+    return d if pair_weights is None else d * pair_weights
 
 
 def shape_loss(shape: torch.Tensor, mean: torch.Tensor) -> torch.Tensor:

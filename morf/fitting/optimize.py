@@ -22,6 +22,7 @@ from morf.fitting.losses import dice_loss_per_frame, keypoint_loss, rotation_tem
 from morf.fitting.offsets import smoothness_loss
 from morf.fitting.params import FitParameters
 from morf.fitting.pose_prior import JointLimitPrior
+from morf.fitting.twist import twist_penalty
 from morf.pipeline.control import Progress, StageControl
 from morf.progress import progress
 from morf.raster.soft_silhouette import front_facing, soft_silhouette
@@ -40,6 +41,7 @@ class FitProblem:
     shape_mean: torch.Tensor  # (1, S) prior mean of the shape
     offset_edges: torch.Tensor | None  # (E, 2) edges of the proxy mesh (offset smoothness), or None
     keypoint_scale: float  # pixels per keypoint residual unit (1% of the image height)
+    pair_weights: torch.Tensor | None = None  # (N-1,) temporal weight factor per neighbour pair (frame_spacing.py)
 
 
 def _data_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, idx: torch.Tensor,
@@ -55,6 +57,10 @@ def _data_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, idx:
     kp = keypoint_loss(proj, problem.keypoints[idx], problem.keypoint_scale, cfg.keypoint_robust_sigma).sum()
     total = cfg.keypoint_weight * kp
     logs = {"keypoints": float(kp.detach())}
+    if cfg.twist_weight > 0:  # an anatomically possible body: the pelvis turns with the shoulders
+        twist = twist_penalty(out.keypoints3d, cfg.twist_limit_deg).sum()
+        total = total + cfg.twist_weight * twist
+        logs["twist"] = float(twist.detach())
     if use_sil:
         cam_v = problem.sil_camera.world_to_camera(out.proxy_vertices)
         sc = problem.sil_camera
@@ -90,10 +96,11 @@ def _sequence_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, 
         total = total + cfg.shape_weight * sh
         logs["shape"] = float(sh.detach())
     if cfg.temporal and params.num_frames > 1:
-        tr = temporal_loss(params.transl).sum()
-        rot = rotation_temporal_loss(params.root_matrix()).sum()
+        w = problem.pair_weights
+        tr = temporal_loss(params.transl, w).sum()
+        rot = rotation_temporal_loss(params.root_matrix(), w).sum()
         if stage.body_pose:
-            rot = rot + temporal_loss(params.body).sum()
+            rot = rot + temporal_loss(params.body, w).sum()
         total = total + cfg.temporal_weight * rot + cfg.temporal_transl_weight * tr
         logs["temporal"] = float(rot.detach())
     return total, logs

@@ -81,6 +81,20 @@ class JointLimitPrior(torch.nn.Module):
         self.register_buffer("hinge_range", torch.deg2rad(torch.tensor(ranges, dtype=torch.float32)).reshape(-1, 2),
                              persistent=False)
 
+    def excess_deg(self, body: torch.Tensor) -> torch.Tensor:
+        """(N, B) how far each bone's rotation lies outside its limits, degrees (0 within them): the
+        largest excess over the box's axes and, for hinge joints, over the flexion range. What the
+        frame filter judges; the energy below is what the fit minimises."""
+        lo, hi = self.lo.to(body.dtype), self.hi.to(body.dtype)
+        out = torch.maximum(torch.relu(lo - body), torch.relu(body - hi)).amax(-1)
+        if self.hinge_rows.numel() > 0:
+            flex = (body[:, self.hinge_rows] * self.hinge_axes.to(body.dtype)).sum(-1)
+            rng = self.hinge_range.to(body.dtype)
+            hinge = torch.maximum(torch.relu(rng[:, 0] - flex), torch.relu(flex - rng[:, 1]))
+            out = out.clone()
+            out[:, self.hinge_rows] = torch.maximum(out[:, self.hinge_rows], hinge)
+        return torch.rad2deg(out)
+
     def forward(self, body: torch.Tensor) -> torch.Tensor:
         """(N, B, 3) body rotvecs -> (N,) energy (radians squared)."""
         lo, hi = self.lo.to(body.dtype), self.hi.to(body.dtype)

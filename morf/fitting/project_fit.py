@@ -30,6 +30,7 @@ from morf.errors import InputError, MorfError, ProjectError
 from morf.fitting.config import FitConfig
 from morf.fitting.evaluate import posed_chunks, silhouettes
 from morf.fitting.fit import FitState, cpu_threads, default_device, finalize, fit_sequence
+from morf.fitting.frame_spacing import FrameSpacing
 from morf.fitting.fits_io import CHECKPOINT_FILE, BodyFits, read_checkpoint, read_fits, save_checkpoint, save_fits
 from morf.fitting.inputs import load_fit_inputs
 from morf.fitting.offsets import dressed_vertices
@@ -166,8 +167,11 @@ def _fit_project(project, cfg: FitConfig, model, focal: float | None, restart: b
     ckpt = None if restart else read_checkpoint(out / CHECKPOINT_FILE)
     start = None
     if ckpt is not None and ckpt["config"] == key and ckpt["rotvecs"].shape[0] == inputs.num_frames:
+        spacing = None
+        if ckpt["gaps"] is not None and len(ckpt["gaps"]) == max(0, inputs.num_frames - 1):
+            spacing = FrameSpacing(np.asarray(ckpt["gaps"], np.float64), ckpt["spacing"])
         start = FitState(torch.as_tensor(ckpt["rotvecs"]), torch.as_tensor(ckpt["transl"]),
-                         torch.as_tensor(ckpt["shape"]), ckpt["stage"], torch.as_tensor(ckpt["offsets"]))
+                         torch.as_tensor(ckpt["shape"]), ckpt["stage"], torch.as_tensor(ckpt["offsets"]), spacing)
     resumed = start.stage if start is not None else 0
     record = None if restart else read_done(project)
     settings = json.loads(json.dumps(cfg.to_dict()))  # as done.json holds it (tuples become lists)
@@ -181,7 +185,9 @@ def _fit_project(project, cfg: FitConfig, model, focal: float | None, restart: b
     def save(state: FitState) -> None:
         save_checkpoint(out / CHECKPOINT_FILE, stage=state.stage, rotvecs=state.rotvecs.numpy(),
                         transl=state.transl.numpy(), shape=state.shape.numpy(), config=key,
-                        offsets=state.offsets.numpy())
+                        offsets=state.offsets.numpy(),
+                        gaps=None if state.spacing is None else state.spacing.gaps,
+                        spacing="" if state.spacing is None else state.spacing.source)
 
     complete = start is not None and start.stage >= len(cfg.stages)
     state = start if complete else fit_sequence(model, inputs, cfg, control=control, start=start, device=device,

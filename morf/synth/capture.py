@@ -39,7 +39,7 @@ from morf.raster import render_textured, rasterize_uv, upload_texture
 from morf.synth.config import SynthConfig
 from morf.synth.ground_truth import GroundTruth, HoldoutSequence, save_ground_truth, save_holdout, write_holdout_images
 from morf.synth.keypoints import close_detector, detect, make_detector, noisy, project_keypoints
-from morf.synth.motion import capture_motion, holdout_motion
+from morf.synth.motion import MotionSequence, capture_motion, holdout_motion, view_frames
 from morf.synth.nuisance import SlideField, corrupt_keypoints, make_slide_field
 from morf.synth.scene import SynthScene, build_scene, posed_frames, rng_streams
 
@@ -85,17 +85,20 @@ def make_synthetic_capture(root, config: SynthConfig, *, model=None, control: St
     root = Path(root)
     _prepare_folder(root, overwrite)
     streams = rng_streams(config.seed)
-    N, M = config.frames, config.holdout_frames
-    control.report(Progress("synth", 0, N + M, "dressing the body"))
+    M = config.holdout_frames
+    control.report(Progress("synth", 0, config.frames + M, "dressing the body"))
     scene = build_scene(config, streams, model)
     cam = scene.camera
     bones = scene.model.bone_names
-    motion = capture_motion(bones, N, streams["motion"], config.turn_fraction, config.sway, config.arms_out_deg,
-                            config.turn_degrees)
-    field = make_slide_field(N, config.slide, streams["slide"])
-    n_bad = int(round(config.corrupt * N))
-    corrupted = np.zeros(N, bool)
-    corrupted[streams["corrupt"].choice(N, size=n_bad, replace=False)] = True
+    full = capture_motion(bones, config.frames, streams["motion"], config.turn_fraction, config.sway,
+                          config.arms_out_deg, config.turn_degrees)
+    keep = kept_frames(full, config)
+    motion, N = full.take(keep), len(keep)
+    field = make_slide_field(config.frames, config.slide, streams["slide"])
+    n_bad = int(round(config.corrupt * config.frames))
+    corrupted = np.zeros(config.frames, bool)
+    corrupted[streams["corrupt"].choice(config.frames, size=n_bad, replace=False)] = True
+    corrupted = corrupted[keep]
     corruption = np.full(N, "", dtype="<U16")
 
     writer = CaptureProject(root, {"num_frames": N, "frame_ext": ".png", "width": config.size, "height": config.size})
@@ -111,7 +114,8 @@ def make_synthetic_capture(root, config: SynthConfig, *, model=None, control: St
         for i, posed in enumerate(posed_frames(scene, motion.rotvecs, motion.transl)):
             control.check()
             rgb, mask = render_textured(posed.dressed, scene.mesh, cam, texture, background=config.background,
-                                        msaa=config.msaa, shading=config.shading, uvs=_frame_uvs(scene, field, i))
+                                        msaa=config.msaa, shading=config.shading,
+                                        uvs=_frame_uvs(scene, field, int(keep[i])))
             body_mask = rasterize_uv(posed.body, scene.mesh, cam).mask
             kp3d[i] = posed.keypoints3d
             true_points[i] = project_keypoints(posed.keypoints3d[None], cam)[0]
@@ -131,7 +135,7 @@ def make_synthetic_capture(root, config: SynthConfig, *, model=None, control: St
             write_image(gt_dir / "body_masks" / f"{i:06d}.png", body_mask.astype(np.uint8) * 255)
             bar.update(1)
             control.report(Progress("synth", i + 1, N + M, f"capture frame {i + 1}/{N}", frame=i))
-        _render_holdout(scene, config, streams, texture, writer, control, bar)
+        _render_holdout(scene, config, streams, texture, writer, control, bar, N)
     finally:
         bar.close()
         texture.release()
@@ -144,22 +148,41 @@ def make_synthetic_capture(root, config: SynthConfig, *, model=None, control: St
         rotvecs=motion.rotvecs, transl=motion.transl, shape=scene.shape.numpy(), yaw=motion.yaw,
         phase=motion.phase.astype(str), keypoints3d=kp3d, keypoints_true=true_points, corrupted=corrupted,
         corruption=corruption, slide_freqs=field.freqs, slide_phases=field.phases,
-        slide_coeffs=field.coeffs.astype(np.float32), slide_weight=scene.slide_weight,
-        slide_grid=np.stack([field.grid(i) for i in range(N)]).astype(np.float32),
+        slide_coeffs=field.coeffs[keep].astype(np.float32), slide_weight=scene.slide_weight,
+        slide_grid=np.stack([field.grid(int(i)) for i in keep]).astype(np.float32),
         loose_offset=scene.loose_offset, vertex_regions=scene.vertex_regions))
     used = {"detector": "mediapipe" if detector is not None else "none",
             "frames_with_detector_keypoints": int((source == "mediapipe").sum())}
     atomic_write_json(gt_dir / "synth_config.json", {"config": config.to_dict(), "resolved": used})
     return CaptureProject.create(
-        root, num_frames=N, width=config.size, height=config.size, fps=config.fps, camera=cam,
-        source={"kind": "synthetic", "preset": config.preset, "seed": config.seed, "keypoints": used["detector"]},
-        extra={"frame_ext": ".png"})
+        root, num_frames=N, width=config.size, height=config.size, fps=None if config.photo_set else config.fps,
+        camera=cam, source={"kind": "synthetic", "preset": config.preset, "seed": config.seed,
+                            "keypoints": used["detector"]},
+        extra={"frame_ext": ".png", **_timing(keep, config)})
+
+
+def kept_frames(motion: MotionSequence, config: SynthConfig) -> np.ndarray:
+    """Indices of the frames of ``motion`` the capture keeps: all, or ``config.views`` of the turn."""
+    if config.views <= 0:
+        return np.arange(len(motion.yaw))
+    return view_frames(motion.yaw, motion.phase, config.views, config.turn_degrees)
+
+
+def _timing(keep: np.ndarray, config: SynthConfig) -> dict:
+    """The manifest's timing of the kept frames: none for every frame (index / fps), their times for
+    views of a clip, and unordered views for a photo set (no times at all)."""
+    if config.photo_set:
+        return {"unordered_views": True}
+    if config.views > 0:
+        return {"frame_times": [round(float(i) / config.fps, 6) for i in keep]}
+    return {}
 
 
 def _render_holdout(scene: SynthScene, config: SynthConfig, streams, texture, writer: CaptureProject,
-                    control: StageControl, bar) -> None:
-    """Novel poses with the same garments and no sliding, for judging generalisation."""
-    M, N = config.holdout_frames, config.frames
+                    control: StageControl, bar, N: int) -> None:
+    """Novel poses with the same garments and no sliding, for judging generalisation (``N``: the
+    capture frames rendered before them, for the progress count)."""
+    M = config.holdout_frames
     motion = holdout_motion(scene.model.bone_names, M, streams["holdout"])
     cam: PinholeCamera = scene.camera
     kp = np.zeros((M, 23, 3), np.float32)

@@ -39,6 +39,10 @@ class SynthConfig:
     shading: float = 0.7  # Lambert shading strength (0: flat albedo)
     msaa: int = 4  # samples per pixel for the colour frames
     background: tuple[int, int, int] = (118, 124, 130)  # RGB behind the person
+    # sparse captures: keep this many frames of the turn, evenly spread over its heading (8 of a
+    # 360-degree turn: 45 degrees apart), as a few photos of a turn would show it; 0 keeps every frame
+    views: int = 0
+    photo_set: bool = False  # with views: recorded as unordered photos (no frame rate, no times)
 
     def validate(self) -> None:
         """Raise :class:`InputError` naming the first bad setting."""
@@ -62,6 +66,8 @@ class SynthConfig:
             (self.sway >= 0, f"sway must be >= 0, got {self.sway}"),
             (0 <= self.shading <= 1, f"shading must be in [0, 1], got {self.shading}"),
             (self.msaa >= 0, f"msaa must be >= 0 samples, got {self.msaa}"),
+            (0 <= self.views <= self.frames, f"views must lie in 0..frames ({self.frames}), got {self.views}"),
+            (not self.photo_set or self.views > 0, "photo_set needs views > 0 (the photos kept of the turn)"),
             (len(self.background) == 3 and all(0 <= c <= 255 for c in self.background),
              f"background must be 3 values in 0..255, got {self.background}"),
         ]

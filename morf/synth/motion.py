@@ -36,6 +36,26 @@ class MotionSequence:
     yaw: np.ndarray
     phase: np.ndarray
 
+    def take(self, frames: np.ndarray) -> "MotionSequence":
+        """The frames ``frames`` (indices) of this sequence, in that order."""
+        return MotionSequence(self.rotvecs[frames], self.transl[frames], self.yaw[frames], self.phase[frames])
+
+
+def view_frames(yaw: np.ndarray, phase: np.ndarray, views: int, turn_degrees: float) -> np.ndarray:
+    """(views,) indices of the turn's frames nearest ``views`` headings evenly spread over the turn
+    (0, 45, ..., 315 degrees for 8 views of a full turn): what a few photos of the turn show.
+
+    A full turn ends where it began, so its headings are spread over 360 degrees without the end;
+    a partial turn's include both ends."""
+    turn = np.flatnonzero(phase == "turn")
+    if views < 1 or len(turn) == 0:
+        return np.zeros(0, np.int64)
+    full = turn_degrees >= 360.0
+    span = np.deg2rad(turn_degrees)
+    targets = np.arange(views) * span / (views if full or views == 1 else views - 1)
+    nearest = turn[np.abs(yaw[turn][None, :] - targets[:, None]).argmin(1)]
+    return np.unique(nearest)
+
 
 class _PoseBuilder:
     """Accumulates per-bone axis-angle for N frames by bone name."""

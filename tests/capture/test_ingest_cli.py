@@ -200,6 +200,18 @@ def test_truncated_video_keeps_decodable_frames(tmp_path, inputs, capsys):
     assert p.manifest["ingest"]["warnings"]
 
 
+def test_images_with_a_frame_rate_are_a_clip(tmp_path, capsys):
+    frames = write_frames(tmp_path / "frames", 4)
+    kp = write_openpose(tmp_path / "kp", 4, [(20, 5, 60, 45)], pattern="img_{i}_keypoints.json")
+    masks = write_masks(tmp_path / "masks", 4, pattern="img_{i}_mask.png")
+    rc, out, err = run_cli(capsys, tmp_path / "p", "--frames", frames, "--keypoints", kp, "--masks", masks,
+                           "--fps", "24")
+    assert rc == 0, err
+    p = CaptureProject.open(tmp_path / "p")
+    assert not p.unordered_views and p.frame_times() == pytest.approx(np.arange(4) / 24.0)
+    assert "unordered" not in out
+
+
 def test_openpose_hands_face_and_largest_person(tmp_path, capsys):
     frames = write_frames(tmp_path / "frames", 4)
     # two people in every file; the second is larger and must be the one followed
@@ -214,6 +226,9 @@ def test_openpose_hands_face_and_largest_person(tmp_path, capsys):
     seen = pts[..., 2] > 0
     assert (pts[..., 0][seen] >= 20).all(), "followed the smaller person"
     assert p.manifest["ingest"]["people"]["seen"] == 2
+    # images without --fps are a photo set: unordered views, no frame rate, no times
+    assert p.unordered_views and p.fps is None and p.frame_times() is None
+    assert "recorded as unordered views" in out
     from morf.io import load_npz
 
     hf = load_npz(root / p.manifest["ingest"]["hands_face"])

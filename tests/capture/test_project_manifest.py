@@ -44,3 +44,21 @@ def test_review_round_trip(project):
     project.set_user_decision(3, "drop")
     project.set_user_decision(1, "keep")
     assert project.load_review() == {"drop": [3], "keep": [1]}
+
+
+def test_unordered_views_flag_is_checked(project):
+    path = project.root / "morf_project.json"
+    d = json.loads(path.read_text())
+    assert not CaptureProject.open(project.root).unordered_views
+    d.update(unordered_views="yes")
+    path.write_text(json.dumps(d))
+    with pytest.raises(ProjectError, match="'unordered_views' must be true or false"):
+        CaptureProject.open(project.root)
+    d.update(unordered_views=True)  # with fps 30: a photo set cannot have a frame rate
+    path.write_text(json.dumps(d))
+    with pytest.raises(ProjectError, match="also gives a frame rate or frame times"):
+        CaptureProject.open(project.root)
+    d.update(fps=None)
+    path.write_text(json.dumps(d))
+    p = CaptureProject.open(project.root)
+    assert p.unordered_views and p.frame_times() is None

@@ -1,0 +1,96 @@
+"""How far apart neighbouring frames are, so that the fit's temporal terms know what to expect.
+
+The temporal weights were tuned on a 30 fps turn, where neighbours are 33 ms and about 2 degrees
+of heading apart. Eight photos of the same turn are 45 degrees apart: pulling each towards its
+neighbours as if they were 33 ms away drags the pelvis towards the neighbours' heading while the
+keypoints hold the shoulders, and the fit twists the body at the waist. So each pair of neighbours
+gets a gap, in reference frame intervals, from the best evidence the capture has:
+
+* ``times``: the capture's frame times (a video's presentation times, or index / fps);
+* ``heading``: no times, but an order: the heading change that the rigid first stage found
+  between the two frames, where it is larger than a video frame ever turns;
+* ``unordered``: views in no particular order (a photo set): no frame is another's neighbour.
+
+A smooth motion changes about in proportion to the time between frames, so a squared difference
+grows with the gap squared; dividing the temporal weight by ``gap ** 2`` keeps the same penalty on
+the speed of the motion, whatever the spacing. Gaps never go below 1: the weights were set per
+frame against per-frame detection noise, and a faster camera does not make a detector quieter.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+REFERENCE_INTERVAL_S = 1.0 / 30.0  # the frame interval the temporal weights were tuned at
+# heading change per reference frame of the capture the weights were tuned on (a full turn over
+# about 190 frames); a larger change between neighbours counts as that many frames apart ...
+HEADING_PER_FRAME_DEG = 2.0
+# ... once it exceeds what the rigid fit's noise and a brisk turn give between video frames
+HEADING_NOISE_DEG = 10.0
+NEIGHBOUR_GAP = 3.0  # frames further apart than this are not neighbours for the pose-jump test
+
+
+@dataclass(frozen=True)
+class FrameSpacing:
+    """Fields:
+        gaps: (N-1,) float64 distance between frame i and i+1 in reference frame intervals
+            (>= 1; inf between unordered views).
+        source: "times" | "heading" | "unordered" (see the module docstring).
+    """
+
+    gaps: np.ndarray
+    source: str
+
+    @property
+    def unordered(self) -> bool:
+        return self.source == "unordered"
+
+    def temporal_weights(self) -> np.ndarray:
+        """(N-1,) factor on each neighbour pair's temporal terms: 1 / gap^2 (0 between unordered views)."""
+        return np.where(np.isfinite(self.gaps), 1.0 / np.maximum(self.gaps, 1.0) ** 2, 0.0)
+
+    def switch_weights(self) -> np.ndarray:
+        """(N-1,) factor on the cost of turning between neighbours when the first stage picks each
+        frame's heading: 1 / gap (a turn of the same speed costs the same), 0 between unordered views."""
+        return np.where(np.isfinite(self.gaps), 1.0 / np.maximum(self.gaps, 1.0), 0.0)
+
+    def neighbours(self) -> np.ndarray:
+        """(N-1,) bool: frame i and i+1 are close enough in time for a sudden pose change to be a glitch."""
+        return self.gaps <= NEIGHBOUR_GAP
+
+    def describe(self) -> str:
+        """One line for a user: how far apart the fit takes the frames to be."""
+        if self.unordered:
+            return "frames fitted as unordered views (a photo set): no smoothing between them"
+        if len(self.gaps) == 0:
+            return "one frame"
+        med = float(np.median(self.gaps))
+        by = "frame times" if self.source == "times" else "heading change between frames"
+        return (f"frames {med:.3g} video frames apart (median, from the {by}); temporal smoothing "
+                f"scaled to match" if med > 1.5 else f"frames about one video frame apart (from the {by})")
+
+
+def dense(num_frames: int) -> FrameSpacing:
+    """Every frame one reference interval from the next (what fitting assumed before it knew)."""
+    return FrameSpacing(np.ones(max(0, num_frames - 1)), "times")
+
+
+def unordered(num_frames: int) -> FrameSpacing:
+    return FrameSpacing(np.full(max(0, num_frames - 1), np.inf), "unordered")
+
+
+def from_times(times: np.ndarray) -> FrameSpacing:
+    """Gaps from (N,) frame times in seconds."""
+    dt = np.diff(np.asarray(times, np.float64))
+    return FrameSpacing(np.maximum(dt / REFERENCE_INTERVAL_S, 1.0), "times")
+
+
+def from_heading(root: np.ndarray) -> FrameSpacing:
+    """Gaps from (N, 3, 3) root rotations of the rigid first stage, frames in capture order."""
+    if len(root) < 2:
+        return FrameSpacing(np.zeros(0), "heading")
+    rel = np.einsum("nba,nbc->nac", root[:-1], root[1:])
+    turn = np.degrees(np.arccos(np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1, 1)))
+    return FrameSpacing(np.where(turn > HEADING_NOISE_DEG, turn / HEADING_PER_FRAME_DEG, 1.0), "heading")
