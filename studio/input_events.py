@@ -2,9 +2,9 @@
 
 imgui's GLFW backend hands each event to imgui the moment GLFW reports it, and reads the modifier
 keys' state from GLFW at that moment. When a frame takes long (software GL on a busy machine:
-70-130 ms was measured), one poll of the window brings a whole chord at once: Ctrl down, A down,
-Ctrl up. imgui then sees A pressed in the frame Ctrl was released in, and Ctrl+A types nothing
-and selects nothing (in a real X window driven by xdotool it failed in 3 of 4 tries).
+70-130 ms was measured), one poll of the window brings A down, Ctrl up and A up together (Ctrl
+down came a poll earlier). imgui then applies A and the Ctrl release in the same frame, and
+Ctrl+A selects nothing (in a real X window driven by xdotool it failed in 3 of 4 tries).
 
 So the app installs the key and character callbacks itself (:class:`KeyQueue`): events wait in a
 queue and :meth:`KeyQueue.feed` hands them to imgui at the start of a frame. It stops before a

@@ -83,7 +83,10 @@ def plan_steps(request: PipelineRequest) -> list[Step]:
     frames = request.frames
     ingest = _frames_plan(root, frames) if frames else morf_run._ingest_plan(root, args)
     remembered = morf_run._recall(root)
-    name, preset = morf_run._run_name(root, args.preset or remembered.get("preset"))
+    if args.preset:
+        name, preset = f"morf-{args.preset}", args.preset
+    else:  # the last 'morf run' on the project chose it, else morf run's default
+        name, preset = morf_run._run_name(root, remembered.get("preset"))[:2]
     holdout = remembered.get("holdout") if remembered.get("preset") == preset else None
     fresh = ("train", str(root), "--preset", preset, "--name", name)
     if holdout is not None:
