@@ -1,0 +1,125 @@
+// Checks the page runs for the tests and `morf bench web` (served by morf/web/server.py, which
+// takes what the page posts to ./result):
+//   ?bench=N[&size=S]  N frames end to end at S x S (default 640) -> fps; N more with each stage
+//                      waited for -> per-stage times; then the adaptive size the page settles on
+//                      and the fps there; threads, backend, WebGL renderer
+//   ?check=1           renders the frames of ./check.json ({frames: [{pose, camera, size}],
+//                      background}) and posts the images (RGBA, rows top first, base64)
+//   ?report=N          plays as a user sees it for N frames, then posts what was shown
+const STAGES = ['skinning', 'raster', 'readback', 'renderer', 'composite'];
+
+export async function post(body) {
+  await fetch('./result', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
+}
+
+function base64(bytes) {
+  let s = '';
+  for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
+  return btoa(s);
+}
+
+function environment(app) {
+  const gl = app.player.gl, info = gl.getExtension('WEBGL_debug_renderer_info');
+  return {
+    user_agent: navigator.userAgent, cores: navigator.hardwareConcurrency,
+    webgl: info ? gl.getParameter(info.UNMASKED_RENDERER_WEBGL) : gl.getParameter(gl.RENDERER),
+    backend: app.runtime.backend, threads: app.runtime.threads, isolated: app.runtime.isolated,
+    renderer: { mode: app.doc.renderer.mode, precision: app.doc.renderer.precision },
+    tail: app.doc.renderer.mode === 'tail' ? (app.player.tailOnCpu ? 'js' : 'webgl') : null,
+  };
+}
+
+async function timeFrames(app, n, timed) {
+  const sums = Object.fromEntries(STAGES.map((s) => [s, 0]));
+  const start = performance.now();
+  for (let i = 0; i < n; i++) {
+    app.frameIndex = (app.frameIndex + 1) % app.motion.frames;
+    const frame = app.motion.frame(app.frameIndex);
+    const { camera, box } = app.view(frame);
+    const t = await app.player.render(frame, camera, [255, 255, 255], { timed, canvasSize: app.size, box });
+    for (const s of STAGES) sums[s] += t[s];
+  }
+  const ms = (performance.now() - start) / n;
+  return { ms_per_frame: ms, fps: 1000 / ms, stages_ms: Object.fromEntries(STAGES.map((s) => [s, sums[s] / n])) };
+}
+
+async function bench(app, params) {
+  const n = Number(params.get('bench')) || 60;
+  app.playing = false;
+  await timeFrames(app, 5, false);  // warm-up: sessions, shader compilation
+  const whole = await timeFrames(app, n, false);
+  if (params.get('fine')) app.player.compositor.fine = {};
+  const staged = await timeFrames(app, n, true);
+  const fine = app.player.compositor.fine;
+  if (fine) for (const k of Object.keys(fine)) fine[k] /= n;
+  app.player.compositor.fine = null;
+  const total = STAGES.reduce((a, s) => a + staged.stages_ms[s], 0);
+  const shares = Object.fromEntries(STAGES.map((s) => [s, staged.stages_ms[s] / total]));
+  const fixedSize = app.size;
+  // The adaptive size: what the page picks from the rate it measures, then the rate there.
+  const steps = [];
+  app.fixed = false;
+  for (let round = 0; round < 6; round++) {
+    await timeFrames(app, 3, false);
+    const m = await timeFrames(app, 20, false);
+    app.sizeFrames = Infinity;  // adapt() judges only a size it has seen for a while
+    const before = app.size;
+    if (!app.adapt(m.fps)) break;
+    steps.push({ from: before, fps: m.fps, to: app.size });
+  }
+  await timeFrames(app, 5, false);
+  const adaptive = { size: app.size, steps, ...(await timeFrames(app, n, false)) };
+  if (params.get('noadapt')) return { size: fixedSize, frames: n, ...whole, stages_ms: staged.stages_ms, fine };
+  return { size: fixedSize, frames: n, ...whole, fine, stages_ms: staged.stages_ms, shares, staged_fps: staged.fps, adaptive };
+}
+
+async function check(app) {
+  const request = await (await fetch('./check.json')).json();
+  const images = [];
+  app.playing = false;
+  app.player.keepOutputs = !!request.raster;
+  for (const f of request.frames) {
+    if (app.size !== f.size) app.setSize(f.size);
+    await app.player.render(Float32Array.from(f.pose), f.camera, request.background, { canvasSize: f.size });
+    const item = { size: f.size, rgba: base64(app.player.compositor.readImage()) };
+    if (request.raster) {  // the renderer's input and the bone rows too
+      item.raster = base64(app.player.raster.bytes);
+      item.bones = Array.from(app.player.rows);
+      item.outputs = Object.fromEntries(Object.entries(app.player.lastOutputs).map(([k, t]) => [k, { dims: t.dims, type: t.type,
+        data: base64(new Uint8Array(t.data.buffer, t.data.byteOffset, t.data.byteLength)) }]));
+    }
+    images.push(item);
+  }
+  return { images };
+}
+
+async function report(app, params) {
+  const n = Number(params.get('report')) || 10;
+  const shown = [];
+  await new Promise((resolve) => {
+    app.onFrame = async () => {
+      shown.push(app.frameIndex);
+      if (shown.length >= n || !app.playing) { app.onFrame = null; resolve(); }
+    };
+    app.dirty = true;
+    app.loop();
+  });
+  return {
+    frames: shown, motion: app.motion.name, size: app.size, playing: app.playing,
+    image: base64(app.player.compositor.readImage()),
+    status: document.getElementById('status').textContent, notice: document.getElementById('notice').textContent,
+    fps_text: document.getElementById('fps').textContent, motions: app.doc.motions.map((m) => m.name),
+  };
+}
+
+export async function runHarness(app, params, messages) {
+  let result;
+  try {
+    if (params.has('bench')) result = await bench(app, params);
+    else if (params.has('check')) result = await check(app);
+    else result = await report(app, params);
+  } catch (e) {
+    result = { error: `${e && e.stack ? e.stack : e}` };
+  }
+  await post({ ...result, ...environment(app), messages });
+}

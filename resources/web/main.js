@@ -1,0 +1,162 @@
+// The page: loads the folder's avatar and runtime, plays a motion with orbit and zoom, a motion
+// picker, play / pause, an fps readout, and a smaller output where the device cannot hold 30 fps.
+// Query parameters: size=N (fix the output side), adapt=0 (never shrink), motion=NAME, frame=K
+// and pause=1 (show one frame), threads=N, backend=wasm|webgpu; bench=N, check=1, report=N run
+// the checks of harness.js (tests and `morf bench web`).
+import { loadRuntime } from './renderer.js';
+import { Player, loadAvatar, loadMotion } from './player.js';
+import { Orbit } from './camera.js';
+import { runHarness, post } from './harness.js';
+
+export const messages = [];
+for (const level of ['warn', 'error']) {
+  const original = console[level].bind(console);
+  console[level] = (...args) => { messages.push(`${level}: ${args.join(' ')}`); original(...args); };
+}
+window.addEventListener('error', (e) => messages.push(`uncaught: ${e.message}`));
+window.addEventListener('unhandledrejection', (e) => messages.push(`unhandled: ${e.reason && e.reason.stack ? e.reason.stack : e.reason}`));
+
+const params = new URLSearchParams(location.search);
+export const BACKGROUND = [255, 255, 255];
+const TARGET_FPS = 30;
+const SIZES = [640, 576, 512, 448, 384, 320, 256, 192, 128];
+const $ = (id) => document.getElementById(id);
+
+class App {
+  constructor(player, runtime, config) {
+    this.player = player;
+    this.runtime = runtime;
+    this.doc = player.avatar.doc;
+    this.canvas = $('view');
+    this.orbit = new Orbit(this.canvas, () => { this.dirty = true; });
+    const mult = this.doc.size_multiple || 32;
+    this.sizes = SIZES.map((s) => Math.floor(s / mult) * mult).filter((s, i, a) => s > 0 && a.indexOf(s) === i);
+    const asked = Number(params.get('size')) || 0;
+    this.fixed = asked > 0 || params.get('adapt') === '0';
+    this.setSize(asked > 0 ? Math.max(mult, Math.round(asked / mult) * mult) : this.sizes[0]);
+    this.motions = new Map();
+    this.playing = params.get('pause') !== '1';
+    this.frameIndex = Number(params.get('frame')) || 0;
+    this.time = null;
+    this.frames = 0;
+    this.recent = [];
+  }
+
+  setSize(size) {
+    this.size = size;
+    this.canvas.width = this.canvas.height = size;
+    this.player.resize(size);
+    this.sizeFrames = 0;
+    this.recent = [];
+  }
+
+  async selectMotion(name) {
+    const entry = this.doc.motions.find((m) => m.name === name) || this.doc.motions[0];
+    if (!entry) throw new Error('the folder holds no motion');
+    if (!this.motions.has(entry.name)) this.motions.set(entry.name, await loadMotion(entry));
+    this.motion = this.motions.get(entry.name);
+    $('motion').value = entry.name;
+    this.time = null;
+    this.dirty = true;
+  }
+
+  // The camera for the body at the frame's root, and the part of the image to show: closer than
+  // the scale the renderer was trained at, a wider view at that scale is drawn and its middle
+  // enlarged (as morf.raster.view_scale does for the Python player).
+  view(frame) {
+    const J3 = this.motion.bones * 3;
+    const centre = [frame[J3], frame[J3 + 1], this.motion.centre[2]];
+    const cam = this.orbit.camera(this.size, centre);
+    const limit = this.doc.trained_scale && this.doc.trained_scale.max_pixels_per_metre;
+    const depth = cam.R[6] * centre[0] + cam.R[7] * centre[1] + cam.R[8] * centre[2] + cam.t[2];
+    const ppm = cam.fx / Math.max(depth, 1e-3);
+    if (!limit || ppm <= limit) return { camera: cam, box: [0, 0, 1, 1] };
+    const k = limit / ppm;
+    return { camera: { ...cam, fx: cam.fx * k, fy: cam.fy * k }, box: [0.5 - k / 2, 0.5 - k / 2, k, k] };
+  }
+
+  async step(now) {
+    if (this.playing) {
+      if (this.time === null) this.time = this.frameIndex / this.motion.fps;
+      else this.time += Math.min((now - this.last) / 1000, 0.25);
+      this.frameIndex = Math.floor(this.time * this.motion.fps) % this.motion.frames;
+    }
+    this.last = now;
+    const frame = this.motion.frame(this.frameIndex);
+    const { camera, box } = this.view(frame);
+    await this.player.render(frame, camera, BACKGROUND, { canvasSize: this.size, box });
+    this.frames++;
+    this.sizeFrames++;
+    this.recent.push(performance.now());
+    if (this.recent.length > 21) this.recent.shift();
+    const fps = this.fps();
+    if (fps) $('fps').textContent = `${fps.toFixed(1)} fps · ${this.size} px`;
+    if (this.playing) this.adapt(fps);
+  }
+
+  fps() {
+    const r = this.recent;
+    return r.length < 6 ? null : (1000 * (r.length - 1)) / (r[r.length - 1] - r[0]);
+  }
+
+  // Under 30 fps, a smaller output: the largest size whose pixel count the measured rate can hold.
+  adapt(fps) {
+    if (this.fixed || fps === null || this.sizeFrames < 20 || fps >= TARGET_FPS) return false;
+    const want = this.size * Math.sqrt(fps / TARGET_FPS);
+    const next = this.sizes.find((s) => s <= want && s < this.size) || this.sizes.filter((s) => s < this.size).pop();
+    if (!next) return false;
+    $('notice').hidden = false;
+    $('notice').textContent = `Output ${next} × ${next} px: ${this.size} × ${this.size} ran at ${fps.toFixed(1)} fps on ` +
+      `this device, under ${TARGET_FPS}. (?size=${this.sizes[0]} in the address keeps ${this.sizes[0]}.)`;
+    this.adapted = { from: this.size, fps, to: next };
+    this.setSize(next);
+    return true;
+  }
+
+  async loop() {
+    for (;;) {
+      const now = await new Promise((resolve) => requestAnimationFrame(resolve));
+      if (!this.playing && !this.dirty) continue;
+      this.dirty = false;
+      await this.step(now);
+      if (this.onFrame) await this.onFrame(this);
+    }
+  }
+
+  wireControls() {
+    const select = $('motion'), button = $('play');
+    for (const m of this.doc.motions) select.add(new Option(`${m.name} (${(m.frames / m.fps).toFixed(1)} s)`, m.name));
+    select.disabled = button.disabled = false;
+    select.addEventListener('change', () => this.selectMotion(select.value));
+    button.textContent = this.playing ? 'Pause' : 'Play';
+    button.addEventListener('click', () => {
+      this.playing = !this.playing;
+      this.time = null;
+      button.textContent = this.playing ? 'Pause' : 'Play';
+    });
+    const rt = this.runtime;
+    $('status').textContent = `${rt.backend === 'webgpu' ? 'WebGPU' : 'WASM (SIMD)'}, ${rt.threads} thread${rt.threads > 1 ? 's' : ''}` +
+      (rt.isolated ? '' : ' — this host does not send the cross-origin isolation headers, so the renderer runs on one ' +
+       'thread (serve the folder with `morf serve`, or see docs/web.md)') + `; ${this.doc.renderer.precision} renderer`;
+  }
+}
+
+async function boot() {
+  const config = await (await fetch('player.json')).json();
+  const canvas = $('view');
+  const gl = canvas.getContext('webgl2', { antialias: false, depth: false, alpha: false, premultipliedAlpha: false,
+                                           preserveDrawingBuffer: false, powerPreference: 'high-performance' });
+  if (!gl) throw new Error('this browser has no WebGL2, which the player needs');
+  const [runtime, avatar] = await Promise.all([loadRuntime(config, params), loadAvatar(config)]);
+  const app = new App(new Player(gl, avatar, runtime), runtime, config);
+  await app.selectMotion(params.get('motion'));
+  app.wireControls();
+  if (params.has('bench') || params.has('check') || params.has('report')) return runHarness(app, params, messages);
+  return app.loop();
+}
+
+boot().catch((e) => {
+  $('status').textContent = `The player could not start: ${e && e.message ? e.message : e}`;
+  console.error(e && e.stack ? e.stack : String(e));
+  if (params.has('bench') || params.has('check') || params.has('report')) post({ error: `${e && e.stack ? e.stack : e}`, messages });
+});

@@ -1,0 +1,201 @@
+// Neural rasterization in WebGL2, as morf/raster/neural_raster.py and its shaders do it: the
+// render mesh skinned in the vertex shader (top-8 bones, the bone rows in a float texture), the
+// 16-channel uint8 neural texture (four RGBA8 textures, bilinear, clamped) written as 16 bytes
+// per pixel into one RGBA32UI attachment cleared to the zero point (128). Channel 0 is never 128
+// on the body (129 instead): the coverage mark the renderer graph and the tail read. Read back,
+// the attachment is the renderer's (1, H, W, 16) uint8 input as it is.
+
+const VS = `#version 300 es
+precision highp float;
+precision highp int;
+uniform highp sampler2D u_bones;   // RGBA32F, 3 x J: the top three rows of each skinning matrix
+uniform mat4 u_view_proj;          // gl_projection @ view matrix (framebuffer row 0 = image row 0)
+in vec3 in_position;
+in vec2 in_uv;
+in uvec4 in_bones0;
+in uvec4 in_bones1;
+in vec4 in_weights0;
+in vec4 in_weights1;
+out vec2 v_texcoord;
+vec3 bone(uint b, vec4 p) {
+  int j = int(b);
+  return vec3(dot(texelFetch(u_bones, ivec2(0, j), 0), p), dot(texelFetch(u_bones, ivec2(1, j), 0), p),
+              dot(texelFetch(u_bones, ivec2(2, j), 0), p));
+}
+void main() {
+  vec4 p = vec4(in_position, 1.0);
+  vec3 w = in_weights0.x * bone(in_bones0.x, p) + in_weights0.y * bone(in_bones0.y, p)
+         + in_weights0.z * bone(in_bones0.z, p) + in_weights0.w * bone(in_bones0.w, p)
+         + in_weights1.x * bone(in_bones1.x, p) + in_weights1.y * bone(in_bones1.y, p)
+         + in_weights1.z * bone(in_bones1.z, p) + in_weights1.w * bone(in_bones1.w, p);
+  v_texcoord = vec2(in_uv.x, 1.0 - in_uv.y);  // texture rows are stored top first
+  gl_Position = u_view_proj * vec4(w, 1.0);
+}`;
+
+const FS = `#version 300 es
+precision highp float;
+precision highp int;
+uniform sampler2D u_texture0;
+uniform sampler2D u_texture1;
+uniform sampler2D u_texture2;
+uniform sampler2D u_texture3;
+in vec2 v_texcoord;
+layout(location = 0) out uvec4 out_channels;
+uvec4 to_bytes(vec4 c) { return uvec4(round(clamp(c, 0.0, 1.0) * 255.0)); }
+uint pack_bytes(uvec4 b) { return b.x | (b.y << 8) | (b.z << 16) | (b.w << 24); }
+void main() {
+  uvec4 first = to_bytes(texture(u_texture0, v_texcoord));
+  first.x = first.x == 128u ? 129u : first.x;  // the coverage mark
+  out_channels = uvec4(pack_bytes(first), pack_bytes(to_bytes(texture(u_texture1, v_texcoord))),
+                       pack_bytes(to_bytes(texture(u_texture2, v_texcoord))),
+                       pack_bytes(to_bytes(texture(u_texture3, v_texcoord))));
+}`;
+
+export function compile(gl, vs, fs) {
+  const program = gl.createProgram();
+  for (const [type, src] of [[gl.VERTEX_SHADER, vs], [gl.FRAGMENT_SHADER, fs]]) {
+    const s = gl.createShader(type);
+    gl.shaderSource(s, src);
+    gl.compileShader(s);
+    if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(`shader: ${gl.getShaderInfoLog(s)}`);
+    gl.attachShader(program, s);
+  }
+  gl.linkProgram(program);
+  if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error(`program: ${gl.getProgramInfoLog(program)}`);
+  return program;
+}
+
+export class NeuralRaster {
+  // avatar: {doc (avatar.json), texture (Uint8Array Ht*Wt*16), mesh (ArrayBuffer)}
+  constructor(gl, avatar) {
+    this.gl = gl;
+    const doc = avatar.doc, arrays = doc.mesh.arrays;
+    this.J = doc.skeleton.parents.length;
+    this.program = compile(gl, VS, FS);
+    this.vao = gl.createVertexArray();
+    gl.bindVertexArray(this.vao);
+    const buffer = (name, target = gl.ARRAY_BUFFER) => {
+      const a = arrays[name], count = a.shape.reduce((x, y) => x * y, 1);
+      const bytes = count * { float32: 4, uint32: 4, uint16: 2, uint8: 1 }[a.type];
+      const b = gl.createBuffer();
+      gl.bindBuffer(target, b);
+      gl.bufferData(target, new Uint8Array(avatar.mesh, a.offset, bytes), gl.STATIC_DRAW);
+      return b;
+    };
+    const attr = (name, size, type, stride, offset, integer) => {
+      const loc = gl.getAttribLocation(this.program, name);
+      if (loc < 0) return;
+      gl.enableVertexAttribArray(loc);
+      if (integer) gl.vertexAttribIPointer(loc, size, type, stride, offset);
+      else gl.vertexAttribPointer(loc, size, type, false, stride, offset);
+    };
+    buffer('rest_vertices'); attr('in_position', 3, gl.FLOAT, 0, 0);
+    buffer('uvs'); attr('in_uv', 2, gl.FLOAT, 0, 0);
+    buffer('bone_weights'); attr('in_weights0', 4, gl.FLOAT, 32, 0); attr('in_weights1', 4, gl.FLOAT, 32, 16);
+    const wide = arrays.bone_indices.type === 'uint16', it = wide ? gl.UNSIGNED_SHORT : gl.UNSIGNED_BYTE, n = wide ? 2 : 1;
+    buffer('bone_indices'); attr('in_bones0', 4, it, 8 * n, 0, true); attr('in_bones1', 4, it, 8 * n, 4 * n, true);
+    buffer('faces', gl.ELEMENT_ARRAY_BUFFER);
+    this.indexCount = arrays.faces.shape[0] * 3;
+    gl.bindVertexArray(null);
+
+    const t = doc.texture;
+    this.textures = [];
+    const plane = new Uint8Array(t.width * t.height * 4);
+    for (let i = 0; i < 4; i++) {
+      for (let k = 0; k < t.width * t.height; k++) for (let c = 0; c < 4; c++) plane[4 * k + c] = avatar.texture[16 * k + 4 * i + c];
+      const tex = gl.createTexture();
+      gl.bindTexture(gl.TEXTURE_2D, tex);
+      gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, t.width, t.height, 0, gl.RGBA, gl.UNSIGNED_BYTE, plane);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.LINEAR);  // bilinear, no mipmaps: grid_sample
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.LINEAR);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE);
+      this.textures.push(tex);
+    }
+    this.bones = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, this.bones);
+    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, 3, this.J);
+    for (const p of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, p, gl.NEAREST);
+    this.u = {};
+    for (const name of ['u_bones', 'u_view_proj', 'u_texture0', 'u_texture1', 'u_texture2', 'u_texture3']) {
+      this.u[name] = gl.getUniformLocation(this.program, name);
+    }
+    this.size = 0;
+  }
+
+  resize(size) {
+    const gl = this.gl;
+    if (this.size === size) return;
+    if (this.fbo) { gl.deleteFramebuffer(this.fbo); gl.deleteTexture(this.attachment); gl.deleteRenderbuffer(this.depth); }
+    this.size = size;
+    this.attachment = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, this.attachment);
+    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32UI, size, size);
+    for (const p of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, p, gl.NEAREST);
+    this.depth = gl.createRenderbuffer();
+    gl.bindRenderbuffer(gl.RENDERBUFFER, this.depth);
+    gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT24, size, size);
+    this.fbo = gl.createFramebuffer();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, this.fbo);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, this.attachment, 0);
+    gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, this.depth);
+    const status = gl.checkFramebufferStatus(gl.FRAMEBUFFER);
+    if (status !== gl.FRAMEBUFFER_COMPLETE) throw new Error(`the RGBA32UI raster framebuffer is incomplete (${status})`);
+    this.pixels = new Uint32Array(size * size * 4);
+    this.bytes = new Uint8Array(this.pixels.buffer);  // the (1, H, W, 16) renderer input
+  }
+
+  uploadBones(rows) {  // rows: Float32Array(J * 12)
+    const gl = this.gl;
+    gl.activeTexture(gl.TEXTURE7);
+    gl.bindTexture(gl.TEXTURE_2D, this.bones);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, 3, this.J, gl.RGBA, gl.FLOAT, rows);
+  }
+
+  draw(viewProj) {
+    const gl = this.gl;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, this.fbo);
+    gl.viewport(0, 0, this.size, this.size);
+    gl.useProgram(this.program);
+    gl.uniformMatrix4fv(this.u.u_view_proj, false, viewProj);
+    gl.activeTexture(gl.TEXTURE4);
+    gl.bindTexture(gl.TEXTURE_2D, this.bones);
+    gl.uniform1i(this.u.u_bones, 4);
+    this.textures.forEach((tex, i) => {
+      gl.activeTexture(gl.TEXTURE0 + i);
+      gl.bindTexture(gl.TEXTURE_2D, tex);
+      gl.uniform1i(this.u[`u_texture${i}`], i);
+    });
+    gl.disable(gl.BLEND);
+    gl.enable(gl.DEPTH_TEST);
+    gl.depthFunc(gl.LESS);
+    gl.depthMask(true);
+    // Back faces are culled (hidden on the closed body); the y flip of the projection turns the
+    // mesh's counter-clockwise front faces clockwise.
+    gl.enable(gl.CULL_FACE);
+    gl.frontFace(gl.CW);
+    gl.cullFace(gl.BACK);
+    gl.clearBufferuiv(gl.COLOR, 0, new Uint32Array([0x80808080, 0x80808080, 0x80808080, 0x80808080]));
+    gl.clearBufferfv(gl.DEPTH, 0, new Float32Array([1]));
+    gl.bindVertexArray(this.vao);
+    gl.drawElements(gl.TRIANGLES, this.indexCount, gl.UNSIGNED_INT, 0);
+    gl.bindVertexArray(null);
+    gl.disable(gl.CULL_FACE);
+    gl.disable(gl.DEPTH_TEST);
+  }
+
+  // Waits for the draw (one pixel read), for stage timings only.
+  sync() {
+    const gl = this.gl;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, this.fbo);
+    gl.readPixels(0, 0, 1, 1, gl.RGBA_INTEGER, gl.UNSIGNED_INT, this.pixels.subarray(0, 4));
+  }
+
+  read() {
+    const gl = this.gl;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, this.fbo);
+    gl.readPixels(0, 0, this.size, this.size, gl.RGBA_INTEGER, gl.UNSIGNED_INT, this.pixels);
+    return this.bytes;
+  }
+}

@@ -1,0 +1,66 @@
+// The avatar's renderer graph in onnxruntime-web, loaded from the folder's lib/ only (no other
+// host is asked for anything). WASM with SIMD and threads; WebGPU where the browser has it and
+// the folder carries that build. Threads need cross-origin isolation (the COOP/COEP headers
+// `morf serve` sends); without it onnxruntime runs on one thread and the page says so.
+
+async function inflate(url) {
+  // The WASM binary is stored gzip-compressed; a host that already decoded it (Content-Encoding) hands back raw WASM.
+  const response = await fetch(url);
+  if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
+  const bytes = new Uint8Array(await response.arrayBuffer());
+  if (bytes[0] !== 0x1f || bytes[1] !== 0x8b) return bytes.buffer;
+  const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream('gzip'));
+  return await new Response(stream).arrayBuffer();
+}
+
+export async function loadRuntime(config, params) {
+  const wanted = params.get('backend');
+  const offered = Object.fromEntries(config.backends.map((b) => [b.backend, b]));
+  let pick = offered.wasm;
+  if ((wanted === 'webgpu' || (!wanted && 'gpu' in navigator)) && offered.webgpu) {
+    try {
+      if (await navigator.gpu.requestAdapter()) pick = offered.webgpu;
+    } catch (e) { /* no adapter: WASM */ }
+  }
+  const ort = await import(`./lib/${pick.loader}`);
+  ort.env.logLevel = 'error';
+  ort.env.wasm.wasmBinary = await inflate(`lib/${pick.wasm}`);
+  ort.env.wasm.wasmPaths = { mjs: new URL(`lib/${pick.worker}`, location.href).href };
+  const isolated = self.crossOriginIsolated === true;
+  const cores = navigator.hardwareConcurrency || 1;
+  const asked = Number(params.get('threads')) || 0;
+  ort.env.wasm.numThreads = isolated ? Math.max(1, asked || Math.min(cores, 4)) : 1;
+  return { ort, backend: pick.backend, threads: ort.env.wasm.numThreads, isolated };
+}
+
+export class Renderer {
+  constructor(runtime, graph, contract) {
+    this.rt = runtime;
+    this.graph = graph;
+    this.contract = contract;
+    this.sessions = new Map();
+  }
+
+  async session(size) {
+    if (!this.sessions.has(size)) {
+      const { ort, backend } = this.rt;
+      // The graph names its image dimensions "height" and "width"; fixed, the shape arithmetic folds away.
+      this.sessions.set(size, await ort.InferenceSession.create(this.graph, {
+        executionProviders: [backend], graphOptimizationLevel: 'all',
+        freeDimensionOverrides: { height: size, width: size },
+      }));
+    }
+    return this.sessions.get(size);
+  }
+
+  // raster: Uint8Array of the (1, size, size, 16) input; background: [r, g, b] 0-255.
+  async run(raster, size, background) {
+    const { ort } = this.rt;
+    const session = await this.session(size);
+    const feeds = { [this.contract.input]: new ort.Tensor('uint8', raster, [1, size, size, 16]) };
+    if (this.contract.mode === 'image') {
+      feeds[this.contract.background] = new ort.Tensor('float32', Float32Array.from(background), [1, 3, 1, 1]);
+    }
+    return await session.run(feeds, this.contract.outputs);
+  }
+}
