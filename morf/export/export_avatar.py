@@ -121,13 +121,14 @@ def int8_quality(fp32_path: Path, int8_path: Path, rasters: Sequence[np.ndarray]
             "psnr_person_db": float(np.mean(ps_person))}
 
 
-def native_tails(folder: Path, layout: str, rasters: Sequence[np.ndarray]) -> dict:
-    """The player's compiled full-resolution tail for each graph in ``folder`` that has one and
-    passes the check against the whole graph (:mod:`morf.export.native_tail_spec`)."""
+def native_tails(folder: Path, specs: dict, layout: str, rasters: Sequence[np.ndarray]) -> dict:
+    """The player's compiled full-resolution tail for each graph in ``folder`` whose exporter
+    wrote one (``specs``: precision -> :class:`~morf.export.compiled_tail.TailSpec` or None) and
+    whose pass agrees with the whole graph (:mod:`morf.export.native_tail_spec`)."""
     from morf.export.native_tail_spec import native_tail_entry
 
     views = [nchw_to_layout(r, layout) for r in rasters]
-    entries = {p: native_tail_entry(folder / name, layout, views) for p, name in RENDERERS.items()}
+    entries = {p: native_tail_entry(folder / name, specs.get(p), views) for p, name in RENDERERS.items()}
     return {p: e for p, e in entries.items() if e is not None}
 
 
@@ -183,11 +184,12 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
         step(1, "writing texture, mesh and skeleton")
         write_arrays(tmp, qtex, mesh, skeleton)
         step(2, "exporting the fp32 renderer")
-        export_fp32(renderer, qtex.scales, tmp / RENDERERS["fp32"], cfg.input_layout)
+        specs = {"fp32": export_fp32(renderer, qtex.scales, tmp / RENDERERS["fp32"], cfg.input_layout)}
         control.check()
         step(3, "quantising the renderer to int8")
         chosen = export_int8(renderer, qtex.scales, tmp / RENDERERS["int8"],
                              mosaic(calib) + close_calib if close_calib else calib, cfg.input_layout)
+        specs["int8"] = chosen.get("native_tail")
         step(4, "measuring int8 against fp32")
         # With no held-out views the report falls back on calibration views (and says so).
         quality = int8_quality(tmp / RENDERERS["fp32"], tmp / RENDERERS["int8"], held or calib[:4], cfg.input_layout)
@@ -201,7 +203,7 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
         rcfg = getattr(renderer, "cfg", None)
         fields = _manifest_fields(qtex, skeleton, mesh, rcfg, (H, W), shape, cfg, quality,
                                   len(calib) + len(close_calib), time.time() - t0)
-        tails = native_tails(tmp, cfg.input_layout, held or calib[:4])
+        tails = native_tails(tmp, specs, cfg.input_layout, held or calib[:4])
         if tails:
             fields["renderer"]["native_tail"] = tails
         manifest = write_manifest(tmp, fields)

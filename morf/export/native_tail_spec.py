@@ -1,28 +1,56 @@
-"""Find the renderer graph's full-resolution tail for the player's compiled pass
-(:mod:`morf.export.compiled_tail`), and check that pass against the whole graph.
+"""The renderer graph's full-resolution tail for the player's compiled pass
+(:mod:`morf.export.compiled_tail`), from what the exporter knows, and that pass checked against
+the whole graph.
 
-The tail is recognised node by node as the exporter writes it (``_Wrapper`` in
-:mod:`morf.export.onnx_renderer`, then :func:`~morf.export.onnx_graph.uint8_colour_head`,
-:func:`~morf.export.onnx_graph.opaque_body` and :func:`~morf.export.onnx_graph.append_composite`);
-a graph that differs anywhere (a full-resolution head, no colour skip, another layout) gets no
-spec and plays through the whole graph.
+The exporter (:mod:`morf.export.onnx_renderer`) hands over the tail's constants
+(:class:`TailParameters`: the texture colour's scale, the mask channel's map to the logit, the
+half-resolution head's last weights) and names two tensors of the graph it traces: the head
+before its 2x upsampling (:data:`TAIL_HEAD`) and the texture colour (:data:`TAIL_COLOUR`). The
+graph gives only what calibration and the fill's levels decide: the fill's finest pull level (the
+tensor upsampled into the colour) and its weight floor, and for int8 graphs the two tensors the
+head's last layers read and the scale of the quantized one. A graph without the tail (a
+full-resolution head, no colour skip, another layout) gets no spec and plays through the whole
+graph; every spec is checked against the graph before it goes into the manifest.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 import onnx
 
-from morf.export.onnx_graph import COMPOSITE_PREFIX, OPAQUE_PREFIX, _attr, _const_value, _producer
-from morf.machine.compiled import numba_available
 from morf.export.compiled_tail import HeadStage, TailShader, TailSpec
+from morf.export.onnx_graph import _attr, _const_value, _producer
+from morf.raster.neural_raster import COVERAGE_CHANNEL
+from morf.raster.texture_quant import ZERO_POINT
 
+TAIL_HEAD = "tail_head"  # (1, 4, H/2, W/2): the head's residual RGB + mask channel before the 2x upsampling
+TAIL_COLOUR = "tail_colour"  # (1, 3, H, W): the texture colour the residual is added to
 MAX_LEVELS = 2  # the most a pixel channel may differ from the whole graph's (rounding)
 MAX_SHARE = 1e-3  # the share of pixel channels allowed to differ at all
+
+
+@dataclass(frozen=True)
+class TailParameters:
+    """The tail's constants as the exporter set them.
+
+    Fields:
+        colour_scale: (3,) texture colour per byte step (the texture's scales of channels 0-2).
+        logit_scale, logit_offset: the mask channel's map to the logit (1 and 0 in fp32 graphs).
+        head_weight: (4, C) and head_bias: (4,) of the head's last 1x1 convolution (the mask row
+            already mapped); head_alpha: the LeakyReLU slope before it.
+    """
+
+    colour_scale: tuple[float, float, float]
+    logit_scale: float
+    logit_offset: float
+    head_weight: tuple[tuple[float, ...], ...]
+    head_bias: tuple[float, ...]
+    head_alpha: float
 
 
 def _node(model, name: str, op: str):
@@ -80,21 +108,21 @@ def _upsampled(model, name: str) -> str | None:
     return _resized(model, split.input[0], sizes_ok=True)
 
 
-def _head_stage(model, head: str) -> HeadStage | None:
+def _head_stage(model, head: str, params: TailParameters) -> HeadStage | None:
     """The int8 graph's half-resolution head before ``head``: ``Reshape(Add(MatMul(weight,
     Reshape(LeakyRelu(Add(Resize2x(low), DequantizeLinear(skip))))), bias))``; None otherwise
-    (the fp32 graph's last 1x1 convolution has weights computed in the graph, so it stays there)."""
+    (the fp32 graph's last 1x1 convolution has weights computed in the graph, so it stays there).
+    The weights and the slope are the exporter's; the graph gives the two tensors to cut at and
+    the scale calibration chose for ``skip``."""
     out = _node(model, head, "Reshape")
     add = _node(model, out.input[0], "Add") if out is not None else None
     mm_out = next((i for i in add.input if _node(model, i, "MatMul") is not None), None) if add is not None else None
     if mm_out is None:
         return None
-    mm, bias = _producer(model, mm_out), _const_value(model, _other(add, mm_out))
-    weight = _const_value(model, mm.input[0])
-    flat = _node(model, mm.input[1], "Reshape")
+    flat = _node(model, _producer(model, mm_out).input[1], "Reshape")
     act = _node(model, flat.input[0], "LeakyRelu") if flat is not None else None
     total = _node(model, act.input[0], "Add") if act is not None else None
-    if weight is None or bias is None or weight.ndim != 2 or bias.size != weight.shape[0] or total is None:
+    if total is None:
         return None
     low = next((_resized(model, i) for i in total.input if _resized(model, i) is not None), None)
     if low is None:
@@ -107,110 +135,56 @@ def _head_stage(model, head: str) -> HeadStage | None:
         if scale is None or zero is None or zero.size != 1:
             return None
         skip, zp = dq.input[0], int(zero.reshape(-1)[0])
-    alpha = _attr(act, "alpha")
-    return HeadStage(low=low, skip=skip, skip_scale=float(scale), skip_zero_point=zp,
-                     alpha=float(0.01 if alpha is None else alpha),
-                     weight=tuple(tuple(float(v) for v in row) for row in weight),
-                     bias=tuple(float(v) for v in bias.reshape(-1)))
+    return HeadStage(low=low, skip=skip, skip_scale=float(scale), skip_zero_point=zp, alpha=params.head_alpha,
+                     weight=params.head_weight, bias=params.head_bias)
 
 
-def tail_spec(model: onnx.ModelProto, layout: str) -> TailSpec | None:
-    """The tail of an exported renderer graph (see the module docstring), or None."""
-    if layout != "nhwc":
+def _fill(model, colour: str) -> tuple[str, float] | None:
+    """The fill's finest pull level (upsampled 2x into the colour) and its weight floor, from the
+    texture colour the exporter named: ``colour = tex + up(FILL)[:3] * ((1 - covered) /
+    max(up(FILL)[3], weight_min))``; None when the graph computes it otherwise."""
+    add = _node(model, colour, "Add")
+    if add is None:
         return None
-    inv = next((n for n in model.graph.node if n.name == f"{COMPOSITE_PREFIX}0_Sub"), None)
-    add = next((n for n in model.graph.node if n.name == f"{COMPOSITE_PREFIX}3_Add"), None)
-    if inv is None or add is None or _scalar(model, inv.input[0]) != 1.0:
-        return None
-    mask = inv.input[1]
-    margin, sig_out = 0, mask
-    top = _producer(model, mask)
-    if top is not None and top.op_type == "Max" and top.name.startswith(OPAQUE_PREFIX):
-        sig_out = top.input[0]
-        pool = next((n for n in model.graph.node if n.name == f"{OPAQUE_PREFIX}grow_x"), None)
-        kernel = _attr(pool, "kernel_shape") if pool is not None else None
-        if not kernel or kernel[-1] % 2 != 1:
-            return None
-        margin = (kernel[-1] - 1) // 2
-    sig = _node(model, sig_out, "Sigmoid")
-    if sig is None:
-        return None
-    k, c, pre = 1.0, 0.0, sig.input[0]
-    shift = _node(model, pre, "Add")
-    if shift is not None:
-        scaled = next((i for i in shift.input if _producer(model, i) is not None and _producer(model, i).op_type == "Mul"), None)
-        mul = _producer(model, scaled) if scaled is not None else None
-        c = _scalar(model, _other(shift, scaled)) if scaled is not None else None
-        if mul is None or c is None:
-            return None
-        pre = next((i for i in mul.input if _scalar(model, i) is None), None)
-        k = _scalar(model, _other(mul, pre)) if pre is not None else None
-        if k is None:
-            return None
-    head = _upsampled(model, pre)
-    head_split = _producer(model, pre)
-    if head is None or list(head_split.output).index(pre) != 1:
-        return None
-    # the premultiplied RGB: (residual + colour) * mask
-    prem = _node(model, add.input[0], "Mul")
-    if prem is None or _other(prem, mask) is None:
-        return None
-    rgb = _node(model, _other(prem, mask), "Add")
-    residual = head_split.output[0]
-    if rgb is None or _other(rgb, residual) is None:
-        return None
-    colour = _node(model, _other(rgb, residual), "Add")
-    if colour is None:
-        return None
-    tex_mul = fill_mul = None
-    for i in colour.input:
+    fill_mul = None
+    for i in add.input:
         n = _producer(model, _uncast(model, i))
-        if n is not None and n.op_type == "Mul" and any(_node(model, j, "DequantizeLinear") is not None for j in n.input):
-            tex_mul = n
-        elif n is not None and n.op_type == "Mul":
+        if n is not None and n.op_type == "Mul" and any(_node(model, j, "Div") is not None for j in n.input):
             fill_mul = n
-    if tex_mul is None or fill_mul is None:
+    if fill_mul is None:
         return None
-    dq_out = next(j for j in tex_mul.input if _node(model, j, "DequantizeLinear") is not None)
-    dq = _producer(model, dq_out)
-    scale = _const_value(model, _other(tex_mul, dq_out))
-    dq_scale, zp = _scalar(model, dq.input[1]), _const_value(model, dq.input[2])
-    sl = _node(model, dq.input[0], "Slice")
-    if scale is None or scale.size != 3 or dq_scale is None or zp is None or sl is None:
-        return None
-    starts, ends, axes = (_const_value(model, sl.input[i]) for i in (1, 2, 3))
-    if any(v is None for v in (starts, ends, axes)) or (int(starts[0]), int(ends[0]), int(axes[0])) != (0, 3, 1):
-        return None
-    # fill term: up(FILL)[:3] * ((1 - covered) / max(up(FILL)[3], weight_min))
-    div = next((_node(model, i, "Div") for i in fill_mul.input if _node(model, i, "Div") is not None), None)
-    if div is None:
-        return None
+    div = next(_node(model, i, "Div") for i in fill_mul.input if _node(model, i, "Div") is not None)
     fill_rgb = _other(fill_mul, div.output[0])
-    fill = _upsampled(model, fill_rgb)
-    sub, clip = _node(model, div.input[0], "Sub"), _node(model, div.input[1], "Clip")
-    if fill is None or sub is None or clip is None or _scalar(model, sub.input[0]) != 1.0:
-        return None
-    fill_split = _producer(model, fill_rgb)
-    if list(fill_split.output).index(fill_rgb) != 0 or clip.input[0] != fill_split.output[1]:
+    fill = _upsampled(model, fill_rgb) if fill_rgb is not None else None
+    clip = _node(model, div.input[1], "Clip")
+    if fill is None or clip is None or list(_producer(model, fill_rgb).output) != [fill_rgb, clip.input[0]]:
         return None
     weight_min = _scalar(model, clip.input[1])
-    cover = _node(model, sub.input[1], "Cast")
-    marked = _node(model, cover.input[0], "Greater") if cover is not None else None
-    if weight_min is None or marked is None or not marked.name.endswith("_uint8_covered"):
-        return None
-    byte = next((n for n in model.graph.node if n.name == marked.name[:-len("covered")] + "byte"), None)
-    start = _const_value(model, byte.input[1]) if byte is not None else None
-    if start is None:
-        return None
-    from morf.raster.neural_raster import COVERAGE_CHANNEL
+    return None if weight_min is None else (fill, weight_min)
 
-    if int(start.reshape(-1)[0]) != COVERAGE_CHANNEL:  # sliced from the colour bytes (channels 0-2) or the raster
+
+def tail_spec(model: onnx.ModelProto, params: TailParameters | None, layout: str, coverage: bool,
+              opaque_margin: int) -> TailSpec | None:
+    """The tail of a renderer graph the exporter has just finished (see the module docstring), or
+    None where it has none: another layout, no colour skip or half-resolution head (``params``
+    None), no coverage byte (``coverage`` False), or a graph that computes it otherwise."""
+    names = {o.name for o in model.graph.output}
+    if params is None or layout != "nhwc" or not coverage or not {TAIL_HEAD, TAIL_COLOUR} <= names:
         return None
-    return TailSpec(head=head, fill=fill,
-                    colour_scale=tuple(float(v) * dq_scale for v in scale.reshape(-1)),
-                    zero_point=int(zp.reshape(-1)[0]), coverage_channel=COVERAGE_CHANNEL,
-                    logit_scale=float(k), logit_offset=float(c), weight_min=float(weight_min),
-                    opaque_margin=int(margin), head_stage=_head_stage(model, head))
+    fill = _fill(model, TAIL_COLOUR)
+    if fill is None or _upsampled_head(model) is None:
+        return None
+    return TailSpec(head=TAIL_HEAD, fill=fill[0], colour_scale=params.colour_scale, zero_point=ZERO_POINT,
+                    coverage_channel=COVERAGE_CHANNEL, logit_scale=params.logit_scale,
+                    logit_offset=params.logit_offset, weight_min=float(fill[1]), opaque_margin=int(opaque_margin),
+                    head_stage=_head_stage(model, TAIL_HEAD, params))
+
+
+def _upsampled_head(model) -> str | None:
+    """The 2x Resize of the named head that the mask and the residual are split from."""
+    readers = [n for n in model.graph.node if TAIL_HEAD in n.input]
+    resize = next((n for n in readers if n.op_type == "Resize"), None)
+    return None if resize is None else _resized(model, resize.output[0])
 
 
 def check_tail(model: onnx.ModelProto, spec: TailSpec, rasters: Sequence[np.ndarray]) -> dict:
@@ -236,15 +210,15 @@ def check_tail(model: onnx.ModelProto, spec: TailSpec, rasters: Sequence[np.ndar
     return {"max_levels": worst, "share_differing": differing / max(total, 1), "views": len(rasters)}
 
 
-def native_tail_entry(path: Path, layout: str, rasters: Sequence[np.ndarray]) -> dict | None:
-    """The manifest entry for the graph at ``path``: the spec with its check, or None when the graph
-    has no such tail, numba is missing or the check fails (the player then runs the whole graph)."""
-    model = onnx.load(str(path))
-    spec = tail_spec(model, layout)
+def native_tail_entry(path: Path, spec: TailSpec | None, rasters: Sequence[np.ndarray]) -> dict | None:
+    """The manifest entry for the graph at ``path`` with the tail ``spec`` its exporter wrote: the
+    spec with its check, or None when there is no spec, numba is missing or the check fails (the
+    player then runs the whole graph)."""
+    from morf.machine.compiled import numba_available
+
     if spec is None or not numba_available() or not rasters:
         return None
-    check = check_tail(model, spec, rasters)
+    check = check_tail(onnx.load(str(path)), spec, rasters)
     if check["max_levels"] > MAX_LEVELS or check["share_differing"] > MAX_SHARE:
         return None
     return dataclasses.replace(spec, check=check).to_dict()
-

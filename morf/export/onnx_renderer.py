@@ -28,6 +28,8 @@ from typing import Iterable
 import numpy as np
 import onnx
 
+from morf.export.compiled_tail import TailSpec
+from morf.export.native_tail_spec import TAIL_COLOUR, TAIL_HEAD, TailParameters, tail_spec
 from morf.export.onnx_graph import (OPAQUE_MARGIN_PX, append_composite, downstream_nodes, fold_input_scale, opaque_body,
                                     uint8_colour_head, uint8_input)
 from morf.raster.texture_quant import ZERO_POINT
@@ -95,8 +97,25 @@ def widen_input(renderer, channels: int):
     return wide
 
 
+def _tail_parameters(renderer, scales: np.ndarray, w, b, k: float, c: float) -> TailParameters | None:
+    """What the player's compiled tail needs from this export (:mod:`morf.export.native_tail_spec`),
+    for a renderer that has such a tail: a colour skip, premultiplied output and the head at half
+    resolution; None otherwise. Numbers as the graph holds them (float32)."""
+    cfg = getattr(renderer, "cfg", None)
+    if not (getattr(cfg, "rgb_skip", False) and getattr(cfg, "premultiply", False)
+            and int(getattr(cfg, "head_stride", 1)) == 2 and getattr(cfg, "stem", 1) > 1):
+        return None
+    f32 = lambda v: float(np.float32(v))  # noqa: E731
+    colour = np.float32(127.0) * np.asarray(scales[:3], np.float32)  # the Mul after DequantizeLinear(1/127)
+    weight = w.detach().reshape(w.shape[0], -1).double().numpy()
+    return TailParameters(colour_scale=tuple(float(v) * f32(1 / 127) for v in colour), logit_scale=f32(k),
+                          logit_offset=f32(c), head_weight=tuple(tuple(f32(v) for v in row) for row in weight),
+                          head_bias=tuple(f32(v) for v in b.detach().double().numpy()),
+                          head_alpha=f32(renderer.head[1].negative_slope))
+
+
 def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int],
-                        colours: tuple[float, float] | None = None) -> tuple[onnx.ModelProto, str | None]:
+                        colours: tuple[float, float] | None = None) -> tuple[onnx.ModelProto, str | None, TailParameters | None]:
     """Export ``renderer(x * 127 * scales)`` with output RGB + sigmoid(mask) and fold the scale.
 
     A renderer with fewer input channels than the 16 GL channels (small presets) reads the first
@@ -105,7 +124,9 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
     ``colours`` (int8 graphs): the RGB range of :func:`colour_range`. The last convolution then
     writes the mask logit mapped affinely from [-8, 8] onto that range (and the graph maps it
     back before the sigmoid), so one per-tensor int8 range serves both, pinned to ``colours``
-    by the caller. Returns the model and the name of the last convolution's output (or None).
+    by the caller. Returns the model, the name of the last convolution's output (or None) and
+    the tail's parameters (:func:`_tail_parameters`; the graph then has the two named tensors of
+    :mod:`morf.export.native_tail_spec` as extra outputs, which :func:`_finish` drops).
     """
     import torch
 
@@ -117,6 +138,13 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
         lo, hi = colours
         k = 2 * MASK_LOGIT_SPAN / (hi - lo)  # logit = k * channel + c
         c = -MASK_LOGIT_SPAN - lo * k
+    w = b = tail = None
+    if split:
+        with torch.no_grad():
+            w, b = renderer.last.weight.clone(), renderer.last.bias.clone()
+            w[3] /= k
+            b[3] = (b[3] - c) / k
+        tail = _tail_parameters(renderer, scales, w, b, k, c)
 
     class _Wrapper(torch.nn.Module):
         def __init__(self):
@@ -132,46 +160,49 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
                 out = self.renderer(x)
                 return torch.cat([out[:, :3], torch.sigmoid(out[:, 3:4])], dim=1)
             last = self.renderer.last
-            w, b = last.weight.clone(), last.bias.clone()
-            w[3] /= k
-            b[3] = (b[3] - c) / k
             if getattr(self.renderer, "pointwise_matmul", False) and last.kernel_size == (1, 1):
                 out = self.renderer.pointwise(last, self.renderer.features(x), w, b)
             else:
                 out = torch.nn.functional.conv2d(self.renderer.features(x), w, b, stride=last.stride,
                                                  padding=last.padding)
+            head = out
             if hasattr(self.renderer, "to_full"):
                 out = self.renderer.to_full(out)
             # one Split, not two Slices: each Slice copied its full-resolution planes at half speed
             rgb, logit = out.split([3, 1], dim=1)
             logit = logit if colours is None else logit * k + c
             mask = torch.sigmoid(logit)
+            colour = None
             if getattr(cfg, "rgb_skip", False):  # the residual over the texture's own colour
-                rgb = rgb + self.renderer.colour(raw, self.scale[:, :3])  # reads the raw input: the scale stays folded
+                colour = self.renderer.colour(raw, self.scale[:, :3])  # reads the raw input: the scale stays folded
+                rgb = rgb + colour
             rgb = rgb * mask if getattr(cfg, "premultiply", False) else rgb
-            return torch.cat([rgb, mask], dim=1)
+            rgba = torch.cat([rgb, mask], dim=1)
+            return (rgba, head, colour) if tail is not None else rgba
 
     wrapper = _Wrapper().eval().float()
     x = torch.zeros(1, len(scales), *sample_hw)
     buf = io.BytesIO()
     colour = getattr(renderer, "colour", None) if getattr(cfg, "rgb_skip", False) else None
     reach = colour.reaching(FILL_SIDE) if colour is not None else contextlib.nullcontext()
+    outputs = ["rgba", TAIL_HEAD, TAIL_COLOUR] if tail is not None else ["rgba"]
     with warnings.catch_warnings(), torch.no_grad(), reach:
         warnings.simplefilter("ignore")
         torch.onnx.export(wrapper, (x,), buf, opset_version=OPSET, dynamo=False, input_names=[FLOAT_INPUT],
-                          output_names=["rgba"], do_constant_folding=True,
-                          dynamic_axes={FLOAT_INPUT: {2: "height", 3: "width"}, "rgba": {2: "height", 3: "width"}})
+                          output_names=outputs, do_constant_folding=True,
+                          dynamic_axes={FLOAT_INPUT: {2: "height", 3: "width"},
+                                        **{o: {2: "height", 3: "width"} for o in outputs}})
     model = onnx.load_from_string(buf.getvalue())
     if not fold_input_scale(model, FLOAT_INPUT):
         warnings.warn("renderer input scale could not be folded into the first convolutions; kept as a Mul")
     if not split:
-        return model, None
+        return model, None, None
     if getattr(renderer, "pointwise_matmul", False):  # the last 1x1 convolution is a MatMul (+ bias Add)
         last_node = _head_output(model)
         if last_node is not None:
-            return model, last_node
+            return model, last_node, tail
     convs = [n for n in model.graph.node if n.op_type == "Conv"]
-    return model, (convs[-1].output[0] if convs else None)
+    return model, (convs[-1].output[0] if convs else None), tail
 
 
 def _head_output(model: onnx.ModelProto) -> str | None:
@@ -189,12 +220,13 @@ def _head_output(model: onnx.ModelProto) -> str | None:
 
 
 def export_fp32(renderer, scales: np.ndarray, path: str | os.PathLike, layout: str = "nchw",
-                sample_hw: tuple[int, int] = (128, 128), opaque: int | None = OPAQUE_MARGIN_PX) -> None:
+                sample_hw: tuple[int, int] = (128, 128), opaque: int | None = OPAQUE_MARGIN_PX) -> TailSpec | None:
     """Write the fp32 renderer with a uint8 input (see module docstring). ``opaque``: hold the
     mask at 1 this many pixels inside the body mesh (:func:`~morf.export.onnx_graph.opaque_body`;
-    None: the torch renderer's mask as it is)."""
-    model = _export_float_graph(widen_input(renderer, len(scales)), scales, sample_hw)[0]
-    _finish(model, path, layout, opaque, quantized=False)
+    None: the torch renderer's mask as it is). Returns the graph's full-resolution tail for the
+    player's compiled pass, unchecked (:mod:`morf.export.native_tail_spec`), or None."""
+    model, _, tail = _export_float_graph(widen_input(renderer, len(scales)), scales, sample_hw)
+    return _finish(model, path, layout, opaque, quantized=False, tail=tail)
 
 
 class _Calibration:
@@ -246,8 +278,8 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
         calibration: uint8 (1, 16, H, W) neural rasterizations (the capture's own training views).
         opaque: as in :func:`export_fp32`.
 
-    Returns ``{"calibration": name, "scores_db": {name: dB}}``, the calibration kept and each
-    one's :func:`calibration_score`.
+    Returns ``{"calibration": name, "scores_db": {name: dB}, "native_tail": TailSpec | None}``, the
+    calibration kept, each one's :func:`calibration_score` and the tail as :func:`export_fp32`.
     """
     from onnxruntime.quantization import CalibrationMethod, QuantFormat, QuantType, quantize_static
     from onnxruntime.quantization.shape_inference import quant_pre_process
@@ -266,7 +298,7 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
         renderer = equalize_renderer(renderer, inputs)
         colours = colour_range(renderer, inputs)
         renderer.pointwise_matmul = half_head  # on the copy: see float_nodes
-    model, last_out = _export_float_graph(renderer, scales, sample_hw, colours)
+    model, last_out, tail = _export_float_graph(renderer, scales, sample_hw, colours)
     if last_out is not None and colours is not None:
         overrides[last_out] = [{"rmin": np.array(colours[0], np.float32), "rmax": np.array(colours[1], np.float32)}]
     with tempfile.TemporaryDirectory() as tmp:
@@ -290,8 +322,8 @@ def export_int8(renderer, scales: np.ndarray, path: str | os.PathLike, calibrati
         best = max(scores, key=lambda name: scores[name])
         q = onnx.load(candidates[best])
     q.metadata_props.add(key="int8_calibration", value=f"{best} ({', '.join(f'{k} {v:.1f} dB' for k, v in scores.items())})")
-    _finish(q, path, layout, opaque, quantized=True)
-    return {"calibration": best, "scores_db": {k: round(v, 2) for k, v in scores.items()}}
+    spec = _finish(q, path, layout, opaque, quantized=True, tail=tail)
+    return {"calibration": best, "scores_db": {k: round(v, 2) for k, v in scores.items()}, "native_tail": spec}
 
 
 # Activation-range calibrations the int8 export tries; it keeps the one whose graph is closest to
@@ -370,17 +402,23 @@ def float_nodes(model: onnx.ModelProto, last_out: str | None, half_head: bool = 
     return names
 
 
-def _finish(model: onnx.ModelProto, path: str | os.PathLike, layout: str, opaque: int | None, quantized: bool) -> None:
+def _finish(model: onnx.ModelProto, path: str | os.PathLike, layout: str, opaque: int | None, quantized: bool,
+            tail: TailParameters | None) -> TailSpec | None:
     """The steps both graphs end with: the uint8 ``raster`` input in ``layout``, the texture
     colour read from its bytes, the opaque body (``opaque`` pixels; None: none), the composited
-    ``image`` output; checked, then written atomically to ``path``."""
+    ``image`` output; checked, then written atomically to ``path``. Returns the tail's spec
+    (:func:`~morf.export.native_tail_spec.tail_spec`) and drops the outputs that named it."""
     model = uint8_input(model, FLOAT_INPUT, layout, quantized=quantized)
-    uint8_colour_head(model, layout)
-    if opaque is not None:
-        opaque_body(model, opaque)
+    rewritten = uint8_colour_head(model, layout)
+    margin = opaque if opaque is not None and opaque_body(model, opaque) else 0
     append_composite(model)
+    coverage = any(r.startswith("coverage") for r in rewritten)
+    spec = tail_spec(model, tail, layout, coverage, margin)
+    for named in [o for o in model.graph.output if o.name in (TAIL_HEAD, TAIL_COLOUR)]:
+        model.graph.output.remove(named)
     onnx.checker.check_model(model)
     _save(model, path)
+    return spec
 
 
 def _save(model: onnx.ModelProto, path: str | os.PathLike) -> None:

@@ -141,7 +141,8 @@ def test_int8_keeps_the_calibration_closer_to_float(tmp_path, renderers, monkeyp
 
     monkeypatch.setattr(onnx_renderer, "calibration_score", scored)
     chosen = export_int8(renderers["half"], scales, tmp_path / "q.onnx", calib)
-    assert chosen == {"calibration": "minmax", "scores_db": {"percentile": 20.0, "minmax": 35.0}}
+    assert chosen == {"calibration": "minmax", "scores_db": {"percentile": 20.0, "minmax": 35.0},
+                      "native_tail": None}  # the "nchw" layout: the player's compiled tail reads "nhwc" only
     meta = {p.key: p.value for p in onnx.load(tmp_path / "q.onnx").metadata_props}
     assert meta["int8_calibration"].startswith("minmax (percentile 20.0 dB, minmax 35.0 dB)")
 

@@ -198,7 +198,8 @@ def test_the_exporter_records_no_tail_that_disagrees_with_the_graph(cpu_avatar, 
     raster = np.full((1, SIZE, SIZE, 16), 128, np.uint8)
     raster[0, 40:90, 50:80] = 150  # a block of body
     path = cpu_avatar / "renderer_int8.onnx"
-    assert native_tail_spec.native_tail_entry(path, "nhwc", [raster]) is not None
+    spec = spec_for(json.loads((cpu_avatar / "manifest.json").read_text()), "int8")
+    assert native_tail_spec.native_tail_entry(path, spec, [raster]) is not None
     right = TailShader.run
 
     def off(self, cut, raster, background, out=None):
@@ -207,5 +208,23 @@ def test_the_exporter_records_no_tail_that_disagrees_with_the_graph(cpu_avatar, 
         return img
 
     monkeypatch.setattr(TailShader, "run", off)
-    assert native_tail_spec.native_tail_entry(path, "nhwc", [raster]) is None
-    assert native_tail_spec.native_tail_entry(path, "nchw", [raster]) is None  # other layouts: never
+    assert native_tail_spec.native_tail_entry(path, spec, [raster]) is None
+    assert native_tail_spec.native_tail_entry(path, None, [raster]) is None  # a graph its exporter gave no tail
+
+
+def test_the_tail_is_the_exporters_word_not_read_back_from_node_names(cpu_avatar):
+    """The cut tensors are the ones the exporter named, the constants the ones it set; the finished
+    graphs keep the named tensors inside (the player cuts there) but only their own two outputs."""
+    import onnx
+
+    manifest = json.loads((cpu_avatar / "manifest.json").read_text())
+    for precision, name in (("fp32", "renderer.onnx"), ("int8", "renderer_int8.onnx")):
+        model = onnx.load(str(cpu_avatar / name))
+        assert [o.name for o in model.graph.output] == ["rgba", "image"]
+        made = {t for n in model.graph.node for t in n.output}
+        spec = spec_for(manifest, precision)
+        assert spec.head == "tail_head" and set(spec.cut) <= made
+    scales = np.load(cpu_avatar / "texture.npz")["scales"]
+    int8 = spec_for(manifest, "int8")
+    assert int8.colour_scale == pytest.approx(tuple(scales[:3]), rel=1e-6)
+    assert int8.zero_point == 128 and int8.weight_min == pytest.approx(1e-4)
