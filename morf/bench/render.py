@@ -332,10 +332,10 @@ def run(args) -> int:
 
     t0 = time.time()
     if getattr(args, "no_amx", False):
-        from morf.amx_permission import refuse_amx
+        from morf.machine.amx_permission import refuse_amx
 
         refuse_amx()  # before onnxruntime loads here or in the measuring children (they inherit it)
-    from morf.cpu_features import cpu_summary
+    from morf.machine.features import cpu_summary
 
     if getattr(args, "raster", "auto") != "auto":
         os.environ["MORF_RASTER"] = args.raster  # the measuring children's players read it

@@ -64,7 +64,13 @@ def run(args) -> int:
         raise InputError(f"{', '.join(given)} go with --video (they are used while ingesting)")
     ingest = _ingest_plan(root, args)  # checks the project and the video before anything runs
     remembered = _recall(root)
-    name, preset = _run_name(root, args.preset or remembered.get("preset"))
+    if args.preset:
+        name, preset, why = f"morf-{args.preset}", args.preset, "given with --preset"
+    elif remembered.get("preset"):
+        name, preset, _ = _run_name(root, remembered["preset"])
+        why = f"the last 'morf run' on this project chose it ({RUN_FILE})"
+    else:
+        name, preset, why = _run_name(root, None)
     holdout = args.holdout if args.holdout is not None else (
         remembered.get("holdout") if remembered.get("preset") == preset else None)
     fresh = ("train", str(root), "--preset", preset, "--name", name)
@@ -76,6 +82,7 @@ def run(args) -> int:
         _remember(root, preset, holdout)  # the project exists from here on
         return fit_plan(root, fit_preset)
 
+    print(f"training preset: {preset} ({why}){preset_hint(preset)}")
     steps = [
         Step("ingest", lambda: ingest),
         Step("fit", fit_step),
@@ -189,18 +196,29 @@ def _kind_words(kind: str) -> str:
             "zju-mocap": "ZJU-MoCap capture"}.get(kind, f"{kind} capture")
 
 
-def _run_name(root: Path, preset: str | None) -> tuple[str, str]:
-    """(run name, train preset): ``morf-PRESET`` for a named preset; without one, the project's
-    latest trained or started run (not an RGB floor), else the default preset's run."""
+def _run_name(root: Path, preset: str | None) -> tuple[str, str, str]:
+    """(run name, train preset, why that preset): ``morf-PRESET`` for a named preset; without one,
+    the project's latest trained or started run (not an RGB floor), else the default preset's run."""
     from morf.presets import default_preset
 
     if preset:
-        return f"morf-{preset}", preset
+        return f"morf-{preset}", preset, "asked for"
     latest = _latest_run(root)
     if latest is not None:
-        return latest
+        return (*latest, f"the project's latest training run, {latest[0]}, used it")
     preset = default_preset("train")
-    return f"morf-{preset}", preset
+    why = "CUDA is present" if preset == "gpu" else "no CUDA device: the few-minute CPU preset"
+    return f"morf-{preset}", preset, why
+
+
+def preset_hint(preset: str) -> str:
+    """What to name instead for more detail, when a larger preset fits the same machine."""
+    from morf.train.config import DETAIL_PRESET
+
+    if preset == "cpu":
+        return (f"; for the face and hands at the player's density in about half an hour on 2 cores, "
+                f"use --preset {DETAIL_PRESET}")
+    return ""
 
 
 def _latest_run(root: Path) -> tuple[str, str] | None:

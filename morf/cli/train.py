@@ -22,8 +22,10 @@ def add_parser(sub):
                    help="morf: texture warping (default); stylepeople: no warping; anr: split optimisation; "
                         "rgb: the no-learning floor (the frames projected into a colour texture, seconds)")
     p.add_argument("--preset", choices=(*PRESETS["train"], "auto"), default=None,
-                   help="model and schedule sizes (default: gpu when CUDA is present, else cpu); auto: the "
-                        "smallest texture and renderer the capture needs, chosen from the capture itself")
+                   help="model and schedule sizes (default: gpu when CUDA is present, else cpu); detail: the "
+                        "cpu preset with the face and hands trained at the player's density (about half an hour "
+                        "on 2 cores); auto: the smallest texture and renderer the capture needs, chosen from the "
+                        "capture itself")
     p.add_argument("--name", default=None, help="run name under PROJECT/runs (default: METHOD-PRESET)")
     p.add_argument("--steps", type=int, default=None, help="override the preset's number of steps")
     p.add_argument("--resolution", type=int, default=None, help="override the working image side (pixels)")

@@ -31,6 +31,18 @@ class TrainConfig:
     # ``crop or resolution`` pixels from it, so the renderer also sees the body at the scale it is
     # played at. Trained at 256 px only, the renderer punched holes into the mask at 2x (neck, waist).
     zoom_resolution: int = 0
+    # Every this-many-th step (0: none) trains on crops of the zoomed frames centred on the head
+    # (half the images) or a hand (morf/train/detail.py), so the parts people look at are seen at
+    # the player's scale in a fixed share of the steps; needs ``zoom_resolution``.
+    detail_every: int = 0
+    # Channels 0-2 of the texture (``renderer.rgb_skip``) projected from the zoomed frames rather
+    # than the training frames: at 256 px a face is about 30 px high and its colours in the atlas
+    # are that blurred whatever the texture's size.
+    colour_from_zoom: bool = False
+    # Each pixel's weight in that projection is its surface's facing |cos| to this power (0: the
+    # plain mean over every frame that sees a texel, which blends frames misaligned by the fit's
+    # error into a ghosted face; morf.train.inpaint.project_rgb_texture).
+    colour_facing_power: float = 0.0
     batch_size: int = 4  # images per step
     steps: int = 3000  # optimisation steps of the main stage
     texture_channels: int = 16  # C of the neural texture
@@ -80,6 +92,12 @@ class TrainConfig:
     loss_background: str = "black"
     w_gan: float = 0.02  # non-saturating GAN loss
     w_dice: float = 1.0  # Dice on the mask
+    # Binary cross-entropy on the mask's logits. Dice and the premultiplied image terms reach the
+    # logit through the sigmoid, whose gradient vanishes once the logit is far below zero: a mask
+    # pushed there everywhere (a wide renderer's large first steps, adversarial terms) never came
+    # back (docs/benchmarks.md: stem x4 base 32 and 48). This term's gradient on a person pixel is
+    # sigmoid(logit) - 1, about -1 there, so a dead mask is pulled back whatever its depth.
+    w_mask_bce: float = 0.0
     w_tv_rgb: float = 0.01  # low-weight TV on the image
     w_warp_l2: float = 1.0  # offsets -> 0 (offsets in texture grid units)
     w_warp_tv: float = 1.0  # TV on the offset field (L1; at 10 it pinned local offsets to zero)
@@ -161,6 +179,9 @@ class TrainConfig:
         if self.zoom_resolution and (self.zoom_resolution <= self.resolution or self.zoom_resolution % m):
             raise InputError(f"zoom resolution {self.zoom_resolution} must exceed resolution {self.resolution} "
                              f"and be a multiple of {m}")
+        if (self.detail_every or self.colour_from_zoom) and not self.zoom_resolution:
+            raise InputError("detail_every and colour_from_zoom need zoom_resolution (the frames they crop or "
+                             "project); set zoom_resolution to a side above resolution")
         if self.crop > self.resolution:
             raise InputError("crop must not exceed resolution")
         if self.renderer.in_channels != self.texture_channels:
@@ -184,6 +205,8 @@ class TrainConfig:
             (self.crop >= 0, f"crop must be 0 (whole image) or a positive number of pixels, got {self.crop}"),
             (self.zoom_resolution >= 0, f"zoom_resolution must be 0 (none) or a positive number of pixels, got "
                                         f"{self.zoom_resolution}"),
+            (self.colour_facing_power >= 0, f"colour_facing_power must be >= 0, got {self.colour_facing_power}"),
+            (self.detail_every >= 0, f"detail_every must be 0 (none) or a number of steps, got {self.detail_every}"),
             (self.batch_size >= 1, f"batch size must be at least 1 image per step, got {self.batch_size}"),
             (self.steps >= min_steps, f"steps must be at least 1, got {self.steps}: a run without training steps "
                                       "has nothing to export; give --steps 1 or more"),
@@ -203,7 +226,7 @@ class TrainConfig:
         ]
         for name in ("lr_texture", "lr_renderer", "lr_warp", "lr_latent", "lr_discriminator", "inpaint_lr"):
             checks.append((getattr(self, name) >= 0, f"{name} must be >= 0 (a learning rate), got {getattr(self, name)}"))
-        for name in ("w_residual", "w_l1", "w_perceptual", "w_feature_matching", "w_ssim", "w_gan", "w_dice",
+        for name in ("w_residual", "w_mask_bce", "w_l1", "w_perceptual", "w_feature_matching", "w_ssim", "w_gan", "w_dice",
                      "w_tv_rgb", "w_warp_l2", "w_warp_tv"):
             checks.append((getattr(self, name) >= 0, f"{name} must be >= 0 (a loss weight), got {getattr(self, name)}"))
         checks += [
@@ -252,6 +275,7 @@ class TrainConfig:
         return self.lr_decay_floor + (1.0 - self.lr_decay_floor) * 0.5 * (1.0 + math.cos(math.pi * t))
 
 
+DETAIL_PRESET = "detail"  # the preset 'morf run' names when the cpu preset is chosen for a user (cli/run.py)
 PRESETS: dict[str, TrainConfig] = {
     # CI: seconds on 2 cores. Tiny everything. A checkpoint every 0.6 s, so that a run killed during
     # its few seconds of training resumes part-way, as a long run does (morf bench resume).
@@ -301,6 +325,16 @@ PRESETS: dict[str, TrainConfig] = {
         disc_width=64, disc_scales=3, disc_layers=3, inpaint_steps=2000, inpaint_views=64,
         checkpoint_minutes=10.0, report_every=50, log_every=50),
 }
+
+
+# Detail where people look, in at most half an hour on 2 CPU cores: the cpu preset's renderer and
+# losses, with the face and hands at the density the player draws them. Crops of the frames at
+# 640 px (the player's side) every other step, every fourth step centred on the head or a hand;
+# a 512^2 texture whose colour channels are projected from those 640 px frames (at 256^2 the
+# face had about 60 texels of height, at 512^2 about 120: the player draws it about 75 px high).
+PRESETS[DETAIL_PRESET] = PRESETS["cpu"].replace(
+    preset=DETAIL_PRESET, zoom_resolution=640, texture_size=512, colour_from_zoom=True, detail_every=4, steps=3000,
+    colour_facing_power=8.0, w_mask_bce=0.1)
 
 
 def preset(name: str, method: str = "morf", **overrides) -> TrainConfig:

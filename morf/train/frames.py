@@ -69,11 +69,16 @@ class FrameSet:
             rotvecs=np.asarray(rotvecs, np.float32),
             frame_ids=np.arange(N, dtype=np.int64) if frame_ids is None else np.asarray(frame_ids, np.int64))
 
-    def batch(self, indices, crop: int = 0, rng: np.random.Generator | None = None, device="cpu") -> "Batch":
-        """Tensors for frames ``indices`` (positions in this set), optionally a random crop each."""
+    def batch(self, indices, crop: int = 0, rng: np.random.Generator | None = None, device="cpu",
+              origins: tuple[np.ndarray, np.ndarray] | None = None) -> "Batch":
+        """Tensors for frames ``indices`` (positions in this set), optionally a ``crop``-pixel crop
+        each: at random, or with its top-left corner at ``origins`` ((B,) rows, (B,) columns, inside
+        the image; :func:`morf.train.detail.crop_origins`)."""
         idx = np.asarray(indices, dtype=np.int64)
         R = self.resolution
-        if crop and crop < R:
+        if crop and crop < R and origins is not None:
+            sl = [(slice(int(y), int(y) + crop), slice(int(x), int(x) + crop)) for y, x in zip(*origins)]
+        elif crop and crop < R:
             rng = rng or np.random.default_rng()
             ys = rng.integers(0, R - crop + 1, size=len(idx))
             xs = rng.integers(0, R - crop + 1, size=len(idx))

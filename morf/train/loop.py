@@ -85,7 +85,7 @@ def _preview(out, batch, texture: torch.Tensor | None = None) -> dict[str, np.nd
 def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, texture_init: torch.Tensor,
                  control: StageControl | None = None, perceptual=None, inpaint: InpaintViews | None = None,
                  shape: torch.Tensor | None = None, camera=None, notes: list[str] | None = None,
-                 zoom_frames: FrameSet | None = None) -> TrainResult:
+                 zoom_frames: FrameSet | None = None, detail_centres: np.ndarray | None = None) -> TrainResult:
     """Train (or resume) a run in ``run_dir``.
 
     Args:
@@ -94,7 +94,9 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         feature matching is used when the config has adversarial terms, else the SSIM term alone;
         the log says which); inpaint: pseudo views for the fine-tune or None;
         shape, camera: stored with the avatar for export; notes: extra lines for the log;
-        zoom_frames: the same frames at ``cfg.zoom_resolution`` (every other step), or None.
+        zoom_frames: the same frames at ``cfg.zoom_resolution`` (every other step), or None;
+        detail_centres: (N, 3, 2) pixel centres of the head and hands in ``zoom_frames``
+        (:mod:`morf.train.detail`), needed with ``cfg.detail_every``.
     Raises:
         TrainingDiverged: NaN/inf or a collapsed mask (``health.py``) that rolling back with halved
             learning rates (``cfg.max_recoveries`` times; to the last snapshot or checkpoint, or to
@@ -104,7 +106,8 @@ def train_avatar(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, textur
         StopRequested: the user stopped; a checkpoint of the current step was written first.
     """
     control = control or StageControl()
-    run, trainer = open_run(frames, run_dir, cfg, texture_init, perceptual, notes, zoom_frames)
+    run, trainer = open_run(frames, run_dir, cfg, texture_init, perceptual, notes, zoom_frames,
+                           detail_centres)
     resumed_from = trainer.step
     if run.is_done and trainer.step >= cfg.steps:
         return TrainResult(run.root, trainer.step, {}, trainer.elapsed_s / 60, resumed_from)

@@ -49,7 +49,7 @@ def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=Non
                      backdrop: torch.Tensor | None = None) -> dict[str, torch.Tensor]:
     """Unweighted loss terms of the generator side (texture, warp, renderer).
 
-    Keys: l1, dice, tv_rgb, and when applicable ssim, residual, perceptual, warp_l2, warp_tv, gan,
+    Keys: l1, dice, tv_rgb, and when applicable ssim, mask_bce, residual, perceptual, warp_l2, warp_tv, gan,
     feature_matching.
     The RGB target is the frame premultiplied by its person mask (the renderer's convention); with
     ``cfg.loss_background == "random"`` the image terms compare render and frame composited over
@@ -64,6 +64,8 @@ def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=Non
     if cfg.w_ssim > 0:  # around the person: the real mask grown by the SSIM window's radius
         near = F.max_pool2d(batch.mask, 11, 1, 5)
         L["ssim"] = ssim_loss(image, image_target, near)
+    if cfg.w_mask_bce > 0:  # a gradient that does not vanish when the mask's sigmoid saturates
+        L["mask_bce"] = F.binary_cross_entropy_with_logits(out.mask_logit.float(), batch.mask)
     if cfg.w_residual > 0 and out.residual is not None:
         L["residual"] = (out.residual.float() * out.mask).abs().mean()  # as far as it shows in the image
     if perceptual is not None:
@@ -83,7 +85,7 @@ def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=Non
 
 WEIGHTS = {"l1": "w_l1", "ssim": "w_ssim", "dice": "w_dice", "tv_rgb": "w_tv_rgb", "perceptual": "w_perceptual",
            "warp_l2": "w_warp_l2", "warp_tv": "w_warp_tv", "gan": "w_gan", "feature_matching": "w_feature_matching",
-           "residual": "w_residual"}
+           "residual": "w_residual", "mask_bce": "w_mask_bce"}
 
 
 def weighted_total(cfg: TrainConfig, losses: dict[str, torch.Tensor]) -> torch.Tensor:

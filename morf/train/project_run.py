@@ -63,12 +63,21 @@ def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fi
     control.report(Progress("train", 0, cfg.steps, "loading body model"))
     model = model or load_body_model("anny")
     pf = build_frames(project, model, cfg.resolution, fits_source, control, holdout=cfg.holdout)
-    zoom = None
+    zoom, zoom_pf, centres = None, None, None
     if cfg.zoom_resolution:
-        zoom = build_frames(project, model, cfg.zoom_resolution, fits_source, control, holdout=cfg.holdout).frames
+        zoom_pf = build_frames(project, model, cfg.zoom_resolution, fits_source, control, holdout=cfg.holdout)
+        zoom = zoom_pf.frames
     notes = [f"fits: {pf.fits.source}; frames cache: {pf.cache_path}"]
     if zoom is not None:
         notes.append(f"every other step: {cfg.crop or cfg.resolution} px crops of the frames at {cfg.zoom_resolution} px")
+    if cfg.detail_every:
+        from morf.train.detail import detail_centres, detail_points
+
+        fits = pf.fits
+        ids = zoom.frame_ids
+        centres = detail_centres(detail_points(model, fits.rotvecs[ids], fits.transl[ids], fits.shape),
+                                 zoom_pf.camera)
+        notes.append(f"every {cfg.detail_every}th step: those crops centred on the head (half) or a hand")
     if cfg.holdout:
         notes.append(f"hold-out: usable frames 0, K, 2K, ... (1 in K = {cfg.holdout}) are kept out of training")
     atlas = body_uv_atlas(model, cfg.texture_size, cfg.texture_size)
@@ -76,11 +85,14 @@ def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fi
     if cfg.renderer.rgb_skip:  # channels 0-2 are colour: the frames projected; the rest spectral
         from morf.train.floor_texture import floor_texture
 
-        rgb = floor_texture(fs, atlas.covered, cfg.texture_dilate)[0][:3]  # the floor's colours: step 0 = floor
+        source = zoom if cfg.colour_from_zoom else fs
+        # the floor's colours (step 0 = floor), unless weighted towards the frames that face a texel
+        rgb = floor_texture(source, atlas.covered, cfg.texture_dilate, facing_power=cfg.colour_facing_power)[0][:3]
         spec = spectral_texture(model, cfg.texture_channels - 3, cfg.texture_size, cfg.texture_size,
                                 cfg.texture_dilate)
         tex = torch.from_numpy(np.concatenate([rgb, spec], axis=0))
-        notes.append("texture channels 0-2: the training frames projected (colour); the renderer adds a residual")
+        notes.append(f"texture channels 0-2: the training frames at {source.resolution} px projected (colour); "
+                     "the renderer adds a residual")
     else:
         tex = torch.from_numpy(spectral_texture(model, cfg.texture_channels, cfg.texture_size, cfg.texture_size,
                                                 cfg.texture_dilate))
@@ -95,7 +107,8 @@ def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fi
         return make_pseudo_views(model, pf.fits.shape, pf.camera, fs.rotvecs[mid], centre, cfg.inpaint_views)
 
     return train_avatar(fs, run.root, cfg, tex, control, perceptual, InpaintViews(atlas.covered, views),
-                        shape=torch.from_numpy(pf.fits.shape), camera=pf.camera, notes=notes, zoom_frames=zoom)
+                        shape=torch.from_numpy(pf.fits.shape), camera=pf.camera, notes=notes, zoom_frames=zoom,
+                        detail_centres=centres)
 
 
 def backdrop_colour(frames) -> torch.Tensor:

@@ -34,7 +34,8 @@ if TYPE_CHECKING:
 
 
 def open_run(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, texture_init: torch.Tensor, perceptual,
-             notes: list[str] | None, zoom_frames: FrameSet | None) -> tuple[RunDir, Trainer]:
+             notes: list[str] | None, zoom_frames: FrameSet | None,
+             detail_centres=None) -> tuple[RunDir, Trainer]:
     """The run folder (its config written, or checked against ``cfg``) and a trainer, resumed from
     the checkpoint when there is one (else the start is logged). Raises InputError as ``train_avatar``."""
     run = RunDir(run_dir)
@@ -48,7 +49,10 @@ def open_run(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, texture_in
         run.save_config(cfg)
     if cfg.zoom_resolution and zoom_frames is None:
         raise InputError(f"the config asks for frames at {cfg.zoom_resolution} px as well; none were given")
-    trainer = Trainer(cfg, frames, texture_init, perceptual=perceptual, zoom_frames=zoom_frames)
+    if cfg.detail_every and detail_centres is None:
+        raise InputError("the config asks for crops around the head and hands; no detail centres were given")
+    trainer = Trainer(cfg, frames, texture_init, perceptual=perceptual, zoom_frames=zoom_frames,
+                      detail_centres=detail_centres)
     if run.has_checkpoint:
         trainer.load_state_dict(run.load_checkpoint(map_location=trainer.device))
         dropped = drop_metrics_after(run, trainer.step)

@@ -26,12 +26,17 @@ import torch
 from morf.avatar.discriminator import MultiScaleDiscriminator
 from morf.avatar.model import AvatarModel, AvatarOutput
 from morf.avatar.warp import pose_features
-from morf.cpu_features import native_bf16
+from morf.machine.features import native_bf16
 from morf.train.bf16_check import BF16_TOLERANCE, OFF_NOT_NATIVE, bf16_disagreement
 from morf.errors import TrainingDiverged
 from morf.train.config import TrainConfig
 from morf.train.frames import Batch, FrameSet
 from morf.train.objective import discriminator_loss, generator_losses, render_batch, weighted_total
+
+
+# Share of the head, the left and the right hand among detail crops (morf.train.detail.DETAIL_REGIONS):
+# the face is where a viewer looks first, and it holds the most detail per pixel.
+DETAIL_SHARE = (0.5, 0.25, 0.25)
 
 
 def pick_device(name: str = "auto") -> torch.device:
@@ -44,12 +49,16 @@ class Trainer:
     """Training state for one run. Use :meth:`train_step`; save with :meth:`state_dict`."""
 
     def __init__(self, cfg: TrainConfig, frames: FrameSet, texture_init: torch.Tensor, device=None, perceptual=None,
-                 zoom_frames: FrameSet | None = None):
+                 zoom_frames: FrameSet | None = None, detail_centres: np.ndarray | None = None):
         self.cfg = cfg
         self.frames = frames
         if zoom_frames is not None and not np.array_equal(zoom_frames.frame_ids, frames.frame_ids):
             raise ValueError("the zoomed frames must be the same frames as the training frames")
         self.zoom_frames = zoom_frames  # the same frames at cfg.zoom_resolution (every other step)
+        if detail_centres is not None and (zoom_frames is None or detail_centres.shape[:1] != (frames.num_frames,)):
+            raise ValueError("detail centres need the zoomed frames and one row per training frame")
+        # (N, R, 2) pixel centres of the head and hands in the zoomed frames (cfg.detail_every)
+        self.detail_centres = detail_centres if cfg.detail_every else None
         self.device = torch.device(device) if device is not None else pick_device(cfg.device)
         torch.manual_seed(cfg.seed)
         self.model = AvatarModel(texture_init.float(), cfg.renderer, cfg.warp if cfg.method == "morf" else None,
@@ -168,9 +177,21 @@ class Trainer:
         rng = np.random.default_rng([self.cfg.seed, self.step])
         N, B = self.frames.num_frames, self.cfg.batch_size
         idx = rng.choice(N, size=B, replace=N < B)
+        if self.detail_centres is not None and self.step % self.cfg.detail_every == self.cfg.detail_every - 1:
+            return self._detail_batch(idx, rng)
         if self.zoom_frames is not None and self.step % 2 == 1:
             return self.zoom_frames.batch(idx, self.cfg.crop or self.cfg.resolution, rng, self.device)
         return self.frames.batch(idx, self.cfg.crop, rng, self.device)
+
+    def _detail_batch(self, idx: np.ndarray, rng: np.random.Generator) -> Batch:
+        """Crops of the zoomed frames centred on the head (half the images) or a hand."""
+        from morf.train.detail import crop_origins
+
+        crop = self.cfg.crop or self.cfg.resolution
+        region = rng.choice(len(DETAIL_SHARE), size=len(idx), p=DETAIL_SHARE)
+        centres = self.detail_centres[idx, region]
+        origins = crop_origins(centres, crop, self.zoom_frames.resolution, rng)
+        return self.zoom_frames.batch(idx, crop, rng, self.device, origins=origins)
 
     def backdrop(self) -> torch.Tensor | None:
         """(B, 3) the backdrop colours of this step's images (``loss_background="random"``), else None."""

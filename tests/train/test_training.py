@@ -333,7 +333,7 @@ def test_bf16_off_where_its_convolutions_are_wrong(frames_factory, monkeypatch):
 def test_cpu_flags_read_from_cpuinfo(monkeypatch, tmp_path):
     import builtins
 
-    from morf import cpu_features
+    from morf.machine import features as cpu_features
 
     text = "processor : 0\nflags : fpu avx2 avx512f avx512_vnni\n"
     real_open = builtins.open
