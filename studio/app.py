@@ -656,6 +656,19 @@ class StudioApp:
         imgui.get_io().add_input_characters_utf8(text)
         self.frame()
 
+    def key_event(self, key: int, action: int) -> None:
+        """A GLFW key event (``glfw.KEY_*``, ``glfw.PRESS`` / ``RELEASE``) as the window reports
+        one: queued for the next full frame. Call it on the UI thread, between frames."""
+        self.keys.key(key, 0, action)
+        self._inputs += 1
+        self.pacer.input()
+
+    def char_event(self, char: str) -> None:
+        """A typed character as the window reports one (see :meth:`key_event`)."""
+        self.keys.char(ord(char))
+        self._inputs += 1
+        self.pacer.input()
+
     # ---- shutting down ------------------------------------------------------------------
     def close(self) -> None:
         """Stop the worker (and any running stage), free GL objects, close the window."""

@@ -40,6 +40,9 @@ def test_the_studio_benchmark_plays_an_avatar_and_writes_its_numbers(tiny_avatar
     assert s["live_fps"] > 0 and s["ui_fps"] > 0 and s["ui_frame_ms_p95"] > 0
     assert "UI thread" in s["cpu_percent_of_one_core"] and "live render thread" in s["cpu_percent_of_one_core"]
     assert result["window"] == "headless EGL" and result["targets"]["live_fps"] in ("met", "missed")
+    typing = result["typing"]  # a path typed key by key into the motion field while it played, then Enter
+    assert typing["typed_in_field"] and typing["listed"] and typing["frames"] > typing["keys"] / 2
+    assert typing["ui_frame_ms_p99"] > 0 and result["targets"]["typing_p99"] in ("met", "missed")
     b = result["bench_render"]  # the reference, measured before, between and after the two rounds
     assert len(b["fps_each"]) == 3 and min(b["fps_each"]) > 0 and b["fps"] == pytest.approx(sum(b["fps_each"]) / 3)
     assert len(result["rounds"]) == 2
