@@ -21,6 +21,7 @@ BENCHMARKS = {
     "stability": "quality as nuisances grow, per method",
     "step": "seconds per training step with bfloat16 autocast on and off (what this CPU gets)",
     "resume": "kill -9 at random moments of 'morf run', run it again: the same avatar as an uninterrupted run",
+    "web": "the avatar in a web page: fps at 640x640 in headless Chromium, per stage, and at the adaptive size",
 }
 # Benchmarks of the desktop app: name -> (module run with ``python -m``, help). They run in their own
 # process, so the library never imports studio/ (and the app gets a fresh GLFW and GL state).

@@ -32,7 +32,12 @@ def add_parser(sub):
                    help="write into an existing non-empty --out folder (or over an existing .glb), replacing only the "
                         "files morf export writes; other files there are kept")
     p.add_argument("--motion", default=None, metavar="FILE",
-                   help="with --gltf: add this motion (BVH, AMASS or clip .npz) to the .glb as an animation")
+                   help="with --gltf: add this motion (BVH, AMASS or clip .npz) to the .glb as an animation; with "
+                        "--web: add it to the web folder's motions")
+    p.add_argument("--web", default=None, metavar="OUT",
+                   help="also write a static web folder that plays the avatar live in a browser (morf serve OUT; "
+                        "docs/web.md)")
+    p.add_argument("--webgpu", action="store_true", help="with --web: also carry onnxruntime-web's WebGPU build")
     p.add_argument("--mesh", default=None, metavar="FILE.ply|FILE.obj",
                    help="also write the fitted body (rest pose, the project's fitted shape, texture coordinates; metres, "
                         "Z up) as a PLY or OBJ mesh for other tools")
@@ -49,8 +54,14 @@ def run(args) -> int:
     from morf.export.project_export import ProjectExportConfig, export_project
     from morf.pipeline.control import StageControl, StopRequested
 
-    if args.motion and not args.gltf:
-        raise InputError("--motion goes into the glTF file: give --gltf FILE.glb too")
+    if args.motion and not (args.gltf or args.web):
+        raise InputError("--motion goes into the glTF file or the web folder: give --gltf FILE.glb or --web OUT too")
+    if args.webgpu and not args.web:
+        raise InputError("--webgpu goes with --web OUT")
+    if args.web:  # refused before the export's minutes, not after
+        from morf.cli.web import check_web
+
+        check_web(args.web, args.force, [args.motion] if args.motion else None, "morf export --web")
     if args.motion_fps is not None and not (args.motion and 0 < args.motion_fps <= 1000):
         raise InputError(f"--motion-fps goes with --motion and must be a frame rate from 0 to 1000, got {args.motion_fps}")
     if args.run is not None:
@@ -92,6 +103,12 @@ def run(args) -> int:
           f"SSIM {q['ssim']:.4f}" + _closer_check(q))
     if args.mesh:
         _write_mesh(out, args.mesh)
+    if args.web:
+        from morf.cli.web import report
+        from morf.web.build import build_web_folder
+
+        report(build_web_folder(out, args.web, motions=[args.motion] if args.motion else None, force=args.force,
+                                webgpu=args.webgpu, command="morf export --web", motion_fps=args.motion_fps))
     return 0
 
 

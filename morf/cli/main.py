@@ -18,7 +18,7 @@ from morf.errors import MorfError
 
 # Order here is the order in --help: the pipeline, then tools.
 COMMANDS = ("run", "batch", "synth", "ingest", "dataset", "fit", "train", "eval", "export", "animate", "play", "motion",
-            "bench", "info", "demo")
+            "web", "bench", "info", "demo")  # "web" registers "serve" too
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -46,13 +46,15 @@ def folder_bytes(path: Path) -> int:
 
 
 def build_web_folder(avatar_dir: str | os.PathLike, out: str | os.PathLike, motions: list[str] | None = None,
-                     force: bool = False, webgpu: bool = False, command: str = "morf web") -> WebFolder:
+                     force: bool = False, webgpu: bool = False, command: str = "morf web",
+                     motion_fps: float | None = None) -> WebFolder:
     """Write the web folder of the avatar folder ``avatar_dir`` into ``out``.
 
     Args:
         motions: motion files to add to the shipped ones (any kind ``morf play`` reads).
         force: write into a non-empty ``out``, replacing only this command's names.
         webgpu: also carry onnxruntime-web's WebGPU build (6.6 MB more), used where the browser has WebGPU.
+        motion_fps: the frame rate of user motion files that store none.
     Raises:
         InputError: a missing or damaged avatar, a bad motion, a refused output, the libraries not cached.
     """
@@ -64,7 +66,7 @@ def build_web_folder(avatar_dir: str | os.PathLike, out: str | os.PathLike, moti
     with staged_folder(out) as tmp:
         backends = copy_libraries(tmp / "lib", webgpu=webgpu)
         entries = write_motions(sources, tmp / "motions", avatar.skeleton.num_bones,
-                                (avatar.manifest.get("body") or {}).get("shape"), command)
+                                (avatar.manifest.get("body") or {}).get("shape"), command, motion_fps)
         doc = write_web_avatar(avatar, tmp / "avatar", entries)
         for f in page_files():
             shutil.copyfile(f, tmp / f.name)

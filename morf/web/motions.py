@@ -54,8 +54,9 @@ def motion_sources(user_paths: list[str] | None) -> list[MotionSource]:
 
 
 def write_motions(sources: list[MotionSource], folder: Path, num_bones: int, shape: list[float] | None,
-                  command: str) -> list[dict]:
-    """Retarget, resample and write each motion into ``folder``; returns avatar.json's motion
+                  command: str, source_fps: float | None = None) -> list[dict]:
+    """Retarget, resample and write each motion into ``folder`` (``source_fps``: the rate of files
+    that store none); returns avatar.json's motion
     entries: {"name", "file", "frames", "fps", "bones", "centre": the median root translation}."""
     from morf.motion.clip import resample
     from morf.playback.motion_input import load_playback_motion
@@ -68,7 +69,7 @@ def write_motions(sources: list[MotionSource], folder: Path, num_bones: int, sha
     folder.mkdir(parents=True, exist_ok=True)
     entries = []
     for src in sources:
-        clip = resample(load_playback_motion(src.path, num_bones, body_shape), FPS)
+        clip = resample(load_playback_motion(src.path, num_bones, body_shape, source_fps), FPS)
         for note in clip.notes:
             print(f"{command}: note: {src.name}: {note}", file=sys.stderr)
         frames = min(clip.num_frames, int(MAX_SECONDS * FPS))

@@ -1,7 +1,8 @@
 // Checks the page runs for the tests and `morf bench web` (served by morf/web/server.py, which
 // takes what the page posts to ./result):
 //   ?bench=N[&size=S]  N frames end to end at S x S (default 640) -> fps; N more with each stage
-//                      waited for -> per-stage times; then the adaptive size the page settles on
+//                      waited for -> per-stage times (fine=1: the tail's passes too); then the
+//                      adaptive size the page settles on (noadapt=1: not measured)
 //                      and the fps there; threads, backend, WebGL renderer
 //   ?check=1           renders the frames of ./check.json ({frames: [{pose, camera, size}],
 //                      background}) and posts the images (RGBA, rows top first, base64)
