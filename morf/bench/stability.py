@@ -11,7 +11,10 @@ a clean capture (no sliding, tight clothes, exact keypoints):
 * keypoints: keypoint noise (pixels at 512 px) and corrupted frames together; these captures are
   fitted (``morf fit``'s code, the stability preset's fit preset) and trained on the fits;
 * coverage: degrees of the turn never shown (frames facing further than 180 - x/2 degrees from
-  the camera are dropped; 180 = the back is never seen).
+  the camera are dropped; 180 = the back is never seen);
+* views (fit only, no training: :mod:`morf.bench.stability_views`): the turn kept as 8 to 24
+  views, fitted and scored by root error, pelvis-shoulder twist and vertex error against the
+  truth and against the whole capture's fit; ``DIR/stability_views.png``.
 
 For morf, stylepeople and anr: hold-out PSNR / SSIM (image and person) and temporal flicker per
 level, and whether training diverged (TrainingDiverged or NaN metrics). A method *breaks down* at
@@ -47,7 +50,8 @@ if TYPE_CHECKING:
     from morf.presets.stability import StabilityPreset  # the presets: stage "stability" of morf.presets
 
 METHODS = ("morf", "stylepeople", "anr")
-SERIES = ("misalignment", "slide", "loose", "fast", "keypoints", "coverage")
+SERIES = ("misalignment", "slide", "loose", "fast", "keypoints", "coverage")  # trained and scored on the hold-out
+FIT_SERIES = ("views",)  # fitted and scored against the true poses
 LABELS = {"misalignment": "pose noise (deg)", "slide": "sliding (atlas units)", "loose": "looseness (m)",
           "fast": "speed-up (x fewer frames)", "keypoints": "kp noise (px @512) + corrupt share / 100",
           "coverage": "degrees of the turn never shown"}
@@ -61,7 +65,8 @@ def add_arguments(p) -> None:
     p.add_argument("--out", required=True, help="folder for stability.json, stability.md, charts, captures")
     p.add_argument("--preset", choices=tuple(presets_of("stability")), default=default_preset("stability"),
                    help="tiny: CI (seconds per point)")
-    p.add_argument("--series", default=",".join(SERIES), help="comma-separated subset of: " + ", ".join(SERIES))
+    p.add_argument("--series", default=",".join(SERIES + FIT_SERIES),
+                   help="comma-separated subset of: " + ", ".join(SERIES + FIT_SERIES))
     p.add_argument("--methods", default=",".join(METHODS), help="comma-separated subset of: " + ", ".join(METHODS))
     p.add_argument("--repeats", type=int, default=1,
                    help="trainings per point with seeds 0..N-1 (means, spread, and a noise-aware breakdown)")
@@ -314,9 +319,9 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
 
     out = Path(out)
     sp = named_preset("stability", preset)
-    series = series or list(SERIES)
+    series = series or list(SERIES + FIT_SERIES)
     methods = methods or list(METHODS)
-    bad = [s for s in series if s not in SERIES] + [m for m in methods if m not in METHODS]
+    bad = [s for s in series if s not in SERIES + FIT_SERIES] + [m for m in methods if m not in METHODS]
     if bad:
         raise InputError(f"unknown series or methods: {', '.join(bad)}")
     if repeats < 1:
@@ -325,6 +330,8 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
         from morf.body import load_body_model
 
         model = load_body_model("anny")
+    views = _views_series(out, sp, model, preset) if "views" in series else None
+    series = [s for s in series if s in SERIES]
     _train_missing(out, sp, series, methods, repeats, model, ray, workers, cpus_per_task)
     result_series, md_rows = {}, []
     for s in series:
@@ -356,7 +363,8 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
         str(series_chart(result_series, "psnr_person", out / "stability_psnr.png",
                          title=f"Hold-out PSNR on the person as nuisances grow ({preset})", ylabel="PSNR person (dB)")),
         str(series_chart(result_series, "temporal", out / "stability_temporal.png",
-                         title=f"Temporal flicker as nuisances grow ({preset}; lower is better)", ylabel="flicker"))]
+                         title=f"Temporal flicker as nuisances grow ({preset}; lower is better)", ylabel="flicker"))
+    ] if result_series else []
     brk = [{"series": s, **{m: v["breaks_down_at"][m] for m in methods},
             **{f"{m} threshold dB": v["threshold_db"][m] for m in methods}} for s, v in result_series.items()]
     cols = ["series", "level", "method", "psnr_person", "ssim_person", "psnr", "temporal", "diverged", "train_minutes"]
@@ -367,9 +375,30 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
           "n/a = never within the levels tried.\n\n"
           + markdown_table(brk, ["series", *methods] + ([f"{m} threshold dB" for m in methods] if repeats > 1 else []))
           + "\n" + markdown_table(md_rows, cols))
+    if views is not None:
+        from morf.bench.stability_views import COLUMNS, views_table_rows
+
+        result["fit_series"] = {"views": views}
+        result["charts"].append(views["chart"])
+        md += (f"\n\n## Fit only: the turn in a few views (fit preset {views['fit_preset']})\n\n"
+               "Root error and vertex error against the true poses; twist: the fitted body's worst "
+               "pelvis-shoulder twist; twisted_caught: twisted frames the frame filter rejected.\n\n"
+               + markdown_table(views_table_rows(views), COLUMNS))
     path = write_results(out, "stability", result, md)
     print(f"wrote {path}")
     return result
+
+
+def _views_series(out: Path, sp: StabilityPreset, model, preset: str) -> dict | None:
+    """The fit-only views series and its chart (None when the preset has none)."""
+    from morf.bench.stability_views import run_views, views_chart
+
+    if sp.views is None:
+        return None
+    views = run_views(out, sp.views, model)
+    views["chart"] = str(views_chart(views, out / "stability_views.png",
+                                     f"A turn in a few views: fit against the truth ({preset})"))
+    return views
 
 
 def run(args) -> int:

@@ -82,6 +82,8 @@ def run(args) -> int:
     elif report.resumed_from:
         print(f"resumed after stage {report.resumed_from}")
     n = fits.num_frames
+    if report.spacing:
+        print(report.spacing)
     print(f"fitted {n} frames in {report.seconds:.1f} s ({n / max(report.seconds, 1e-9):.1f} frames/s)")
     print(f"keypoint residual: median {float(torch.as_tensor(fits.keypoint_residual_px).nanmedian()):.1f} px")
     if not torch.as_tensor(fits.silhouette_iou).isnan().all():

@@ -49,6 +49,7 @@ class FitReport:
         fits: the saved fits; rejected: frame -> reason; seconds: wall time of this call;
         resumed_from: completed stages found in the checkpoint (0 = fresh start);
         up_to_date: nothing was recomputed (fits already complete for this config).
+        spacing: one line on how far apart the fit took the frames to be ("" when up to date).
     """
 
     fits: BodyFits
@@ -56,6 +57,7 @@ class FitReport:
     seconds: float
     resumed_from: int
     up_to_date: bool = False
+    spacing: str = ""
 
 
 DONE_FILE = "done.json"  # PROJECT/fits/done.json: the fit's completion record, written last
@@ -210,7 +212,8 @@ def _fit_project(project, cfg: FitConfig, model, focal: float | None, restart: b
         raise ProjectError(f"{out}: {missing[0]} vanished while the fit was writing it; run 'morf fit' again")
     atomic_write_json(out / DONE_FILE, {"config": settings, "key": key, "frames": inputs.num_frames,
                                         "finished": time.strftime("%Y-%m-%d %H:%M:%S")})
-    return FitReport(fits, rejected, time.perf_counter() - t0, resumed)
+    return FitReport(fits, rejected, time.perf_counter() - t0, resumed,
+                     spacing="" if state.spacing is None else state.spacing.describe())
 
 
 def write_overlays(project, model, fits: BodyFits, keypoints: np.ndarray, camera: PinholeCamera,
