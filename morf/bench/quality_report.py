@@ -11,6 +11,10 @@ from morf.bench.quality_scores import BlockScores
 BLOCK_COLUMNS = ["method", "runs", "psnr", "psnr_person", "psnr_person per seed", "psnr_person spread", "ssim",
                  "ssim_person", "ssim_person spread", "temporal"]
 LPIPS_COLUMNS = ["lpips", "lpips_person"]  # shown when LPIPS was scored
+# the detail table (shown when morf eval scored regions): the scores that choose between configurations
+DETAIL_COLUMNS = ["method", "head_ssim_shift", "head_ssim_shift spread", "head_gmsd", "head_hf_ratio",
+                  "hands_ssim_shift", "hands_gmsd", "hands_hf_ratio", "person_ssim_shift", "person_gmsd",
+                  "person_hf_ratio"]
 RUN_COLUMNS = ["run", "method", "seed", "train_minutes", "plateau_minutes", "steps", "diverged"]
 
 
@@ -25,6 +29,25 @@ def block_rows(block: BlockScores) -> list[dict]:
                      "psnr_person per seed": _per_seed(x["psnr_person"] for x in s.seeds),
                      "psnr_person spread": s.spread["psnr_person"], "ssim_person spread": s.spread["ssim_person"]})
     return rows
+
+
+def detail_rows(block: BlockScores) -> list[dict]:
+    return [{"method": method, **s.mean, "head_ssim_shift spread": s.spread.get("head_ssim_shift")}
+            for method, s in block.methods.items()]
+
+
+def detail_table(block: BlockScores) -> str:
+    """The block's detail scores at native size, or "" when none were scored."""
+    if not any(s.mean.get("head_ssim_shift") is not None or s.mean.get("person_ssim_shift") is not None
+               for s in block.methods.values()):
+        return ""
+    md = ("\nDetail at native size (docs/evaluation.md): SSIM at the best shift within +-4 px and GMSD (lower is "
+          "better) of the head, the hands and the whole person, and the high-frequency ratio render / real (under 1: "
+          "blurrier than the real frames). Choose between configurations on these, not on person PSNR alone.\n\n")
+    md += markdown_table(detail_rows(block), DETAIL_COLUMNS, "{:.4g}")
+    if block.heads:
+        md += f"\n![head crops at native size: real | each method (seed 0) | floor]({block.heads})\n"
+    return md
 
 
 def checks_lines(checks: Checks) -> str:
@@ -61,6 +84,7 @@ def quality_markdown(head: dict, blocks: list[tuple[BlockScores, Checks]], runs:
     for block, checks in blocks:
         md += (f"\n## {block.title[:1].upper()}{block.title[1:]}, {block.frames} frames\n\n"
                + markdown_table(block_rows(block), BLOCK_COLUMNS + (LPIPS_COLUMNS if lpips else []), "{:.4g}")
+               + detail_table(block)
                + "\n" + checks_lines(checks)
                + f"\n![comparison sheet: real | each method (seed 0) | floor]({block.sheet})\n\n"
                + f"![y-t slices]({block.slices})\n")

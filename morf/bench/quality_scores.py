@@ -3,8 +3,14 @@
 A block is one target of :func:`morf.evaluate.project_eval.evaluate_project` (the synthetic
 hold-out sequence, or the capture frames every run kept out of training). Each method's entry
 holds the mean of every metric over its seeds, the per-seed values and the spread (max - min) of
-person PSNR and SSIM; the floor has one run, so its spread is None, as is any method's with fewer
-than two scored seeds. Runs that diverged are left out of the means and counted.
+person PSNR and SSIM and of the head's shift-tolerant SSIM; the floor has one run, so its spread
+is None, as is any method's with fewer than two scored seeds. Runs that diverged are left out of the
+means and counted.
+
+Configurations are compared on the detail scores (:mod:`morf.evaluate.detail`) as well as on PSNR:
+person PSNR alone prefers a blurred render to a sharp one a few pixels off. ``DETAIL_METRICS``
+are the region scores at native size (person, head, hands: SSIM at the best shift within +-4 px,
+GMSD, high-frequency ratio render / real); None where ``morf eval`` scored no such region.
 """
 
 from __future__ import annotations
@@ -15,15 +21,16 @@ from morf.bench.quality_runs import BenchRun
 from morf.evaluate.results import EvalResult
 
 # the LPIPS means are None when morf eval had no LPIPS weights
-METRICS = ("psnr", "psnr_person", "ssim", "ssim_person", "temporal", "lpips", "lpips_person")
-SPREAD_KEYS = ("psnr_person", "ssim_person")
+DETAIL_METRICS = tuple(f"{g}_{s}" for g in ("person", "head", "hands") for s in ("ssim_shift", "gmsd", "hf_ratio"))
+METRICS = ("psnr", "psnr_person", "ssim", "ssim_person", "temporal", "lpips", "lpips_person") + DETAIL_METRICS
+SPREAD_KEYS = ("psnr_person", "ssim_person", "head_ssim_shift")
 
 
 @dataclass(frozen=True)
 class MethodScores:
     """Fields: method; mean: {metric: mean over the scored seeds}; seeds: one dict per scored seed
-    ({"seed", "run", metric: value}); spread: {psnr_person, ssim_person: max - min, None under two
-    seeds}; diverged: trainings that diverged (not scored)."""
+    ({"seed", "run", metric: value}); spread: {psnr_person, ssim_person, head_ssim_shift: max - min,
+    None under two seeds}; diverged: trainings that diverged (not scored)."""
 
     method: str
     mean: dict
@@ -40,7 +47,7 @@ class MethodScores:
 class BlockScores:
     """Fields: key (the eval target: "novel-poses", "holdout-k<K>"); title; frames: how many
     frames it scores; sheet, slices: the image files (in the output folder); methods: method ->
-    MethodScores, the floor last."""
+    MethodScores, the floor last; heads: the enlarged head crops image (None: no head scored)."""
 
     key: str
     title: str
@@ -48,10 +55,12 @@ class BlockScores:
     sheet: str
     slices: str
     methods: dict
+    heads: str | None = None
 
     def to_dict(self) -> dict:
         return {"key": self.key, "title": self.title, "frames": self.frames, "sheet": self.sheet,
-                "slices": self.slices, "methods": {m: s.to_dict() for m, s in self.methods.items()}}
+                "slices": self.slices, "heads": self.heads,
+                "methods": {m: s.to_dict() for m, s in self.methods.items()}}
 
 
 def _mean(values: list) -> float | None:
@@ -81,4 +90,5 @@ def block_scores(eval_result: EvalResult, key: str, runs: list[BenchRun]) -> Blo
     target = eval_result.targets[key]
     methods = list(dict.fromkeys(r.method for r in runs))
     return BlockScores(key, target.title, len(target.frame_ids), target.sheet, target.slices,
-                       {m: method_scores(m, [r for r in runs if r.method == m], eval_result, key) for m in methods})
+                       {m: method_scores(m, [r for r in runs if r.method == m], eval_result, key) for m in methods},
+                       target.heads)

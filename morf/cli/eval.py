@@ -1,7 +1,7 @@
 """``morf eval PROJECT``: score trained avatars on frames they never trained on, beside the RGB floor.
 
-Writes ``eval.json``, a comparison sheet and space-time (y-t) slices per target into ``--out``
-(default ``PROJECT/eval``) and prints a table; LPIPS with ``--lpips PATH --vgg PATH`` (or their
+Writes ``eval.json``, a comparison sheet, space-time (y-t) slices and enlarged head crops per target
+into ``--out`` (default ``PROJECT/eval``) and prints a table; LPIPS with ``--lpips PATH --vgg PATH`` (or their
 environment variables). See :mod:`morf.evaluate.project_eval`.
 """
 
@@ -31,6 +31,9 @@ def add_parser(sub):
                    help="refine each frame's body pose against the real frame with each run's avatar frozen before "
                         "scoring (every run alike, the floor included): scores the appearance without the fit's "
                         "pose error, as monocular-avatar papers evaluate; minutes per run")
+    p.add_argument("--no-detail", dest="detail", action="store_false",
+                   help="skip the detail scores (person, head and hands at native size: SSIM at the best shift "
+                        "within +-4 px, GMSD, high-frequency ratio) and the head crops")
     return p
 
 
@@ -62,9 +65,10 @@ def run(args) -> int:
 
     cfg = EvalConfig(runs=tuple(args.run), out=args.out, floor=args.floor,
                      resolution=parse_resolution(args.resolution), lpips=args.lpips, vgg=args.vgg,
-                     refine_poses=args.refine_poses, force=args.force)
+                     refine_poses=args.refine_poses, detail=args.detail, force=args.force)
     result = evaluate_project(project, cfg, say=print)
     print(format_table(result))
     out = Path(args.out) if args.out else Path(project.root) / "eval"
-    print(f"wrote {out / 'eval.json'} and {2 * len(result.targets)} images")
+    images = sum(2 + (t.heads is not None) for t in result.targets.values())
+    print(f"wrote {out / 'eval.json'} and {images} images")
     return 0

@@ -10,6 +10,10 @@ The floor (method rgb, :mod:`morf.train.floor`) with each evaluated hold-out set
 built first when the project has none. LPIPS (:mod:`morf.avatar.lpips`, on the same composited
 images, :mod:`morf.evaluate.perceptual`) is computed when its weights are on disk (``lpips`` /
 ``$MORF_LPIPS_WEIGHTS`` and ``vgg`` / ``$MORF_VGG16_WEIGHTS``) and reported as null otherwise.
+
+Detail scores (:mod:`morf.evaluate.detail_eval`): the person, the head and the hands of every
+frame, at the crop's native size whatever the evaluation side, with scores that tolerate a few
+pixels of misalignment and do not reward blur; their head crops make a third image per target.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
 import torch
 
 from morf.errors import ProjectError
@@ -54,6 +59,7 @@ class EvalConfig:
         ``$MORF_VGG16_WEIGHTS``; no LPIPS file at all: LPIPS is null);
         refine_poses: refine every frame's pose against its image with each run's avatar frozen
         before scoring (:mod:`morf.evaluate.pose_refine`), the floor included; refine: its settings.
+        detail: score the person, head and hands at native size and write the head crops;
         force: write into an existing non-empty ``out`` (replacing only eval's own files there).
     """
 
@@ -67,6 +73,7 @@ class EvalConfig:
     vgg: str | None = None
     refine_poses: bool = False
     refine: RefineConfig = RefineConfig()
+    detail: bool = True
     force: bool = False
 
     def on_sheet(self, run: RunInfo) -> bool:
@@ -82,7 +89,8 @@ class _TargetResults:
     real: object = None  # SequenceViews of the real frames at the largest side seen
     real_side: int = 0
     rows: list[int] = field(default_factory=list)
-    scored: list = field(default_factory=list)  # (RunInfo, TargetScores, SequenceViews)
+    scored: list = field(default_factory=list)  # (RunInfo, TargetScores, SequenceViews, head crops)
+    real_heads: dict = field(default_factory=dict)  # sheet row -> the real frame's head crop, largest seen
 
 
 def ensure_floors(project, runs: list[RunInfo], model, say: Callable[[str], None]) -> list[RunInfo]:
@@ -140,7 +148,7 @@ def _earlier_files(out: Path) -> frozenset[str]:
         return names
     try:
         targets = json.loads((out / "eval.json").read_text())["targets"]
-        return frozenset({"eval.json"} | {t[k] for t in targets.values() for k in ("sheet", "slices")
+        return frozenset({"eval.json"} | {t[k] for t in targets.values() for k in ("sheet", "slices", "heads")
                                           if isinstance(t.get(k), str) and "/" not in t[k]})
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return frozenset()
@@ -200,7 +208,7 @@ def _evaluate(project, cfg: EvalConfig, model, say, claim) -> EvalResult:
     from morf.io import atomic_write_json
 
     atomic_write_json(out / "eval.json", result.to_dict())
-    written = {"eval.json"} | {n for e in result.targets.values() for n in (e.sheet, e.slices)}
+    written = {"eval.json"} | {n for e in result.targets.values() for n in (e.sheet, e.slices, e.heads) if n}
     for name in claim.previous - written:  # an earlier eval's images of targets gone since
         (out / name).unlink(missing_ok=True)
     write_record(out, "morf eval", written)
@@ -227,9 +235,9 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
     camera = scaled_camera(avatar.camera, side)
     frames = target_frames(project, model, target, fits, avatar.shape.numpy(), camera)
     say(f"{run.name}: {tr.target.key}, {frames.num_frames} frames at {side} px")
-    refined = None
+    refined, poses = None, None
     if cfg.refine_poses:
-        frames, refined = _refine(project, model, avatar, target, fits, frames, camera, cfg.refine, say)
+        frames, refined, poses = _refine(project, model, avatar, target, fits, frames, camera, cfg.refine, say)
     scores = evaluate_frames(avatar, frames)
     colour = torch.tensor(scores.background, dtype=torch.float32)
     if tr.column is None:
@@ -239,6 +247,12 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
         if side > tr.real_side:
             tr.real, tr.real_side = real_views(frames, colour, tr.rows, tr.column), side
         views = render_views(avatar, frames, colour, tr.rows, tr.column)
+    detail = None
+    if cfg.detail:
+        detail = _detail(project, model, avatar, target, fits, frames, camera, colour, poses, tr.rows)
+        for row, (real, _) in detail.crops.items():
+            if real.shape[0] > tr.real_heads.get(row, np.zeros((0,))).shape[0]:
+                tr.real_heads[row] = real
     lpips = None
     if metric is not None:
         from morf.evaluate.perceptual import lpips_scores
@@ -246,15 +260,38 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
         lpips = lpips_scores(metric, avatar, frames, colour)
     # how many of these frames the run trained on (0 for its own hold-out); None for the novel poses
     seen = trained_on(project, fits, run.holdout, target.frame_ids) if target.kind == "capture" else None
-    result = TargetScores.of(scores, lpips, side, seen, refined)
+    result = TargetScores.of(scores, lpips, side, seen, refined, None if detail is None else {
+        **detail.scores, "resolution": detail.resolution, "max_shift": detail.max_shift})
     if views is not None:
-        tr.scored.append((run, result, views))
+        tr.scored.append((run, result, views, {} if detail is None else {r: c[1] for r, c in detail.crops.items()}))
     return result
 
 
+def _detail(project, model, avatar, target, fits, frames, camera, colour, poses, rows):
+    """The detail scores of ``avatar`` on ``target`` at the crop's native size: ``frames`` when
+    they are at that size, else the target rasterized again there (in the refined poses when
+    ``poses`` = (RefinedPoses, shape) is given)."""
+    from morf.body.parts import part_atlas
+    from morf.evaluate.detail import max_shift_for
+    from morf.evaluate.detail_eval import detail_scores
+    from morf.evaluate.frames import eval_side, scaled_camera, target_frames
+    from morf.train.data import crop_of
+
+    native = eval_side(avatar.camera, project.camera(), "native", avatar.renderer.cfg.multiple)
+    if native != frames.resolution:
+        camera = scaled_camera(avatar.camera, native)
+        frames = target_frames(project, model, target, fits, avatar.shape.numpy(), camera)
+        if poses is not None:
+            from morf.evaluate.pose_refine import reposed_frames
+
+            frames = reposed_frames(frames, model, poses[0], poses[1], camera)
+    shift = max_shift_for(native, crop_of(project.camera(), avatar.camera)[2])
+    return detail_scores(avatar, frames, colour, part_atlas(model), shift, rows)
+
+
 def _refine(project, model, avatar, target, fits, frames, camera, rcfg: RefineConfig, say):
-    """``frames`` re-rasterized in poses refined against their images with ``avatar`` frozen; and
-    the mean L1 of the composited render (before, after)."""
+    """``frames`` re-rasterized in poses refined against their images with ``avatar`` frozen; the
+    mean L1 of the composited render (before, after); and (RefinedPoses, shape)."""
     import time
 
     from morf.evaluate.frames import target_poses
@@ -265,12 +302,13 @@ def _refine(project, model, avatar, target, fits, frames, camera, rcfg: RefineCo
     t0 = time.perf_counter()
     res = refine_poses(avatar, model, frames, rot, tr, shape, camera, backdrop_colour(frames), rcfg)
     say(f"  poses refined in {time.perf_counter() - t0:.0f} s: L1 {res.loss_before:.4f} -> {res.loss_after:.4f}")
-    return reposed_frames(frames, model, res, shape, camera), (round(res.loss_before, 5), round(res.loss_after, 5))
+    return (reposed_frames(frames, model, res, shape, camera), (round(res.loss_before, 5), round(res.loss_after, 5)),
+            (res, shape))
 
 
 def _write_target(tr: _TargetResults, out: Path) -> TargetEntry:
-    """Write the target's sheet and y-t image; its eval.json entry."""
-    from morf.evaluate.sheet import Column, comparison_sheet, yt_slices
+    """Write the target's sheet, y-t image and head crops; its eval.json entry."""
+    from morf.evaluate.sheet import Column, comparison_sheet, head_sheet, yt_slices
     from morf.io import write_image
 
     t = tr.target
@@ -281,17 +319,28 @@ def _write_target(tr: _TargetResults, out: Path) -> TargetEntry:
 
     ordered = [s for s in tr.scored if not s[0].is_floor] + [s for s in tr.scored if s[0].is_floor]
     columns = [Column(("real", f"{len(t.frame_ids)} frames"), tr.real.rows, tr.real.slice)]
-    columns += [Column(label(run, m), v.rows, v.slice) for run, m, v in ordered]
+    columns += [Column(label(run, m), v.rows, v.slice) for run, m, v, _ in ordered]
     ids = [t.frame_ids[r] for r in tr.rows]
     sheet = comparison_sheet(columns, [f"frame {i}" for i in ids])
     slices = yt_slices(columns, (f"y-t slices: image column x = {tr.column:.0%} of the crop (the person's centre)",
                                  f"time runs left to right over {len(t.frame_ids)} frames"))
     write_image(out / f"sheet-{t.key}.png", sheet)
     write_image(out / f"yt-{t.key}.png", slices)
-    names = ("real",) + tuple(run.name for run, _, _ in ordered)
+    names = ("real",) + tuple(run.name for run, _, _, _ in ordered)
+    heads, heads_size = None, None
+    if tr.real_heads:
+        def head_label(run, m: TargetScores):
+            v = m.metric("head_ssim_shift")
+            return (run.name, "head SSIM+-shift " + (f"{v:.3f}" if v is not None else "n/a"))
+
+        crops = [(("real", "native size"), tr.real_heads)] + [(head_label(run, m), c) for run, m, _, c in ordered]
+        image = head_sheet(crops, [r for r in tr.rows if r in tr.real_heads],
+                           [f"frame {t.frame_ids[r]}" for r in tr.rows if r in tr.real_heads])
+        heads, heads_size = f"heads-{t.key}.png", (image.shape[1], image.shape[0])
+        write_image(out / heads, image)
     return TargetEntry(t.title, t.holdout, tuple(t.frame_ids), tuple(ids), names, round(tr.column, 4),
                        f"sheet-{t.key}.png", (sheet.shape[1], sheet.shape[0]), f"yt-{t.key}.png",
-                       (slices.shape[1], slices.shape[0]))
+                       (slices.shape[1], slices.shape[0]), heads, heads_size)
 
 
 def format_table(result: EvalResult) -> str:
@@ -313,6 +362,30 @@ def format_table(result: EvalResult) -> str:
             lines.append(f"  {name:<24} {m.resolution:>5} {f('psnr', '7.2f'):>7} {f('psnr_person', '7.2f'):>7} "
                          f"{f('ssim', '6.3f'):>6} {f('ssim_person', '6.3f'):>6} {f('temporal', '8.4f'):>8}"
                          + (f" {f('lpips', '6.3f'):>6} {f('lpips_person', '6.3f'):>6}" if lpips else ""))
+        lines += _detail_lines(result, key)
     for name, why in result.skipped.items():
         lines.append(f"skipped {name}: {why}")
     return "\n".join(lines)
+
+
+def _detail_lines(result: EvalResult, key: str) -> list[str]:
+    """The detail block of one target: per run and region, SSIM at the best shift, GMSD (lower is
+    better) and the high-frequency ratio render / real (under 1: blurrier than the real frames)."""
+    names = [n for n in result.scored_runs(key) if result.runs[n].targets[key].detail]
+    if not names:
+        return []
+    first = result.runs[names[0]].targets[key].detail
+    lines = [f"  detail at native size ({first.get('resolution')} px, shift +-{first.get('max_shift')} px): "
+             "SSIM at the best shift / GMSD (lower is better) / high-frequency ratio render:real"]
+    lines.append(f"  {'run':<24} " + " ".join(f"{g:>22}" for g in ("person", "head", "hands")))
+    for name in names:
+        d = result.runs[name].targets[key].detail
+
+        def cell(g):
+            if not d.get(f"{g}_count"):
+                return f"{'n/a':>22}"
+            v = [d.get(f"{g}_{s}") for s in ("ssim_shift", "gmsd", "hf_ratio")]
+            return " ".join("  n/a" if x is None else f"{x:5.3f}" for x in v).rjust(22)
+
+        lines.append(f"  {name:<24} " + " ".join(cell(g) for g in ("person", "head", "hands")))
+    return lines

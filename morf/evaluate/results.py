@@ -27,7 +27,11 @@ class TargetScores:
         trained_on: capture targets only, how many of these frames the run trained on (None for the
             novel poses; then left out of :meth:`to_dict`);
         refined_l1: with refined poses, the mean L1 of the composited render before and after the
-            refinement (None: the poses were scored as given; then left out of :meth:`to_dict`).
+            refinement (None: the poses were scored as given; then left out of :meth:`to_dict`);
+        detail: the region scores at native size, ``{"<group>_<score>": value}`` for the groups
+            person, head, hands and the scores psnr, ssim_shift, gmsd, hf_ratio, count
+            (:mod:`morf.evaluate.detail_eval`), plus ``resolution`` and ``max_shift`` (None: not
+            scored; then left out of :meth:`to_dict`).
     """
 
     psnr: float | None
@@ -42,21 +46,26 @@ class TargetScores:
     resolution: int
     trained_on: int | None = None
     refined_l1: tuple[float, float] | None = None
+    detail: dict | None = None
 
     @staticmethod
     def of(scores, lpips: dict | None, resolution: int, trained_on: int | None = None,
-           refined_l1: tuple[float, float] | None = None) -> TargetScores:
+           refined_l1: tuple[float, float] | None = None, detail: dict | None = None) -> TargetScores:
         """From a :class:`morf.train.frame_scores.FrameScores` (non-finite values become None) and
         :func:`morf.evaluate.perceptual.lpips_scores` (None: not computed)."""
         lp = lpips or {}
         return TargetScores(_finite(scores.psnr), _finite(scores.ssim), _finite(scores.psnr_person),
                             _finite(scores.ssim_person), _finite(scores.temporal), tuple(scores.background),
                             scores.frames, lp.get("lpips"), lp.get("lpips_person"), resolution, trained_on,
-                            None if refined_l1 is None else tuple(refined_l1))
+                            None if refined_l1 is None else tuple(refined_l1),
+                            None if detail is None else {k: _finite(v) for k, v in detail.items()})
 
     def metric(self, key: str) -> float | None:
-        """A score by name (psnr, psnr_person, ssim, ssim_person, temporal, lpips, lpips_person)."""
-        return getattr(self, key)
+        """A score by name (psnr, psnr_person, ssim, ssim_person, temporal, lpips, lpips_person, or
+        a detail score such as head_ssim_shift; None where it was not scored)."""
+        if key in self.__dataclass_fields__:
+            return getattr(self, key)
+        return None if self.detail is None else self.detail.get(key)
 
     def to_dict(self) -> dict:
         d = {"psnr": self.psnr, "ssim": self.ssim, "psnr_person": self.psnr_person, "ssim_person": self.ssim_person,
@@ -66,13 +75,16 @@ class TargetScores:
             d["trained_on"] = self.trained_on
         if self.refined_l1 is not None:
             d["refined_l1"] = list(self.refined_l1)
+        if self.detail is not None:
+            d["detail"] = dict(self.detail)
         return d
 
     @staticmethod
     def from_dict(d: dict) -> TargetScores:
         return TargetScores(d["psnr"], d["ssim"], d["psnr_person"], d["ssim_person"], d["temporal"],
                             tuple(d["background"]), d["frames"], d["lpips"], d["lpips_person"], d["resolution"],
-                            d.get("trained_on"), None if d.get("refined_l1") is None else tuple(d["refined_l1"]))
+                            d.get("trained_on"), None if d.get("refined_l1") is None else tuple(d["refined_l1"]),
+                            d.get("detail"))
 
 
 @dataclass(frozen=True)
@@ -113,7 +125,9 @@ class TargetEntry:
             frame_ids on the comparison sheet's rows; columns: the sheet's columns ("real", then the
             runs, floors last); slice_column: the y-t slices' image column, a fraction of the width;
         sheet, slices: the image files (in the output folder); sheet_size, slices_size: their
-            (width, height) in pixels.
+            (width, height) in pixels;
+        heads, heads_size: the enlarged head crops of the sheet's rows (real | each run | floor)
+            and its size (None: no head was scored; then left out of :meth:`to_dict`).
     """
 
     title: str
@@ -126,18 +140,24 @@ class TargetEntry:
     sheet_size: tuple[int, int]
     slices: str
     slices_size: tuple[int, int]
+    heads: str | None = None
+    heads_size: tuple[int, int] | None = None
 
     def to_dict(self) -> dict:
-        return {"title": self.title, "holdout": self.holdout, "frame_ids": list(self.frame_ids),
-                "sheet_frames": list(self.sheet_frames), "columns": list(self.columns),
-                "slice_column": self.slice_column, "sheet": self.sheet, "sheet_size": list(self.sheet_size),
-                "slices": self.slices, "slices_size": list(self.slices_size)}
+        d = {"title": self.title, "holdout": self.holdout, "frame_ids": list(self.frame_ids),
+             "sheet_frames": list(self.sheet_frames), "columns": list(self.columns),
+             "slice_column": self.slice_column, "sheet": self.sheet, "sheet_size": list(self.sheet_size),
+             "slices": self.slices, "slices_size": list(self.slices_size)}
+        if self.heads is not None:
+            d["heads"], d["heads_size"] = self.heads, list(self.heads_size)
+        return d
 
     @staticmethod
     def from_dict(d: dict) -> TargetEntry:
         return TargetEntry(d["title"], d["holdout"], tuple(d["frame_ids"]), tuple(d["sheet_frames"]),
                            tuple(d["columns"]), d["slice_column"], d["sheet"], tuple(d["sheet_size"]), d["slices"],
-                           tuple(d["slices_size"]))
+                           tuple(d["slices_size"]), d.get("heads"),
+                           None if d.get("heads_size") is None else tuple(d["heads_size"]))
 
 
 @dataclass(frozen=True)

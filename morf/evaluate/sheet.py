@@ -11,6 +11,9 @@ frame side by side (height = image rows, width = time), one panel per source, la
 sheet. A render that flickers shows vertical streaks the real panel lacks. Each frame is
 ``max(1, ceil(SLICE_MIN_W / T))`` pixels wide, each panel at least ``PANEL_MIN_W`` wide, so the
 image is ``sources * panel + (sources - 1) * GAP`` by ``LABEL_H + cell + CAPTION_H``.
+
+Head crops: the head of each sheet row at native size (the square around the fitted head's box),
+real | each run | floor, every crop enlarged to ``HEAD_CELL`` pixels.
 """
 
 from __future__ import annotations
@@ -116,3 +119,25 @@ def yt_slices(columns: list[Column], caption: tuple[str, ...]) -> np.ndarray:
         x0 = x + (panel - T * per) // 2
         out[LABEL_H:LABEL_H + cell, x0:x0 + T * per] = strip
     return draw_text(out, caption, 0, LABEL_H + cell, width, size=11)
+
+
+HEAD_CELL = 224  # enlarged head crops: a 40-100 px head at native size shows its pixels
+
+
+def head_sheet(columns: list[tuple[tuple[str, ...], dict]], rows: list[int], row_labels: list[str]) -> np.ndarray:
+    """(LABEL_H + R * HEAD_CELL, C * HEAD_CELL, 3) uint8: each column's head crop of each row
+    enlarged (nearest neighbour, so the pixels stay visible). ``columns``: (label, {row: (h, h, 3)
+    uint8 crop}); a missing crop leaves its cell blank."""
+    cell = HEAD_CELL
+    out = np.full((LABEL_H + len(rows) * cell, len(columns) * cell, 3), BACKGROUND, np.uint8)
+    for j, (label, crops) in enumerate(columns):
+        x = j * cell
+        out = draw_text(out, label, x, 0, cell)
+        for r, row in enumerate(rows):
+            if row in crops:
+                y = LABEL_H + r * cell
+                out[y:y + cell, x:x + cell] = cv2.resize(crops[row], (cell, cell), interpolation=cv2.INTER_NEAREST)
+        out[LABEL_H:, x] = BACKGROUND
+    for r, label in enumerate(row_labels):
+        out = draw_text(out, [label], 0, LABEL_H + r * cell, cell, size=11)
+    return out

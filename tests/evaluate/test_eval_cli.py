@@ -151,3 +151,27 @@ def test_bad_input_is_a_one_line_error(evaluated, tmp_path, capsys):
                                  source={"kind": "test"})
     _one_line_error(capsys, ["eval", str(bare.root)], "no body fits")
     _one_line_error(capsys, ["train", str(bare.root), "--preset", "tiny", "--holdout", "3"], "no body fits")
+
+
+def test_detail_scores_at_native_size_and_head_crops(evaluated):
+    """Every score carries the region scores at the crop's native size (not the 64 px evaluation
+    side), and each target writes its enlarged head crops."""
+    from morf.evaluate.sheet import HEAD_CELL, LABEL_H
+    from morf.train.data import crop_of
+    from morf.train.trained_avatar import load_trained_avatar
+
+    project, ev = evaluated["project"], evaluated["eval"]
+    av = load_trained_avatar(project.runs_dir / evaluated["run"])
+    m = av.renderer.cfg.multiple
+    native = int(round(crop_of(project.camera(), av.camera)[2] / m)) * m
+    d = ev["runs"][evaluated["run"]]["targets"]["holdout-k3"]["detail"]
+    assert d["resolution"] == native > 64 and d["max_shift"] == 4
+    assert d["person_count"] == 4 and d["head_count"] >= 3
+    for g in ("person", "head"):
+        assert 0 < d[f"{g}_ssim_shift"] <= 1 and d[f"{g}_gmsd"] >= 0 and d[f"{g}_hf_ratio"] > 0
+    for key, t in ev["targets"].items():
+        heads = cv2.imread(str(evaluated["out"] / t["heads"]))
+        assert heads.shape[:2] == (t["heads_size"][1], t["heads_size"][0])
+        assert heads.shape[1] == len(t["columns"]) * HEAD_CELL and (heads.shape[0] - LABEL_H) % HEAD_CELL == 0
+        assert heads[LABEL_H:, :HEAD_CELL].std() > 5  # the real heads, not a blank
+    assert "detail at native size" in evaluated["stdout"]

@@ -1,0 +1,75 @@
+"""A trained avatar's detail scores on a sequence: the person, the head and the hands of every
+frame (:mod:`morf.evaluate.regions`) scored with :mod:`morf.evaluate.detail`, and the enlarged
+head crops of the comparison sheet's rows.
+
+Per group (person, head, hands: both hands pooled) the result holds the mean over the scored
+regions of ``psnr``, ``ssim_shift`` and ``gmsd``, ``hf_ratio`` as the ratio of the summed energies
+(so regions with almost no real detail do not swing it), and ``count``, the regions scored.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from morf.evaluate.detail import RegionScores, region_scores
+from morf.evaluate.regions import GROUPS, frame_boxes, square_box
+
+DETAIL_SCORES = ("psnr", "ssim_shift", "gmsd", "hf_ratio")
+DETAIL_KEYS = tuple(f"{g}_{s}" for g in GROUPS for s in DETAIL_SCORES + ("count",))
+
+
+@dataclass(frozen=True)
+class DetailResult:
+    """Fields: scores: {"<group>_<score>": value} for the groups of ``GROUPS`` and the scores of
+    ``DETAIL_SCORES`` plus ``count`` (None where no region was scored); resolution: the side the
+    frames were scored at; max_shift: the tolerated shift in pixels there; crops: {sheet row:
+    (real, render)} (h, h, 3) uint8 head crops, rows without a visible head left out."""
+
+    scores: dict
+    resolution: int
+    max_shift: int
+    crops: dict
+
+
+def summarize_detail(frames: list[dict[str, RegionScores]]) -> dict:
+    """The flat ``DetailResult.scores`` of per-frame {region: RegionScores} dicts."""
+    out = {}
+    for group, regions in GROUPS.items():
+        got = [f[r] for f in frames for r in regions if r in f]
+        for s in ("psnr", "ssim_shift", "gmsd"):
+            vals = [getattr(x, s) for x in got if np.isfinite(getattr(x, s))]
+            out[f"{group}_{s}"] = round(float(np.mean(vals)), 5) if vals else None
+        real = sum(x.hf_real for x in got)
+        out[f"{group}_hf_ratio"] = round(sum(x.hf_render for x in got) / real, 5) if real > 0 else None
+        out[f"{group}_count"] = len(got)
+    return out
+
+
+def _uint8(x: torch.Tensor) -> np.ndarray:
+    return (x.clamp(0, 1).permute(1, 2, 0).numpy() * 255 + 0.5).astype(np.uint8)
+
+
+@torch.no_grad()
+def detail_scores(avatar, frames, colour: torch.Tensor, atlas: np.ndarray, max_shift: int,
+                  rows=()) -> DetailResult:
+    """Render every frame of ``frames`` (a FrameSet) with ``avatar`` over ``colour`` and score its
+    regions; keep the head crops of the frame positions ``rows``."""
+    from morf.avatar.metrics import composite_over
+    from morf.body.parts import pixel_parts
+
+    per, crops = [], {}
+    for i in range(frames.num_frames):
+        b = frames.batch([i])
+        rgb, alpha = avatar.render(b.uv, b.uv_mask)
+        pred = composite_over(rgb, alpha, colour)[0]
+        gt = composite_over(b.image * b.mask, b.mask, colour)[0]
+        parts = pixel_parts(b.uv[0].numpy(), frames.uv_mask[i], atlas)
+        boxes = frame_boxes(parts, frames.masks[i] | frames.uv_mask[i])
+        per.append({n: region_scores(pred, gt, box, max_shift) for n, box in boxes.items()})
+        if i in rows and "head" in boxes:
+            y0, x0, y1, x1 = square_box(boxes["head"], *parts.shape)
+            crops[i] = (_uint8(gt[:, y0:y1, x0:x1]), _uint8(pred[:, y0:y1, x0:x1]))
+    return DetailResult(summarize_detail(per), frames.resolution, max_shift, crops)

@@ -1,0 +1,105 @@
+"""The detail scores: a sharp render two pixels off beats a blurred one, where PSNR picks the blur."""
+
+import numpy as np
+import pytest
+
+from morf.evaluate.detail import gmsd, max_shift_for, region_scores
+from morf.evaluate.detail_eval import summarize_detail
+from morf.evaluate.regions import frame_boxes, square_box
+
+
+def _textured(side: int = 96, seed: int = 0) -> np.ndarray:
+    """(3, side, side) float image with edges at many scales: discs and strokes on grey."""
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    img = np.full((side, side, 3), 128, np.uint8)
+    for _ in range(30):
+        centre = tuple(int(v) for v in rng.integers(4, side - 4, 2))
+        cv2.circle(img, centre, int(rng.integers(1, 6)), rng.integers(0, 256, 3).tolist(), -1)
+    for _ in range(8):
+        a, b = (tuple(int(v) for v in rng.integers(0, side, 2)) for _ in range(2))
+        cv2.line(img, a, b, rng.integers(0, 256, 3).tolist(), 1)
+    return img.transpose(2, 0, 1).astype(np.float64) / 255
+
+
+def _blur(img: np.ndarray, sigma: float) -> np.ndarray:
+    from scipy.ndimage import gaussian_filter
+
+    return np.stack([gaussian_filter(c, sigma) for c in img])
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_blur_loses_to_a_sharp_render_two_pixels_off(seed):
+    real = _textured(seed=seed)
+    blurred = _blur(real, 1.5)
+    shifted = np.roll(real, (2, -2), axis=(1, 2))
+    box = (12, 12, 84, 84)
+    b, s = region_scores(blurred, real, box), region_scores(shifted, real, box)
+    assert b.psnr > s.psnr + 1  # PSNR prefers the blur ...
+    assert s.ssim_shift > b.ssim_shift + 0.1  # ... the shift-tolerant SSIM does not,
+    assert s.gmsd < b.gmsd - 0.05  # nor GMSD (lower is better),
+    assert s.hf_ratio == pytest.approx(1, abs=0.05) and b.hf_ratio < 0.5  # and the blur's detail is missing
+    assert s.shift == (2, -2) and b.shift == (0, 0)
+
+
+def test_identical_regions_score_perfectly_and_a_shift_beyond_the_window_does_not():
+    real = _textured()
+    same = region_scores(real, real, (10, 10, 80, 80))
+    assert same.ssim_shift == pytest.approx(1) and same.gmsd == pytest.approx(0, abs=1e-9)
+    assert same.hf_ratio == pytest.approx(1) and same.shift == (0, 0) and same.pixels == 70 * 70
+    far = region_scores(np.roll(real, 7, axis=2), real, (10, 10, 80, 80), max_shift=4)
+    assert far.ssim_shift < 0.8  # 7 px is outside +-4: no free pass
+    assert region_scores(np.roll(real, 7, axis=2), real, (10, 10, 80, 80), max_shift=8).ssim_shift > 0.99
+
+
+def test_boxes_at_the_image_border_stay_defined():
+    real = _textured(64)
+    s = region_scores(np.roll(real, 1, axis=1), real, (0, 0, 20, 64))
+    assert np.isfinite([s.psnr, s.ssim_shift, s.gmsd, s.hf_ratio]).all() and s.ssim_shift > 0.9
+
+
+def test_gmsd_rises_with_blur():
+    real = _textured()
+    values = [gmsd(_blur(real, s), real) for s in (0.5, 1.0, 2.0)]
+    assert values == sorted(values) and values[0] > 0
+
+
+def test_tolerated_shift_scales_with_resolution():
+    assert max_shift_for(576, 576) == 4 and max_shift_for(256, 576) == 2 and max_shift_for(64, 576) == 1
+    assert max_shift_for(1152, 576) == 8
+
+
+def test_boxes_come_from_the_visible_part_pixels():
+    parts = np.zeros((100, 100), np.uint8)
+    parts[10:30, 40:60] = 1  # head
+    parts[70:80, 10:20] = 2  # left hand
+    parts[70:72, 80:82] = 3  # a right hand too small to score
+    person = parts > 0
+    boxes = frame_boxes(parts, person)
+    assert set(boxes) == {"person", "head", "hand.L"}
+    assert boxes["head"] == (6, 36, 34, 64)  # grown by 20% of 20 px on each side
+    assert boxes["hand.L"] == (67, 7, 83, 23)
+    y0, x0, y1, x1 = square_box((0, 90, 10, 100), 100, 100)
+    assert (y1 - y0, x1 - x0) == (10, 10) and (y0, x1) == (0, 100)
+
+
+def test_summary_pools_both_hands_and_ratios_summed_energy():
+    real = _textured()
+    blurred = _blur(real, 1.5)
+    head = region_scores(real, real, (10, 10, 50, 50))
+    hand = region_scores(blurred, real, (50, 50, 90, 90))
+    out = summarize_detail([{"head": head, "hand.L": hand}, {"hand.R": hand}])
+    assert out["head_count"] == 1 and out["hands_count"] == 2 and out["person_count"] == 0
+    assert out["person_ssim_shift"] is None and out["head_ssim_shift"] == pytest.approx(1)
+    assert out["hands_hf_ratio"] == pytest.approx(hand.hf_ratio, abs=1e-5)
+    assert out["hands_gmsd"] == pytest.approx(hand.gmsd, abs=1e-5)
+
+
+def test_large_regions_find_the_shift_coarse_to_fine():
+    from morf.evaluate.detail import COARSE_PIXELS, best_shift
+
+    real = _textured(220, seed=3)
+    assert 200 * 200 > COARSE_PIXELS
+    for shift in [(3, -1), (-4, 4), (0, 2)]:
+        assert best_shift(np.roll(real, shift, axis=(1, 2)), real, (10, 10, 210, 210), 4) == shift
