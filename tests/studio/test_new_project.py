@@ -4,6 +4,7 @@ continued as 'morf run' continues it."""
 
 from __future__ import annotations
 
+import shlex
 import threading
 import time
 from pathlib import Path
@@ -11,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from morf.cli.main import build_parser
 from morf.io import write_image
 from morf.pipeline.control import Progress
 from screenshots import check_golden
@@ -20,19 +22,19 @@ from tests.conftest import require
 
 imgui = require("imgui_bundle").imgui
 K = imgui.Key
-WAIT_S = 90.0  # ingest with MediaPipe on 12 frames takes a few seconds; a loaded CI machine more
+WAIT_S = 90.0  # ingest with MediaPipe on 6 frames takes a few seconds; a loaded CI machine more
 
 
 @pytest.fixture(scope="module")
 def tiny_clip(tmp_path_factory, body_model) -> Path:
-    """12 frames of a rendered person turning (morf synth's tiny capture) as an .mp4."""
+    """6 frames of a rendered person turning (the first of morf synth's tiny capture) as an .mp4."""
     import cv2
 
     from morf.synth import make_synthetic_capture, synth_config
 
     root = tmp_path_factory.mktemp("clip")
     project = make_synthetic_capture(root / "synth", synth_config("tiny"), model=body_model)
-    frames = [project.load_frame(i) for i in range(project.num_frames)]
+    frames = [project.load_frame(i) for i in range(6)]
     h, w = frames[0].shape[:2]
     out = root / "clip.mp4"
     writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"mp4v"), 10.0, (w, h))
@@ -85,7 +87,7 @@ def test_a_video_opens_in_the_frames_panel_while_the_body_is_fitted_and_continue
     _until(app, lambda: endless_fit.is_set() and app.view is not None, "the frames in the Frames panel")
     app.settle()
     snap = app.worker.latest()
-    assert app.state.panel == 0 and app.view.name == "capture" and app.view.num_frames == 12
+    assert app.state.panel == 0 and app.view.name == "capture" and app.view.num_frames == 6
     assert snap.stage == "fit" and snap.chain_step == (2, 4) and snap.state == "running"
     check_golden("studio_new_project", app.frame(capture=True))
     # stopped, then continued from the Training panel: ingest is skipped, the fit starts again
@@ -93,6 +95,8 @@ def test_a_video_opens_in_the_frames_panel_while_the_body_is_fitted_and_continue
     _until(app, lambda: not app.worker.latest().busy, "the stop")
     snap = app.worker.latest()
     assert snap.state == "stopped" and "morf run capture --video clip.mp4" in snap.message
+    again = shlex.split(snap.message.split("as does: ")[1])  # the command it suggests parses as morf's own
+    assert again[:2] == ["morf", "run"] and build_parser().parse_args(again[1:]).video == Path("clip.mp4")
     endless_fit.clear()
     app.press(K._4)
     app.click_item("make_avatar")
