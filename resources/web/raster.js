@@ -17,17 +17,16 @@ in uvec4 in_bones1;
 in vec4 in_weights0;
 in vec4 in_weights1;
 out vec2 v_texcoord;
-vec3 bone(uint b, vec4 p) {
-  int j = int(b);
-  return vec3(dot(texelFetch(u_bones, ivec2(0, j), 0), p), dot(texelFetch(u_bones, ivec2(1, j), 0), p),
-              dot(texelFetch(u_bones, ivec2(2, j), 0), p));
+vec4 row(uint b, int i) { return texelFetch(u_bones, ivec2(i, int(b)), 0); }
+vec4 blend(int i) {   // row i of the weighted sum of the vertex's skinning matrices (as the GL shader sums them)
+  return in_weights0.x * row(in_bones0.x, i) + in_weights0.y * row(in_bones0.y, i)
+       + in_weights0.z * row(in_bones0.z, i) + in_weights0.w * row(in_bones0.w, i)
+       + in_weights1.x * row(in_bones1.x, i) + in_weights1.y * row(in_bones1.y, i)
+       + in_weights1.z * row(in_bones1.z, i) + in_weights1.w * row(in_bones1.w, i);
 }
 void main() {
   vec4 p = vec4(in_position, 1.0);
-  vec3 w = in_weights0.x * bone(in_bones0.x, p) + in_weights0.y * bone(in_bones0.y, p)
-         + in_weights0.z * bone(in_bones0.z, p) + in_weights0.w * bone(in_bones0.w, p)
-         + in_weights1.x * bone(in_bones1.x, p) + in_weights1.y * bone(in_bones1.y, p)
-         + in_weights1.z * bone(in_bones1.z, p) + in_weights1.w * bone(in_bones1.w, p);
+  vec3 w = vec3(dot(blend(0), p), dot(blend(1), p), dot(blend(2), p));
   v_texcoord = vec2(in_uv.x, 1.0 - in_uv.y);  // texture rows are stored top first
   gl_Position = u_view_proj * vec4(w, 1.0);
 }`;
