@@ -11,5 +11,6 @@ if ! command -v chromium-headless-shell >/dev/null && ! command -v chromium >/de
       chromium-headless-shell >/dev/null; } || echo "[test] no headless Chromium: the glTF browser check is skipped"
 fi
 .venv/bin/python tools/gltf-check/fetch_three.py || echo "[test] no three.js: the glTF browser check is skipped"
+.venv/bin/python tools/web-player/fetch_ort.py || echo "[test] no onnxruntime-web: the web player tests are skipped"
 . .venv/bin/activate
 python -m pytest -q -p no:cacheprovider tests "$@"

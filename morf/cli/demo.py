@@ -98,4 +98,7 @@ def run(args) -> int:
         return rc
     print(f"demo finished in {(time.perf_counter() - t_all) / 60:.1f} min: video {root / 'animation.mp4'}, "
           f"avatar {project / 'avatar'}; open the capture in the studio with: morf-studio {project}")
+    web = root.absolute().parent / f"{root.absolute().name}-web"  # beside the demo folder, which holds only the demo's files
+    print(f"play the avatar in a browser: morf web {shlex.quote(str(project / 'avatar'))} {shlex.quote(str(web))} "
+          f"--force && morf serve {shlex.quote(str(web))}")
     return 0
