@@ -52,7 +52,7 @@ def _until(app, done, what: str, timeout: float = WAIT_S) -> None:
             snap = app.worker.latest()
             pytest.fail(f"{what}: not within {timeout:.0f} s (worker: {snap.stage} {snap.state}, {snap.error})")
         app.frame()
-        time.sleep(0.01)
+        time.sleep(0.05)  # the worker needs the CPU more than the test needs frames
 
 
 @pytest.fixture
