@@ -31,6 +31,7 @@ MAX_DEPTH = 4  # folders below the chosen one that are listed
 MAX_FILES = 500  # .bvh / .npz files looked at; the listing says when it stopped there
 MAX_MEMBERS = 64  # arrays in one .npz (motions hold a handful)
 MAX_HEADER_BYTES = 4096  # a .npy header is well under this
+MAX_BVH_HEADER_BYTES = 256 * 1024  # a BVH's hierarchy and MOTION header (hundreds of joints fit in far less)
 SYSTEM_FOLDERS = ("/proc", "/sys", "/dev")  # the kernel's own files: never motions, and slow or unreadable
 
 
@@ -126,11 +127,8 @@ def check_motion_file(path: Path) -> tuple[str | None, str | None]:
     """(kind, None) when ``path``'s header says it is a motion, else (None, the reason)."""
     try:
         if path.suffix.lower() == ".bvh":
-            with open(path, "rb") as f:
-                head = f.read(64).lstrip(b"\xef\xbb\xbf \t\r\n")
-            if head[:9].upper() != b"HIERARCHY":
-                return None, "not a BVH file (no HIERARCHY header)"
-            return "bvh", None
+            problem = bvh_problem(path)
+            return (None, problem) if problem else ("bvh", None)
         arrays = npz_headers(path)
     except (OSError, ValueError, EOFError) as e:
         return None, f"cannot be read: {e}" if isinstance(e, OSError) else str(e)
@@ -140,6 +138,43 @@ def check_motion_file(path: Path) -> tuple[str | None, str | None]:
         return None, f"not a motion (arrays: {names})"
     problem = _shape_problem(kind, arrays)
     return (None, problem) if problem else (kind, None)
+
+
+def bvh_problem(path: Path) -> str | None:
+    """What keeps a BVH from playing, from its hierarchy and MOTION header alone (the first
+    :data:`MAX_BVH_HEADER_BYTES`; no frame data is parsed): not a BVH, a broken hierarchy, no
+    channels or frames, more values in a frame than channels, or a skeleton that no body can be
+    matched to (the retargeting's own name matcher). None when it plays."""
+    from morf.errors import InputError
+    from morf.motion.bvh import _parse_hierarchy  # the reader's own parser, so the two cannot disagree
+    from morf.motion.name_matching import map_for
+    from morf.motion.skeleton import SourceSkeleton
+
+    with open(path, "rb") as f:
+        head = f.read(MAX_BVH_HEADER_BYTES)
+    lines = head.decode("utf-8", errors="replace").lstrip("\ufeff").splitlines()
+    if not lines or lines[0].strip().upper() != "HIERARCHY":
+        return "not a BVH file (no HIERARCHY header)"
+    try:
+        parsed, motion = _parse_hierarchy(lines, path)
+    except InputError as e:
+        return str(e).removeprefix(f"{path}: ")
+    channels = sum(len(c) for c in parsed.channels)
+    if not parsed.names or not channels:
+        return "its hierarchy declares no joints or no channels"
+    rows = [ln.split() for ln in lines[motion + 1:motion + 5] if ln.strip()]
+    frames = next((r[1] for r in rows if len(r) == 2 and r[0].lower() == "frames:"), None)
+    if frames is None or not frames.isdigit() or int(frames) < 1:
+        return "no frames ('Frames:' after MOTION)"
+    if len(rows) > 2 and len(rows[2]) > channels:
+        return f"a frame has {len(rows[2])} values, but the hierarchy declares {channels} channels"
+    skeleton = SourceSkeleton(tuple(parsed.names), tuple(parsed.parents), np.asarray(parsed.offsets, np.float64), "y")
+    try:
+        map_for(skeleton)
+    except InputError as e:
+        if str(e).startswith("cannot match this skeleton"):
+            return str(e)
+    return None
 
 
 def _internal(folder: Path) -> str | None:

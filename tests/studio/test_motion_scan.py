@@ -14,7 +14,42 @@ from morf.io import save_npz
 from studio.motion_browser import MotionBrowser
 from studio.motion_scan import check_motion_file, npz_headers, scan_motions
 
-BVH = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n}\nMOTION\nFrames: 1\nFrame Time: 0.033\n0 0 0\n"
+# a person's skeleton, (joint, parent, offset in cm); the retargeting finds its hands, feet and head by name
+SKELETON = (("Hips", None, (0, 95, 0)), ("Spine", "Hips", (0, 10, 0)), ("Neck", "Spine", (0, 30, 0)),
+            ("Head", "Neck", (0, 8, 0)), ("LeftShoulder", "Spine", (4, 25, 0)), ("LeftArm", "LeftShoulder", (10, 0, 0)),
+            ("LeftForeArm", "LeftArm", (25, 0, 0)), ("LeftHand", "LeftForeArm", (25, 0, 0)),
+            ("RightShoulder", "Spine", (-4, 25, 0)), ("RightArm", "RightShoulder", (-10, 0, 0)),
+            ("RightForeArm", "RightArm", (-25, 0, 0)), ("RightHand", "RightForeArm", (-25, 0, 0)),
+            ("LeftUpLeg", "Hips", (9, 0, 0)), ("LeftLeg", "LeftUpLeg", (0, -42, 0)), ("LeftFoot", "LeftLeg", (0, -40, 0)),
+            ("RightUpLeg", "Hips", (-9, 0, 0)), ("RightLeg", "RightUpLeg", (0, -42, 0)),
+            ("RightFoot", "RightLeg", (0, -40, 0)))
+
+
+def bvh_text(skeleton=SKELETON, frames: int = 3) -> str:
+    """A small BVH of ``skeleton``: the root turns a little each frame."""
+    children: dict = {}
+    for name, parent, offset in skeleton:
+        children.setdefault(parent, []).append((name, offset))
+    lines = ["HIERARCHY"]
+
+    def joint(name, offset, depth):
+        pad, root = "  " * depth, depth == 0
+        lines.extend([f"{pad}{'ROOT' if root else 'JOINT'} {name}", pad + "{", f"{pad}  OFFSET {' '.join(map(str, offset))}",
+                      f"{pad}  CHANNELS " + ("6 Xposition Yposition Zposition " if root else "3 ") + "Zrotation Xrotation Yrotation"])
+        for child, child_offset in children.get(name, []):
+            joint(child, child_offset, depth + 1)
+        if name not in children:
+            lines.extend([f"{pad}  End Site", pad + "  {", f"{pad}    OFFSET 0 5 0", pad + "  }"])
+        lines.append(pad + "}")
+
+    joint(*children[None][0], 0)
+    n = 6 + 3 * (len(skeleton) - 1)
+    lines += ["MOTION", f"Frames: {frames}", "Frame Time: 0.033333"]
+    lines += [" ".join(["0", "95", "0", "0", "0", str(10 * t)] + ["0"] * (n - 6)) for t in range(frames)]
+    return "\n".join(lines) + "\n"
+
+
+BVH = bvh_text()
 
 
 def write_motion_folder(root):
@@ -29,6 +64,8 @@ def write_motion_folder(root):
              trans=np.zeros((5, 3), np.float32), mocap_framerate=np.float32(60))
     (root / "walk.bvh").write_text(BVH)
     (root / "notes.bvh").write_text("just some text\n")
+    (root / "stick.bvh").write_text(bvh_text((("Pole", None, (0, 0, 0)), ("Tip", "Pole", (0, 10, 0)))))
+    (root / "empty.bvh").write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n}\nMOTION\nFrames: 1\nFrame Time: 0.033\n0 0 0\n")
     (root / "text.npz").write_text("not a zip")
     save_npz(root / "weights.npz", w=np.zeros(4, np.float32))
     save_npz(root / "bent.npz", rotvecs=np.zeros((8, 3), np.float32), transl=np.zeros((8, 3), np.float32))
@@ -50,8 +87,9 @@ def test_lists_motions_by_header_greys_the_rest_and_leaves_out_internals(tmp_pat
     kinds = {e.name: e.kind for e in scan.motions}
     assert kinds == {"dance/amass_walk.npz": "amass", "turn.npz": "player", "walk.bvh": "bvh"}
     greyed = {e.name: e.reason for e in scan.entries if not e.is_motion}
-    assert set(greyed) == {"bent.npz", "notes.bvh", "text.npz", "weights.npz"}
+    assert set(greyed) == {"bent.npz", "notes.bvh", "text.npz", "weights.npz", "stick.bvh", "empty.bvh"}
     assert "HIERARCHY" in greyed["notes.bvh"] and "not an .npz" in greyed["text.npz"]
+    assert "no joint named like left hand" in greyed["stick.bvh"] and "no channels" in greyed["empty.bvh"]
     assert "arrays: w" in greyed["weights.npz"] and "(T, J, 3)" in greyed["bent.npz"]
     assert [e.is_motion for e in scan.entries] == sorted((e.is_motion for e in scan.entries), reverse=True)
     names = " ".join(e.name for e in scan.entries)
@@ -149,3 +187,40 @@ def test_browser_lists_off_thread_newest_commit_wins_and_remembers_folders(tmp_p
         assert again.recent[:2] == [str(tmp_path / "one"), str(tmp_path / "two")]
     finally:
         again.close()
+
+
+def _listed_and_played(folder) -> list[str]:
+    """Every motion the listing offers, loaded as the live panel loads it; the names of those that fail."""
+    from studio.player import load_live_motion
+
+    failed = []
+    for e in scan_motions(folder).motions:
+        clip, note = load_live_motion(e.path, 104)
+        if clip is None or not len(clip):
+            failed.append(f"{e.name}: {note}")
+    return failed
+
+
+def test_every_listed_motion_plays_and_every_greyed_one_would_not(tmp_path):
+    from morf.motion.library import BUILTIN_MOTIONS
+    from studio.player import load_live_motion
+
+    library = write_motion_folder(tmp_path / "library")
+    assert _listed_and_played(library) == []
+    assert _listed_and_played(BUILTIN_MOTIONS) == []
+    for e in scan_motions(library).entries:
+        if not e.is_motion:
+            assert load_live_motion(e.path, 104)[0] is None, e.name  # the header check greys no playable file
+
+
+def test_the_shared_cmu_motions_are_listed_and_the_shortest_plays(shared_data):
+    from studio.player import load_live_motion
+
+    cmu = shared_data / "motion" / "cmu"
+    if not cmu.is_dir():
+        pytest.skip(f"no CMU motions in {shared_data}")
+    listed = scan_motions(cmu).motions
+    assert {e.name for e in listed} >= {"01_01.bvh", "131_01.bvh"}
+    shortest = min(listed, key=lambda e: e.path.stat().st_size)  # retargeting them all takes half a minute
+    clip, note = load_live_motion(shortest.path, 104)
+    assert clip is not None and len(clip) > 100, note
