@@ -22,7 +22,9 @@ BROWSERS = ("chromium-headless-shell", "chromium", "chromium-browser", "google-c
 BROWSER_FLAGS = ("--headless", "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
                  "--ignore-gpu-blocklist", "--disable-dev-shm-usage", "--no-first-run", "--mute-audio",
                  "--disable-extensions", "--hide-scrollbars", "--window-size=800,900",
-                 "--disable-background-timer-throttling", "--disable-renderer-backgrounding")
+                 "--disable-background-timer-throttling", "--disable-renderer-backgrounding",
+                 # every host but the local server unresolvable: a page that asked another would fail
+                 "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1")
 
 
 def find_chromium(explicit: str | None = None) -> str | None:

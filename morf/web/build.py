@@ -47,7 +47,7 @@ def folder_bytes(path: Path) -> int:
 
 def build_web_folder(avatar_dir: str | os.PathLike, out: str | os.PathLike, motions: list[str] | None = None,
                      force: bool = False, webgpu: bool = False, command: str = "morf web",
-                     motion_fps: float | None = None) -> WebFolder:
+                     motion_fps: float | None = None, precision: str = "auto") -> WebFolder:
     """Write the web folder of the avatar folder ``avatar_dir`` into ``out``.
 
     Args:
@@ -55,6 +55,8 @@ def build_web_folder(avatar_dir: str | os.PathLike, out: str | os.PathLike, moti
         force: write into a non-empty ``out``, replacing only this command's names.
         webgpu: also carry onnxruntime-web's WebGPU build (6.6 MB more), used where the browser has WebGPU.
         motion_fps: the frame rate of user motion files that store none.
+        precision: the renderer, "int8", "fp32" or "auto" (int8 unless the export measured it under
+            30 dB from fp32).
     Raises:
         InputError: a missing or damaged avatar, a bad motion, a refused output, the libraries not cached.
     """
@@ -67,7 +69,7 @@ def build_web_folder(avatar_dir: str | os.PathLike, out: str | os.PathLike, moti
         backends = copy_libraries(tmp / "lib", webgpu=webgpu)
         entries = write_motions(sources, tmp / "motions", avatar.skeleton.num_bones,
                                 (avatar.manifest.get("body") or {}).get("shape"), command, motion_fps)
-        doc = write_web_avatar(avatar, tmp / "avatar", entries)
+        doc = write_web_avatar(avatar, tmp / "avatar", entries, precision)
         for f in page_files():
             shutil.copyfile(f, tmp / f.name)
         (tmp / "player.json").write_text(json.dumps({"onnxruntime_web": ORT_VERSION, "backends": backends,

@@ -56,11 +56,13 @@ class WebRenderer:
     contract: dict
 
 
-def web_renderer(avatar: ExportedAvatar) -> WebRenderer:
+def web_renderer(avatar: ExportedAvatar, precision: str = "auto") -> WebRenderer:
     """The graph for the page: cut before the tail where the manifest has the tail's spec, else
-    the whole graph with ``image`` as its only output."""
-    quality = int8_check_db(avatar.manifest)
-    precision = "fp32" if quality is not None and quality < INT8_MIN_PSNR_DB else "int8"
+    the whole graph with ``image`` as its only output. ``precision``: "int8", "fp32", or "auto"
+    (int8 unless the export measured it under 30 dB from fp32)."""
+    if precision == "auto":
+        quality = int8_check_db(avatar.manifest)
+        precision = "fp32" if quality is not None and quality < INT8_MIN_PSNR_DB else "int8"
     path = avatar.renderer_path(precision)
     raw = path.read_bytes()
     renderer = avatar.manifest["renderer"]
@@ -112,9 +114,10 @@ def _skeleton(avatar: ExportedAvatar) -> dict:
             "reference_rotations": np.round(s.reference_rotations, 12).reshape(-1).tolist()}
 
 
-def write_web_avatar(avatar: ExportedAvatar, folder: Path, motions: list[dict]) -> dict:
+def write_web_avatar(avatar: ExportedAvatar, folder: Path, motions: list[dict], precision: str = "auto") -> dict:
     """Write ``avatar/`` (texture.bin, mesh.bin, renderer.onnx, avatar.json) into ``folder``;
-    ``motions``: the entries of the motions written beside it (:func:`morf.web.motions.write_motions`).
+    ``motions``: the entries of the motions written beside it (:func:`morf.web.motions.write_motions`);
+    ``precision``: the renderer's (:func:`web_renderer`).
     Returns avatar.json's content."""
     import json
 
@@ -123,7 +126,7 @@ def write_web_avatar(avatar: ExportedAvatar, folder: Path, motions: list[dict]) 
     (folder / "texture.bin").write_bytes(np.ascontiguousarray(tex.data, np.uint8).tobytes())
     mesh, layout = _mesh_bytes(avatar)
     (folder / "mesh.bin").write_bytes(mesh)
-    renderer = web_renderer(avatar)
+    renderer = web_renderer(avatar, precision)
     (folder / "renderer.onnx").write_bytes(renderer.graph)
     manifest = avatar.manifest
     files = {p.name: {"bytes": p.stat().st_size, "sha256": sha256_of(p)} for p in sorted(folder.iterdir())}

@@ -48,12 +48,13 @@ async function bench(app, params) {
   const n = Number(params.get('bench')) || 60;
   app.playing = false;
   await timeFrames(app, 5, false);  // warm-up: sessions, shader compilation
-  const whole = await timeFrames(app, n, false);
+  const first = await timeFrames(app, n, false);
   if (params.get('fine')) app.player.compositor.fine = {};
   const staged = await timeFrames(app, n, true);
   const fine = app.player.compositor.fine;
   if (fine) for (const k of Object.keys(fine)) fine[k] /= n;
   app.player.compositor.fine = null;
+  const whole = await timeFrames(app, n, false);
   const total = STAGES.reduce((a, s) => a + staged.stages_ms[s], 0);
   const shares = Object.fromEntries(STAGES.map((s) => [s, staged.stages_ms[s] / total]));
   const fixedSize = app.size;
@@ -70,8 +71,8 @@ async function bench(app, params) {
   }
   await timeFrames(app, 5, false);
   const adaptive = { size: app.size, steps, ...(await timeFrames(app, n, false)) };
-  if (params.get('noadapt')) return { size: fixedSize, frames: n, ...whole, stages_ms: staged.stages_ms, fine };
-  return { size: fixedSize, frames: n, ...whole, fine, stages_ms: staged.stages_ms, shares, staged_fps: staged.fps, adaptive };
+  if (params.get('noadapt')) return { size: fixedSize, frames: n, ...whole, first_fps: first.fps, staged_fps: staged.fps, stages_ms: staged.stages_ms, fine };
+  return { size: fixedSize, frames: n, ...whole, first_fps: first.fps, fine, stages_ms: staged.stages_ms, shares, staged_fps: staged.fps, adaptive };
 }
 
 async function check(app) {

@@ -151,6 +151,9 @@ async function boot() {
   const app = new App(new Player(gl, avatar, runtime), runtime, config);
   await app.selectMotion(params.get('motion'));
   app.wireControls();
+  // The other motions too, now: once loaded, the page needs no network (the picker works offline).
+  await Promise.all(avatar.doc.motions.filter((m) => !app.motions.has(m.name))
+    .map(async (m) => app.motions.set(m.name, await loadMotion(m))));
   if (params.has('bench') || params.has('check') || params.has('report')) return runHarness(app, params, messages);
   return app.loop();
 }
