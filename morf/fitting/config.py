@@ -118,6 +118,9 @@ class FitConfig:
     proxy_cell: float = 0.03  # vertex-clustering cell of the silhouette proxy mesh, metres
     yaw_hypotheses: int = 8  # initial body orientations tried per frame
     yaw_switch_weight: float = 0.5  # cost of turning between frames when choosing among them
+    # try every heading also with the keypoints' left/right labels exchanged, the face deciding
+    # between a front view and its mirror-image back view (heading.py); off: the labels as given
+    front_back: bool = True
 
     # evaluation and outputs
     iou_resolution: int = 256  # raster size of the long image side for silhouette IoU

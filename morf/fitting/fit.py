@@ -7,9 +7,11 @@ project, resumes from the last completed stage, and writes PROJECT/fits/ atomica
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Callable
 
+import numpy as np
 import torch
 
 from morf.body.rotations import axis_angle_to_matrix
@@ -21,6 +23,7 @@ from morf.fitting.fits_io import BodyFits
 from morf.fitting.frame_filter import filter_frames, limit_excess, pose_change_deg
 from morf.fitting.frame_spacing import FrameSpacing
 from morf.fitting.global_init import fit_global
+from morf.fitting.heading import HeadingEvidence, exchange_labels
 from morf.fitting.inputs import FitInputs
 from morf.fitting.offsets import proxy_edges, spread_to_mesh
 from morf.fitting.optimize import FitProblem, run_stage
@@ -39,6 +42,8 @@ class FitState:
         stage: number of completed stages.
         offsets: (Vp,) clothing offsets of the silhouette proxy's vertices (empty when none).
         spacing: how far apart the fit took the frames to be (None before the first stage).
+        swapped: (N,) bool, frames whose keypoints' left/right labels the first stage exchanged
+            (:mod:`morf.fitting.heading`); None before the first stage or when none were.
     """
 
     rotvecs: torch.Tensor
@@ -47,6 +52,15 @@ class FitState:
     stage: int
     offsets: torch.Tensor = field(default_factory=lambda: torch.zeros(0))
     spacing: FrameSpacing | None = None
+    swapped: np.ndarray | None = None
+
+
+def with_labels(inputs: FitInputs, swapped: np.ndarray | None) -> FitInputs:
+    """``inputs`` with each frame's keypoints read as the first stage chose (left and right
+    exchanged where ``swapped``): what every later stage, the evaluation and the filter fit to."""
+    if swapped is None or not np.any(swapped):
+        return inputs
+    return dataclasses.replace(inputs, keypoints=exchange_labels(inputs.keypoints, swapped))
 
 
 def default_device() -> torch.device:
@@ -118,7 +132,7 @@ def _fit_sequence(model, inputs, cfg, control, start, device, on_stage) -> FitSt
                                start.transl.to(device), shape0, cfg.shared_shape, n_off).to(device)
         params.load_state(start.rotvecs.to(device), start.transl.to(device), start.shape.to(device),
                           start.offsets.to(device))
-        done = start.stage
+        done, swapped = start.stage, start.swapped
         spacing = start.spacing or known_spacing(inputs, cfg) or frame_spacing.from_heading(
             axis_angle_to_matrix(start.rotvecs[:, 0]).numpy())
     else:
@@ -129,26 +143,31 @@ def _fit_sequence(model, inputs, cfg, control, start, device, on_stage) -> FitSt
         g = fit_global(inputs.keypoints, inputs.camera, rest_kp.cpu(), hypotheses=cfg.yaw_hypotheses,
                        iterations=first.iterations, lr=first.lr, scale=0.01 * inputs.camera.height,
                        sigma=cfg.keypoint_robust_sigma, switch_weight=cfg.yaw_switch_weight,
-                       spacing=known_spacing(inputs, cfg), control=control)
+                       spacing=known_spacing(inputs, cfg), control=control,
+                       evidence=HeadingEvidence() if cfg.front_back else None)
         params = FitParameters(N, len(model.bone_names), bone_ids, g.root.to(device), g.transl.to(device),
                                shape0, cfg.shared_shape, n_off).to(device)
         done, spacing = 1, g.spacing
-        state = _stage_done(params, done, on_stage, spacing)
+        swapped = g.swapped if g.swapped is not None and g.swapped.any() else None
+        state = _stage_done(params, done, on_stage, spacing, swapped)
+    if swapped is not None:  # the later stages fit the labels the first stage chose
+        problem.inputs = with_labels(inputs, swapped)
+        problem.keypoints = torch.as_tensor(problem.inputs.keypoints, device=device)
     problem.pair_weights = torch.as_tensor(spacing.temporal_weights(), dtype=problem.keypoints.dtype, device=device)
     for k in range(done, len(cfg.stages)):
         stage = cfg.stages[k]
         run_stage(problem, params, cfg, stage, stage_number=k + 1, control=control)
-        state = _stage_done(params, k + 1, on_stage, spacing)
+        state = _stage_done(params, k + 1, on_stage, spacing, swapped)
     return state  # what the last checkpoint holds (a resumed fit with nothing left returns ``start``)
 
 
 def _stage_done(params: FitParameters, stage: int, on_stage: Callable[[FitState], None] | None,
-                spacing: FrameSpacing) -> FitState:
+                spacing: FrameSpacing, swapped: np.ndarray | None) -> FitState:
     """Hand the state after ``stage`` to ``on_stage`` (the checkpoint) and go on from that very
     state, as a fit resumed from the checkpoint does: the parameters are rebuilt from the saved
     rotvecs and shape (the root's delta folded into its rotation, the shape through its logit),
     so a fit killed after any stage and resumed ends with the same numbers as one that ran through."""
-    state = _state(params, stage, spacing)
+    state = _state(params, stage, spacing, swapped)
     if on_stage is not None:
         on_stage(state)
     device = params.transl.device
@@ -157,13 +176,13 @@ def _stage_done(params: FitParameters, stage: int, on_stage: Callable[[FitState]
     return state
 
 
-def _state(params: FitParameters, stage: int, spacing: FrameSpacing) -> FitState:
+def _state(params: FitParameters, stage: int, spacing: FrameSpacing, swapped: np.ndarray | None) -> FitState:
     """The parameters after ``stage`` as tensors of their own (a copy: never views of the
     parameters, which later stages go on changing)."""
     with torch.no_grad():
         pose = params.pose()
         return FitState(*(t.detach().float().cpu().clone() for t in (pose.rotvecs, pose.transl, params.shape())),
-                        stage, params.offsets.detach().float().cpu().clone(), spacing)
+                        stage, params.offsets.detach().float().cpu().clone(), spacing, swapped)
 
 
 def finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple[BodyFits, dict[int, str]]:
@@ -173,6 +192,7 @@ def finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple
 
 
 def _finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple[BodyFits, dict[int, str]]:
+    inputs = with_labels(inputs, state.swapped)
     device = next(iter(model.buffers())).device
     rv, tr, sh = (x.to(device) for x in (state.rotvecs, state.transl, state.shape))
     offsets = None
@@ -184,7 +204,8 @@ def _finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tupl
                     keypoint_residual_px=ev.keypoint_residual_px, keypoint_worst_px=ev.keypoint_worst_px,
                     silhouette_iou=ev.silhouette_iou, silhouette_iou_body=ev.silhouette_iou_body,
                     offsets=None if offsets is None else offsets.cpu().numpy(),
-                    projected_keypoints=ev.projected_keypoints, config=cfg.to_dict(), twist_deg=ev.twist_deg)
+                    projected_keypoints=ev.projected_keypoints, config=cfg.to_dict(), twist_deg=ev.twist_deg,
+                    label_swapped=state.swapped)
     rejected: dict[int, str] = {}
     if cfg.frame_filter:
         bone_ids = [model.bone_index(b) for b in FIT_BONES]

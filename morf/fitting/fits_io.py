@@ -36,6 +36,9 @@ class BodyFits:
             ``morf.fitting.offsets.dressed_vertices(model, model(pose, shape), shape, offsets)``.
         twist_deg: (N,) float32 pelvis-shoulder twist of the fitted body, degrees
             (``morf.fitting.twist``), or None in fits written before it was measured.
+        label_swapped: (N,) bool, frames whose detected keypoints were fitted with left and right
+            exchanged (``morf.fitting.heading``: a back view the detector labelled as a front
+            view), or None when no frame was.
     """
 
     rotvecs: np.ndarray
@@ -49,6 +52,7 @@ class BodyFits:
     silhouette_iou_body: np.ndarray | None = None
     offsets: np.ndarray | None = None
     twist_deg: np.ndarray | None = None
+    label_swapped: np.ndarray | None = None
 
     @property
     def num_frames(self) -> int:
@@ -68,6 +72,8 @@ def save_fits(path: str | Path, fits: BodyFits) -> None:
     """Atomically write ``fits`` (a project's is ``project.fits_path``)."""
     extra = {k: getattr(fits, k).astype(np.float32) for k in ("silhouette_iou_body", "offsets", "twist_deg")
              if getattr(fits, k) is not None}
+    if fits.label_swapped is not None:
+        extra["label_swapped"] = np.asarray(fits.label_swapped, bool)
     save_npz(path, rotvecs=fits.rotvecs.astype(np.float32), transl=fits.transl.astype(np.float32),
              shape=fits.shape.astype(np.float32), keypoint_residual_px=fits.keypoint_residual_px.astype(np.float32),
              keypoint_worst_px=fits.keypoint_worst_px.astype(np.float32),
@@ -85,12 +91,14 @@ def read_fits(path: str | Path) -> BodyFits:
                         silhouette_iou=d["silhouette_iou"],
                         projected_keypoints=d["projected_keypoints"], config=json.loads(str(d["config"])),
                         silhouette_iou_body=d.get("silhouette_iou_body"), offsets=d.get("offsets"),
-                        twist_deg=d.get("twist_deg"))
+                        twist_deg=d.get("twist_deg"), label_swapped=d.get("label_swapped"))
     except (KeyError, ValueError) as e:
         raise ProjectError(f"damaged fits file {path}: {e}") from None
     N = fits.rotvecs.shape[0]
     if fits.rotvecs.ndim != 3 or fits.transl.shape != (N, 3) or fits.shape.shape[0] not in (1, N):
         raise ProjectError(f"damaged fits file {path}: inconsistent shapes")
+    if fits.label_swapped is not None and fits.label_swapped.shape != (N,):
+        raise ProjectError(f"damaged fits file {path}: label_swapped must be ({N},)")
     if fits.offsets is not None and fits.offsets.ndim != 1:
         raise ProjectError(f"damaged fits file {path}: offsets must be (V,)")
     return fits
@@ -109,25 +117,29 @@ def load_fits(project) -> BodyFits:
 
 def save_checkpoint(path: Path, *, stage: int, rotvecs: np.ndarray, transl: np.ndarray, shape: np.ndarray,
                     config: dict, offsets: np.ndarray | None = None, gaps: np.ndarray | None = None,
-                    spacing: str = "") -> None:
+                    spacing: str = "", swapped: np.ndarray | None = None) -> None:
     """Parameters after ``stage`` completed stages (resume point); ``offsets``: (Vp,) proxy offsets;
     ``gaps`` (N-1,) and ``spacing``: the frame spacing the fit found (``morf.fitting.frame_spacing``),
-    kept so that a resumed fit smooths exactly as the one it continues."""
+    kept so that a resumed fit smooths exactly as the one it continues; ``swapped`` (N,) the frames
+    whose left/right labels the first stage exchanged (``morf.fitting.heading``)."""
     off = np.zeros(0, np.float32) if offsets is None else offsets.astype(np.float32)
     extra = {} if gaps is None else {"gaps": np.asarray(gaps, np.float64), "spacing": np.array(spacing)}
+    if swapped is not None:
+        extra["swapped"] = np.asarray(swapped, bool)
     save_npz(path, stage=np.array(stage), rotvecs=rotvecs.astype(np.float32), transl=transl.astype(np.float32),
              shape=shape.astype(np.float32), offsets=off, config=np.array(json.dumps(config, sort_keys=True)), **extra)
 
 
 def read_checkpoint(path: Path) -> dict | None:
-    """The checkpoint as a dict (stage, rotvecs, transl, shape, offsets, config, gaps, spacing; gaps
-    None in checkpoints without them) or None if unreadable."""
+    """The checkpoint as a dict (stage, rotvecs, transl, shape, offsets, config, gaps, spacing,
+    swapped; gaps and swapped None in checkpoints without them) or None if unreadable."""
     if not path.is_file():
         return None
     try:
         d = load_npz(path)
         return {"stage": int(d["stage"]), "rotvecs": d["rotvecs"], "transl": d["transl"], "shape": d["shape"],
                 "offsets": d.get("offsets", np.zeros(0, np.float32)), "config": json.loads(str(d["config"])),
-                "gaps": d.get("gaps"), "spacing": str(d["spacing"]) if "spacing" in d else ""}
+                "gaps": d.get("gaps"), "spacing": str(d["spacing"]) if "spacing" in d else "",
+                "swapped": d.get("swapped")}
     except (ProjectError, KeyError, ValueError):
         return None

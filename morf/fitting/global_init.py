@@ -8,6 +8,9 @@ turns little between frames (a person turning in place shows front, side and bac
 single start would fall into the mirror-image solution on some of them). What a turn between two
 frames costs depends on how far apart they are (:mod:`morf.fitting.frame_spacing`): photos 45
 degrees apart may turn 45 degrees, and unordered views pick their headings each on its own.
+Every heading is also tried with the keypoints' left and right labels exchanged, and the face's
+presence decides between a body seen from the front and its mirror image seen from the back
+(:mod:`morf.fitting.heading`).
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from morf.errors import InputError
 from morf.fitting import frame_spacing
 from morf.fitting.adam import Adam
 from morf.fitting.frame_spacing import FrameSpacing
+from morf.fitting.heading import MIRROR_INDEX, HeadingEvidence, face_seen, facing, heading_costs
 from morf.fitting.losses import keypoint_loss
 from morf.fitting.params import yaw_candidates, yaw_matrix
 
@@ -37,12 +41,14 @@ class GlobalInit:
         root: (N, 3, 3) root rotations; transl: (N, 3) translations (metres).
         loss: (N,) keypoint loss of the chosen hypothesis.
         spacing: how far apart the frames are, as given or (without frame times) as found here.
+        swapped: (N,) bool numpy, the chosen hypothesis reads the frame's left/right labels exchanged.
     """
 
     root: torch.Tensor
     transl: torch.Tensor
     loss: torch.Tensor
     spacing: FrameSpacing
+    swapped: np.ndarray | None = None
 
 
 def canonical_rotation(camera: PinholeCamera, dtype=torch.float32) -> torch.Tensor:
@@ -105,7 +111,8 @@ def _choose_sequence(loss: torch.Tensor, R: torch.Tensor, switch_weight: torch.T
 
 def fit_global(points: np.ndarray, camera: PinholeCamera, rest_kp: torch.Tensor, *, hypotheses: int,
                iterations: int, lr: float, scale: float, sigma: float, switch_weight: float,
-               spacing: FrameSpacing | None = None, control=None) -> GlobalInit:
+               spacing: FrameSpacing | None = None, control=None,
+               evidence: HeadingEvidence | None = None) -> GlobalInit:
     """Rigid fit of the rest-pose body to each frame's torso and head keypoints.
 
     Args:
@@ -114,9 +121,13 @@ def fit_global(points: np.ndarray, camera: PinholeCamera, rest_kp: torch.Tensor,
         spacing: how far apart the frames are; None when the capture does not say (no frame times,
             not unordered): then the headings are chosen as for a video, the heading changes
             between them give the gaps, and the headings are chosen again with those gaps.
+        evidence: the front/back choice's costs; None fits the labels as given only.
     """
     dtype = rest_kp.dtype
-    N, K = points.shape[0], max(1, hypotheses)
+    N, Y = points.shape[0], max(1, hypotheses)
+    labels = (False, True) if evidence is not None else (False,)
+    K = Y * len(labels)
+    swapped = torch.tensor([s for s in labels for _ in range(Y)])
     depth, centre, _ = torso_depth_and_centre(points, rest_kp.cpu().numpy(), camera.fy)
     Rcam = torch.as_tensor(camera.R, dtype=dtype)
     tcam = torch.as_tensor(camera.t, dtype=dtype)
@@ -124,13 +135,14 @@ def fit_global(points: np.ndarray, camera: PinholeCamera, rest_kp: torch.Tensor,
     c = torch.as_tensor(centre, dtype=dtype)
     xc = torch.stack([(c[:, 0] - camera.cx) / camera.fx * d, (c[:, 1] - camera.cy) / camera.fy * d, d], -1)
     torso_world = (xc - tcam) @ Rcam  # R^T (xc - t)
-    R0 = canonical_rotation(camera, dtype) @ yaw_matrix(yaw_candidates(K, dtype))  # (K, 3, 3)
+    R0 = canonical_rotation(camera, dtype) @ yaw_matrix(yaw_candidates(Y, dtype).repeat(len(labels)))  # (K, 3, 3)
     R0 = R0[None].expand(N, K, 3, 3).contiguous()
     torso_rest = rest_kp[list(SHOULDERS + HIPS)].mean(0)
     t0 = torso_world[:, None] - R0 @ torso_rest
     delta = torch.zeros(N, K, 3, dtype=dtype, requires_grad=True)
     transl = t0.clone().requires_grad_(True)
-    det = torch.as_tensor(points, dtype=dtype)[:, None].expand(N, K, -1, -1)
+    given = torch.as_tensor(points, dtype=dtype)
+    det = torch.stack([given[:, MIRROR_INDEX] if s else given for s in swapped.tolist()], 1)  # (N, K, 23, 3)
     w = torch.zeros(rest_kp.shape[0], dtype=dtype)
     for k, v in GLOBAL_KEYPOINT_WEIGHTS.items():
         w[k] = v
@@ -151,6 +163,9 @@ def fit_global(points: np.ndarray, camera: PinholeCamera, rest_kp: torch.Tensor,
     with torch.no_grad():
         loss, R = losses()
         norm = loss / w.sum()
+        if evidence is not None:
+            cos = facing(R, transl, camera)
+            norm = norm + sigma ** 2 * heading_costs(cos, face_seen(points), swapped, evidence)
         ar = torch.arange(N)
 
         def choose(s: FrameSpacing) -> torch.Tensor:
@@ -160,4 +175,5 @@ def fit_global(points: np.ndarray, camera: PinholeCamera, rest_kp: torch.Tensor,
         if spacing is None:
             spacing = frame_spacing.from_heading(R[ar, path].numpy())
             path = choose(spacing)
-        return GlobalInit(root=R[ar, path], transl=transl[ar, path].detach(), loss=loss[ar, path], spacing=spacing)
+        return GlobalInit(root=R[ar, path], transl=transl[ar, path].detach(), loss=loss[ar, path], spacing=spacing,
+                          swapped=swapped[path].numpy())

@@ -29,7 +29,7 @@ from morf.camera import PinholeCamera
 from morf.errors import InputError, MorfError, ProjectError
 from morf.fitting.config import FitConfig
 from morf.fitting.evaluate import posed_chunks, silhouettes
-from morf.fitting.fit import FitState, cpu_threads, default_device, finalize, fit_sequence
+from morf.fitting.fit import FitState, cpu_threads, default_device, finalize, fit_sequence, with_labels
 from morf.fitting.frame_spacing import FrameSpacing
 from morf.fitting.fits_io import CHECKPOINT_FILE, BodyFits, read_checkpoint, read_fits, save_checkpoint, save_fits
 from morf.fitting.inputs import load_fit_inputs
@@ -173,7 +173,8 @@ def _fit_project(project, cfg: FitConfig, model, focal: float | None, restart: b
         if ckpt["gaps"] is not None and len(ckpt["gaps"]) == max(0, inputs.num_frames - 1):
             spacing = FrameSpacing(np.asarray(ckpt["gaps"], np.float64), ckpt["spacing"])
         start = FitState(torch.as_tensor(ckpt["rotvecs"]), torch.as_tensor(ckpt["transl"]),
-                         torch.as_tensor(ckpt["shape"]), ckpt["stage"], torch.as_tensor(ckpt["offsets"]), spacing)
+                         torch.as_tensor(ckpt["shape"]), ckpt["stage"], torch.as_tensor(ckpt["offsets"]), spacing,
+                         _swapped(ckpt["swapped"], inputs.num_frames))
     resumed = start.stage if start is not None else 0
     record = None if restart else read_done(project)
     settings = json.loads(json.dumps(cfg.to_dict()))  # as done.json holds it (tuples become lists)
@@ -189,7 +190,7 @@ def _fit_project(project, cfg: FitConfig, model, focal: float | None, restart: b
                         transl=state.transl.numpy(), shape=state.shape.numpy(), config=key,
                         offsets=state.offsets.numpy(),
                         gaps=None if state.spacing is None else state.spacing.gaps,
-                        spacing="" if state.spacing is None else state.spacing.source)
+                        spacing="" if state.spacing is None else state.spacing.source, swapped=state.swapped)
 
     complete = start is not None and start.stage >= len(cfg.stages)
     state = start if complete else fit_sequence(model, inputs, cfg, control=control, start=start, device=device,
@@ -206,7 +207,8 @@ def _fit_project(project, cfg: FitConfig, model, focal: float | None, restart: b
     })
     if cfg.overlays:
         with cpu_threads(cfg.cpu_threads):
-            write_overlays(project, model, fits, inputs.keypoints, camera, rejected, control)
+            write_overlays(project, model, fits, with_labels(inputs, state.swapped).keypoints, camera, rejected,
+                           control)
     missing = missing_outputs(project, cfg.overlays)
     if missing:  # someone removed a file while the fit ran: never record such a fit as done
         raise ProjectError(f"{out}: {missing[0]} vanished while the fit was writing it; run 'morf fit' again")
@@ -214,6 +216,13 @@ def _fit_project(project, cfg: FitConfig, model, focal: float | None, restart: b
                                         "finished": time.strftime("%Y-%m-%d %H:%M:%S")})
     return FitReport(fits, rejected, time.perf_counter() - t0, resumed,
                      spacing="" if state.spacing is None else state.spacing.describe())
+
+
+def _swapped(saved, num_frames: int) -> np.ndarray | None:
+    """The checkpoint's exchanged-label frames, when it holds a list of the right length."""
+    if saved is None or np.shape(saved) != (num_frames,):
+        return None
+    return np.asarray(saved, bool)
 
 
 def write_overlays(project, model, fits: BodyFits, keypoints: np.ndarray, camera: PinholeCamera,
