@@ -17,8 +17,9 @@ K = imgui.Key
 class RecordingIO:
     """Stands in for imgui's IO: records what the queue hands over."""
 
-    def __init__(self):
+    def __init__(self, typing: bool = False):
         self.events = []
+        self.want_text_input = typing  # a text field had the keyboard last frame
 
     def add_key_event(self, key, down):
         self.events.append((key, down))
@@ -72,6 +73,25 @@ def test_repeats_are_left_to_imgui_and_focus_loss_forgets_held_modifiers():
     q.key(glfw.KEY_A, 0, glfw.RELEASE)
     q.key(glfw.KEY_LEFT_CONTROL, 0, glfw.RELEASE)
     assert q.feed(io) == 3  # no chord: Ctrl was forgotten with the focus
+
+
+def test_in_a_text_field_typed_keys_pass_as_characters_alone_and_held_keys_still_come_up():
+    q, io = KeyQueue(), RecordingIO(typing=True)
+    q.key(glfw.KEY_D, 0, glfw.PRESS)  # pressed before the field had the keyboard
+    q.feed(RecordingIO())
+    for key, ch in ((glfw.KEY_A, "a"), (glfw.KEY_SLASH, "/"), (glfw.KEY_SPACE, " ")):
+        q.key(key, 0, glfw.PRESS)
+        q.char(ord(ch))
+        q.key(key, 0, glfw.RELEASE)
+    q.key(glfw.KEY_BACKSPACE, 0, glfw.PRESS)
+    q.key(glfw.KEY_BACKSPACE, 0, glfw.RELEASE)
+    q.key(glfw.KEY_D, 0, glfw.RELEASE)
+    _chord(q, glfw.KEY_A)
+    q.feed(io)
+    q.feed(io)
+    assert io.events == [("char", "a"), ("char", "/"), ("char", " "), (K.backspace, True), (K.backspace, False),
+                         (K.d, False), (K.mod_ctrl, True), (K.left_ctrl, True), (K.a, True),
+                         (K.mod_ctrl, False), (K.left_ctrl, False), (K.a, False)]
 
 
 @pytest.mark.parametrize("key,name,expected", [(glfw.KEY_Q, "a", glfw.KEY_A), (glfw.KEY_A, "a", glfw.KEY_A),
