@@ -1,8 +1,9 @@
 // Checks the page runs for the tests and `morf bench web` (served by morf/web/server.py, which
 // takes what the page posts to ./result):
-//   ?bench=N[&size=S]  N frames end to end at S x S (default 640) -> fps; N more with each stage
-//                      waited for -> per-stage times (fine=1: the tail's passes too); then the
-//                      adaptive size the page settles on (noadapt=1: not measured)
+//   ?bench=N[&size=S]  at S x S (default 640): N frames with each stage waited for -> per-stage
+//                      times (fine=1: the tail's passes too); N frames one after another; N frames
+//                      as the page plays them (renderer overlapped with the next frame's GL) ->
+//                      fps; then the adaptive size the page settles on (noadapt=1: not measured)
 //                      and the fps there; threads, backend, WebGL renderer
 //   ?check=1           renders the frames of ./check.json ({frames: [{pose, camera, size}],
 //                      background}) and posts the images (RGBA, rows top first, base64)
@@ -24,19 +25,24 @@ function environment(app) {
   return {
     user_agent: navigator.userAgent, cores: navigator.hardwareConcurrency,
     webgl: info ? gl.getParameter(info.UNMASKED_RENDERER_WEBGL) : gl.getParameter(gl.RENDERER),
-    backend: app.runtime.backend, threads: app.runtime.threads, isolated: app.runtime.isolated,
+    backend: app.runtime.backend, threads: app.runtime.threads, isolated: app.runtime.isolated, proxy: app.runtime.proxy,
     renderer: { mode: app.doc.renderer.mode, precision: app.doc.renderer.precision },
     tail: app.doc.renderer.mode === 'tail' ? (app.player.tailOnCpu ? 'js' : 'webgl') : null,
   };
 }
 
+function advance(app) {
+  app.frameIndex = (app.frameIndex + 1) % app.motion.frames;
+  const frame = app.motion.frame(app.frameIndex);
+  return { frame, ...app.view(frame) };
+}
+
+// n frames one after another: each stage waited for (timed), or not.
 async function timeFrames(app, n, timed) {
   const sums = Object.fromEntries(STAGES.map((s) => [s, 0]));
   const start = performance.now();
   for (let i = 0; i < n; i++) {
-    app.frameIndex = (app.frameIndex + 1) % app.motion.frames;
-    const frame = app.motion.frame(app.frameIndex);
-    const { camera, box } = app.view(frame);
+    const { frame, camera, box } = advance(app);
     const t = await app.player.render(frame, camera, [255, 255, 255], { timed, canvasSize: app.size, box });
     for (const s of STAGES) sums[s] += t[s];
   }
@@ -44,35 +50,45 @@ async function timeFrames(app, n, timed) {
   return { ms_per_frame: ms, fps: 1000 / ms, stages_ms: Object.fromEntries(STAGES.map((s) => [s, sums[s] / n])) };
 }
 
+// n frames as the page plays them: frame t's renderer overlapping frame t+1's GL work.
+async function timePlayed(app, n) {
+  let k = 0;
+  const start = performance.now();
+  await app.player.play(() => (k++ < n ? advance(app) : null), [255, 255, 255], app.size);
+  const ms = (performance.now() - start) / n;
+  return { ms_per_frame: ms, fps: 1000 / ms };
+}
+
 async function bench(app, params) {
   const n = Number(params.get('bench')) || 60;
   app.playing = false;
   await timeFrames(app, 5, false);  // warm-up: sessions, shader compilation
-  const first = await timeFrames(app, n, false);
+  await timePlayed(app, 5);
   if (params.get('fine')) app.player.compositor.fine = {};
   const staged = await timeFrames(app, n, true);
   const fine = app.player.compositor.fine;
   if (fine) for (const k of Object.keys(fine)) fine[k] /= n;
   app.player.compositor.fine = null;
-  const whole = await timeFrames(app, n, false);
+  const sequential = await timeFrames(app, n, false);
+  const played = await timePlayed(app, n);
   const total = STAGES.reduce((a, s) => a + staged.stages_ms[s], 0);
   const shares = Object.fromEntries(STAGES.map((s) => [s, staged.stages_ms[s] / total]));
-  const fixedSize = app.size;
-  // The adaptive size: what the page picks from the rate it measures, then the rate there.
+  const result = { size: app.size, frames: n, ...played, sequential_fps: sequential.fps, staged_fps: staged.fps,
+                   stages_ms: staged.stages_ms, shares, fine, proxy: app.runtime.proxy };
+  if (params.get('noadapt')) return result;
+  // The adaptive size: what the page picks from the rate it measures while playing, then the rate there.
   const steps = [];
   app.fixed = false;
   for (let round = 0; round < 6; round++) {
-    await timeFrames(app, 3, false);
-    const m = await timeFrames(app, 20, false);
+    await timePlayed(app, 3);
+    const m = await timePlayed(app, 20);
     app.sizeFrames = Infinity;  // adapt() judges only a size it has seen for a while
     const before = app.size;
     if (!app.adapt(m.fps)) break;
     steps.push({ from: before, fps: m.fps, to: app.size });
   }
-  await timeFrames(app, 5, false);
-  const adaptive = { size: app.size, steps, ...(await timeFrames(app, n, false)) };
-  if (params.get('noadapt')) return { size: fixedSize, frames: n, ...whole, first_fps: first.fps, staged_fps: staged.fps, stages_ms: staged.stages_ms, fine };
-  return { size: fixedSize, frames: n, ...whole, first_fps: first.fps, fine, stages_ms: staged.stages_ms, shares, staged_fps: staged.fps, adaptive };
+  await timePlayed(app, 5);
+  return { ...result, adaptive: { size: app.size, steps, ...(await timePlayed(app, n)) } };
 }
 
 async function check(app) {

@@ -75,7 +75,9 @@ class App {
     return { camera: { ...cam, fx: cam.fx * k, fy: cam.fy * k }, box: [0.5 - k / 2, 0.5 - k / 2, k, k] };
   }
 
-  async step(now) {
+  // The frame the clock has reached (playing), or the current one (paused).
+  nextFrame() {
+    const now = performance.now();
     if (this.playing) {
       if (this.time === null) this.time = this.frameIndex / this.motion.fps;
       else this.time += Math.min((now - this.last) / 1000, 0.25);
@@ -83,15 +85,24 @@ class App {
     }
     this.last = now;
     const frame = this.motion.frame(this.frameIndex);
-    const { camera, box } = this.view(frame);
-    await this.player.render(frame, camera, BACKGROUND, { canvasSize: this.size, box });
+    return { frame, ...this.view(frame) };
+  }
+
+  async shown() {
     this.frames++;
     this.sizeFrames++;
     this.recent.push(performance.now());
     if (this.recent.length > 21) this.recent.shift();
     const fps = this.fps();
     if (fps) $('fps').textContent = `${fps.toFixed(1)} fps · ${this.size} px`;
-    if (this.playing) this.adapt(fps);
+    if (this.playing && this.adapt(fps, true)) this.stopPlaying = true;
+    if (this.onFrame) await this.onFrame(this);
+  }
+
+  async step() {  // one frame, its stages in turn (paused: the view changed)
+    const { frame, camera, box } = this.nextFrame();
+    await this.player.render(frame, camera, BACKGROUND, { canvasSize: this.size, box });
+    await this.shown();
   }
 
   fps() {
@@ -100,7 +111,7 @@ class App {
   }
 
   // Under 30 fps, a smaller output: the largest size whose pixel count the measured rate can hold.
-  adapt(fps) {
+  adapt(fps, later = false) {  // later: the new size is set once the frames in flight are shown
     if (this.fixed || fps === null || this.sizeFrames < 20 || fps >= TARGET_FPS) return false;
     const want = this.size * Math.sqrt(fps / TARGET_FPS);
     const next = this.sizes.find((s) => s <= want && s < this.size) || this.sizes.filter((s) => s < this.size).pop();
@@ -109,17 +120,25 @@ class App {
     $('notice').textContent = `Output ${next} × ${next} px: ${this.size} × ${this.size} ran at ${fps.toFixed(1)} fps on ` +
       `this device, under ${TARGET_FPS}. (?size=${this.sizes[0]} in the address keeps ${this.sizes[0]}.)`;
     this.adapted = { from: this.size, fps, to: next };
-    this.setSize(next);
+    if (later) this.resizeTo = next;
+    else this.setSize(next);
     return true;
   }
 
   async loop() {
     for (;;) {
-      const now = await new Promise((resolve) => requestAnimationFrame(resolve));
-      if (!this.playing && !this.dirty) continue;
+      if (this.playing) {  // frames overlapped (player.play) until paused, a new motion or a new size
+        this.stopPlaying = false;
+        const motion = this.motion;
+        await this.player.play(() => (this.playing && !this.stopPlaying && this.motion === motion ? this.nextFrame() : null),
+                               BACKGROUND, this.size, () => this.shown());
+        if (this.resizeTo) { this.setSize(this.resizeTo); this.resizeTo = null; }
+        continue;
+      }
+      await new Promise((resolve) => requestAnimationFrame(resolve));
+      if (!this.dirty) continue;
       this.dirty = false;
-      await this.step(now);
-      if (this.onFrame) await this.onFrame(this);
+      await this.step();
     }
   }
 

@@ -52,34 +52,74 @@ export class Player {
     this.size = size;
   }
 
-  // One frame onto the canvas. frame: the motion's row (J*3 axis-angle + 3 translation); camera:
-  // pinhole of this size; canvasSize: the drawing buffer's side (0: leave the canvas alone); box:
-  // the part of the image shown. timed: wait for the GL after each stage, so each gets its own
-  // time ("skinning" is the bone matrices and their upload: the vertices are skinned by the
-  // raster's vertex shader, so their time is in "raster"; "composite" is the tail, the composite
-  // and the canvas).
-  async render(frame, camera, background, { timed = false, canvasSize = 0, box = [0, 0, 1, 1] } = {}) {
-    const now = () => performance.now();
-    const t0 = now();
+  // A frame's GL work: bone matrices, skinning + neural rasterization, read-back. Returns the frame's
+  // renderer input (valid until the frame after next is prepared: two framebuffers in turn).
+  prepare(frame, camera, timed = false) {
+    const t0 = performance.now();
     this.skeleton.boneRows(frame, this.rows);
     this.raster.uploadBones(this.rows);
-    const t1 = now();
+    const t1 = performance.now();
     this.raster.draw(viewProjection(camera));
     if (timed) this.raster.sync();
-    const t2 = now();
-    const input = this.raster.read();
-    const t3 = now();
-    const outputs = await this.renderer.run(input, this.size, background);
+    const t2 = performance.now();
+    const bytes = this.raster.read();
+    const t3 = performance.now();
+    this.timings = { skinning: t1 - t0, raster: t2 - t1, readback: t3 - t2 };
+    return { bytes, attachment: this.raster.attachment, size: this.size };
+  }
+
+  // The renderer on a prepared frame (in onnxruntime-web's worker when it is proxied).
+  async infer(prepared, background) {
+    const t0 = performance.now();
+    const outputs = await this.renderer.run(prepared.bytes, prepared.size, background);
+    this.timings.renderer = performance.now() - t0;
     if (this.keepOutputs) this.lastOutputs = Object.fromEntries(Object.entries(outputs).map(([k, t]) => [k, { dims: t.dims, type: t.type, data: t.data.slice() }]));
-    const t4 = now();
-    if (this.compositor.cpu) this.compositor.composeCpu(input, outputs, background);
-    else if (this.avatar.doc.renderer.mode === 'tail') this.compositor.composeTail(this.raster.attachment, outputs, background);
+    return outputs;
+  }
+
+  // Tail + composite + canvas (canvasSize 0: the image only).
+  finish(prepared, outputs, background, { timed = false, canvasSize = 0, box = [0, 0, 1, 1] } = {}) {
+    const t0 = performance.now();
+    if (this.compositor.cpu) this.compositor.composeCpu(prepared.bytes, outputs, background);
+    else if (this.avatar.doc.renderer.mode === 'tail') this.compositor.composeTail(prepared.attachment, outputs, background);
     else this.compositor.composeImage(outputs.image);
     for (const t of Object.values(outputs)) if (t.dispose) t.dispose();
     if (canvasSize) this.compositor.show(canvasSize, box);
     if (timed) this.compositor.sync(!!canvasSize);
-    const t5 = now();
-    this.timings = { skinning: t1 - t0, raster: t2 - t1, readback: t3 - t2, renderer: t4 - t3, composite: t5 - t4 };
+    this.timings.composite = performance.now() - t0;
+  }
+
+  // One frame onto the canvas, its stages one after the other. frame: the motion's row (J*3
+  // axis-angle + 3 translation); camera: pinhole of this size; canvasSize: the drawing buffer's side
+  // (0: leave the canvas alone); box: the part of the image shown. timed: wait for the GL after each
+  // stage, so each gets its own time ("skinning" is the bone matrices and their upload: the vertices
+  // are skinned by the raster's vertex shader, so their time is in "raster"; "composite" is the
+  // tail, the composite and the canvas).
+  async render(frame, camera, background, options = {}) {
+    const prepared = this.prepare(frame, camera, options.timed);
+    const outputs = await this.infer(prepared, background);
+    this.finish(prepared, outputs, background, options);
     return this.timings;
+  }
+
+  // Frames one after another with frame t's renderer overlapping frame t+1's GL work (which needs
+  // onnxruntime-web proxied to its worker: otherwise the renderer holds the page's thread).
+  // next() -> {frame, camera, box}, or null to stop; shown() is awaited once a frame is on the canvas.
+  async play(next, background, canvasSize, shown = async () => {}) {
+    let pending = null;
+    for (;;) {
+      const want = next();
+      let job = null;
+      if (want) {
+        const prepared = this.prepare(want.frame, want.camera);
+        job = { prepared, box: want.box, outputs: this.infer(prepared, background) };
+      }
+      if (pending) {
+        this.finish(pending.prepared, await pending.outputs, background, { canvasSize, box: pending.box });
+        await shown();
+      }
+      if (!job) return;
+      pending = job;
+    }
   }
 }

@@ -123,27 +123,39 @@ export class NeuralRaster {
     this.size = 0;
   }
 
+  // Two framebuffers used in turn: a frame's attachment and read-back stay intact while the next
+  // frame draws (the player overlaps frame t's renderer with frame t+1's raster).
   resize(size) {
     const gl = this.gl;
     if (this.size === size) return;
-    if (this.fbo) { gl.deleteFramebuffer(this.fbo); gl.deleteTexture(this.attachment); gl.deleteRenderbuffer(this.depth); }
+    for (const t of this.targets || []) {
+      gl.deleteFramebuffer(t.fbo); gl.deleteTexture(t.attachment); gl.deleteRenderbuffer(t.depth);
+    }
     this.size = size;
-    this.attachment = gl.createTexture();
-    gl.bindTexture(gl.TEXTURE_2D, this.attachment);
-    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32UI, size, size);
-    for (const p of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, p, gl.NEAREST);
-    this.depth = gl.createRenderbuffer();
-    gl.bindRenderbuffer(gl.RENDERBUFFER, this.depth);
-    gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT24, size, size);
-    this.fbo = gl.createFramebuffer();
-    gl.bindFramebuffer(gl.FRAMEBUFFER, this.fbo);
-    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, this.attachment, 0);
-    gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, this.depth);
-    const status = gl.checkFramebufferStatus(gl.FRAMEBUFFER);
-    if (status !== gl.FRAMEBUFFER_COMPLETE) throw new Error(`the RGBA32UI raster framebuffer is incomplete (${status})`);
-    this.pixels = new Uint32Array(size * size * 4);
-    this.bytes = new Uint8Array(this.pixels.buffer);  // the (1, H, W, 16) renderer input
+    this.targets = [0, 1].map(() => {
+      const attachment = gl.createTexture();
+      gl.activeTexture(gl.TEXTURE7);
+      gl.bindTexture(gl.TEXTURE_2D, attachment);
+      gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32UI, size, size);
+      for (const p of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, p, gl.NEAREST);
+      const depth = gl.createRenderbuffer();
+      gl.bindRenderbuffer(gl.RENDERBUFFER, depth);
+      gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT24, size, size);
+      const fbo = gl.createFramebuffer();
+      gl.bindFramebuffer(gl.FRAMEBUFFER, fbo);
+      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, attachment, 0);
+      gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, depth);
+      const status = gl.checkFramebufferStatus(gl.FRAMEBUFFER);
+      if (status !== gl.FRAMEBUFFER_COMPLETE) throw new Error(`the RGBA32UI raster framebuffer is incomplete (${status})`);
+      const pixels = new Uint32Array(size * size * 4);
+      return { fbo, attachment, depth, pixels, bytes: new Uint8Array(pixels.buffer) };  // bytes: the (1, H, W, 16) input
+    });
+    this.turn = 0;
   }
+
+  get current() { return this.targets[this.turn]; }
+  get attachment() { return this.current.attachment; }
+  get bytes() { return this.current.bytes; }
 
   uploadBones(rows) {  // rows: Float32Array(J * 12)
     const gl = this.gl;
@@ -154,7 +166,8 @@ export class NeuralRaster {
 
   draw(viewProj) {
     const gl = this.gl;
-    gl.bindFramebuffer(gl.FRAMEBUFFER, this.fbo);
+    this.turn ^= 1;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, this.current.fbo);
     gl.viewport(0, 0, this.size, this.size);
     gl.useProgram(this.program);
     gl.uniformMatrix4fv(this.u.u_view_proj, false, viewProj);
@@ -187,14 +200,14 @@ export class NeuralRaster {
   // Waits for the draw (one pixel read), for stage timings only.
   sync() {
     const gl = this.gl;
-    gl.bindFramebuffer(gl.FRAMEBUFFER, this.fbo);
-    gl.readPixels(0, 0, 1, 1, gl.RGBA_INTEGER, gl.UNSIGNED_INT, this.pixels.subarray(0, 4));
+    gl.bindFramebuffer(gl.FRAMEBUFFER, this.current.fbo);
+    gl.readPixels(0, 0, 1, 1, gl.RGBA_INTEGER, gl.UNSIGNED_INT, new Uint32Array(4));
   }
 
-  read() {
-    const gl = this.gl;
-    gl.bindFramebuffer(gl.FRAMEBUFFER, this.fbo);
-    gl.readPixels(0, 0, this.size, this.size, gl.RGBA_INTEGER, gl.UNSIGNED_INT, this.pixels);
-    return this.bytes;
+  read() {  // the last draw's attachment -> its (1, H, W, 16) uint8 bytes
+    const gl = this.gl, t = this.current;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, t.fbo);
+    gl.readPixels(0, 0, this.size, this.size, gl.RGBA_INTEGER, gl.UNSIGNED_INT, t.pixels);
+    return t.bytes;
   }
 }

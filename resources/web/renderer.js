@@ -30,7 +30,10 @@ export async function loadRuntime(config, params) {
   const cores = navigator.hardwareConcurrency || 1;
   const asked = Number(params.get('threads')) || 0;
   ort.env.wasm.numThreads = isolated ? Math.max(1, asked || Math.min(cores, 4)) : 1;
-  return { ort, backend: pick.backend, threads: ort.env.wasm.numThreads, isolated };
+  // proxy=1: the renderer in its own worker, leaving the page's thread to the next frame's GL work.
+  // Off by default: on a busy 2-core CPU it ran 1.5-2x slower (messages, copies, one more thread).
+  ort.env.wasm.proxy = pick.backend === 'wasm' && params.get('proxy') === '1';
+  return { ort, backend: pick.backend, threads: ort.env.wasm.numThreads, isolated, proxy: ort.env.wasm.proxy };
 }
 
 export class Renderer {
@@ -41,11 +44,12 @@ export class Renderer {
     this.sessions = new Map();
   }
 
-  async session(size) {
+  session(size) {  // one creation per size, however many frames ask at once
     if (!this.sessions.has(size)) {
       const { ort, backend } = this.rt;
       // The graph names its image dimensions "height" and "width"; fixed, the shape arithmetic folds away.
-      this.sessions.set(size, await ort.InferenceSession.create(this.graph, {
+      // A copy of the graph: a proxied runtime takes over (transfers) the buffers it is given.
+      this.sessions.set(size, ort.InferenceSession.create(this.graph.slice(), {
         executionProviders: [backend], graphOptimizationLevel: 'all',
         freeDimensionOverrides: { height: size, width: size },
       }));
@@ -57,7 +61,8 @@ export class Renderer {
   async run(raster, size, background) {
     const { ort } = this.rt;
     const session = await this.session(size);
-    const feeds = { [this.contract.input]: new ort.Tensor('uint8', raster, [1, size, size, 16]) };
+    const input = this.rt.proxy ? raster.slice() : raster;  // the tail still reads the raster after the run
+    const feeds = { [this.contract.input]: new ort.Tensor('uint8', input, [1, size, size, 16]) };
     if (this.contract.mode === 'image') {
       feeds[this.contract.background] = new ort.Tensor('float32', Float32Array.from(background), [1, 3, 1, 1]);
     }
