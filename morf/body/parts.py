@@ -85,3 +85,63 @@ def pixel_parts(uv: np.ndarray, uv_mask: np.ndarray, atlas: np.ndarray) -> np.nd
     col = np.clip((uv[..., 0] * size).astype(np.int64), 0, size - 1)
     row = np.clip(((1 - uv[..., 1]) * size).astype(np.int64), 0, size - 1)
     return np.where(uv_mask, atlas[row, col], 0).astype(np.uint8)
+
+
+# The body model's points the face and hand landmarks see (morf.capture.landmarks_face_hands):
+# the face anchors in FACE_ANCHORS order, and the 21 hand points (wrist, then thumb, index,
+# middle, ring, little finger from base to tip). Anny's finger1 is the thumb, finger5 the little.
+HAND_CHAIN = ("finger1-1", "finger1-2", "finger1-3", "finger2-1", "finger2-2", "finger2-3", "finger3-1",
+              "finger3-2", "finger3-3", "finger4-1", "finger4-2", "finger4-3", "finger5-1", "finger5-2", "finger5-3")
+
+
+def _rest(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rest-pose vertices (V, 3), bone heads (J, 3) at the default shape, and each vertex's heaviest bone."""
+    import torch
+
+    with torch.no_grad():
+        out = model(model.zero_pose(), model.default_shape())
+    return out.vertices[0].cpu().numpy(), out.joints[0].cpu().numpy(), model.dense_weights.argmax(1).cpu().numpy()
+
+
+def face_anchor_vertices(model) -> tuple[tuple[int, ...], ...]:
+    """Per face anchor (right eye, left eye, nose tip, mouth, chin), the model vertices whose mean
+    it is, found on the rest mesh (Anny faces -Y, +X is the person's left):
+
+    * eyes: the front-most vertex of each eyeball (``eye.R`` / ``eye.L``: the cornea, where the
+      pupil is seen);
+    * nose tip: the front-most head vertex on the midline;
+    * chin: the lowest midline head vertex within 3 cm of the nose tip's depth (the menton, not
+      the jaw's underside);
+    * mouth: the front-most midline vertex of the upper lip band and of the lower lip band
+      (between the nose tip and the chin), averaged: the lips' meeting line.
+    """
+    v, _, dominant = _rest(model)
+    labels = vertex_parts(model)
+    mid = (labels == PARTS["head"]) & (np.abs(v[:, 0]) < 0.004)
+
+    def front_most(sel):
+        ids = np.nonzero(sel)[0]
+        return int(ids[np.argmin(v[ids, 1])])
+
+    eyes = tuple(front_most(dominant == model.bone_index(b)) for b in ("eye.R", "eye.L"))
+    nose = front_most(mid)
+    ids = np.nonzero(mid & (v[:, 1] < v[nose, 1] + 0.03))[0]
+    chin = int(ids[np.argmin(v[ids, 2])])
+    zn, span = v[nose, 2], v[nose, 2] - v[chin, 2]
+    upper = front_most(mid & (v[:, 2] < zn - 0.05 * span) & (v[:, 2] >= zn - 0.25 * span))
+    lower = front_most(mid & (v[:, 2] < zn - 0.25 * span) & (v[:, 2] >= zn - 0.5 * span))
+    return (eyes[0],), (eyes[1],), (nose,), (upper, lower), (chin,)
+
+
+def hand_points(model, side: str) -> tuple[list[int], list[tuple[int, int]]]:
+    """The 21 hand points of the ``side`` ("L" | "R") hand: ``joints`` = bone indices for the
+    points that are bone heads (the wrist and the 15 finger joints), ``tips`` = (position in the
+    21, vertex) for the 5 finger tips (the vertex of each last phalanx farthest from its head)."""
+    v, J, dominant = _rest(model)
+    joints, tips = [model.bone_index(f"wrist.{side}")], []
+    for f in range(5):
+        bones = [model.bone_index(f"{HAND_CHAIN[3 * f + k]}.{side}") for k in range(3)]
+        joints += bones
+        ids = np.nonzero(dominant == bones[-1])[0]
+        tips.append((4 + 4 * f, int(ids[np.argmax(np.linalg.norm(v[ids] - J[bones[-1]], axis=1))])))
+    return joints, tips

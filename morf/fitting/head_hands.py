@@ -1,0 +1,254 @@
+"""The head's orientation, the wrists and the fingers fitted to face and hand landmarks.
+
+The body fit sees 23 points: the nose, the eyes and the ears hold the head's orientation
+loosely (a few pixels at a 40 px head are tens of degrees), and the wrist keypoint says nothing
+of the hand's turn. Face anchors (pupils, nose tip, mouth, chin) and the 21 points of each hand
+(:mod:`morf.capture.landmarks_face_hands`, MediaPipe or OpenPose alike) do; the body keypoints'
+ears join the face, since they lie 8 cm behind it and so fix the head's pitch and yaw better
+than the face's flat points alone. Their 3D counterparts on the body model are fixed vertices
+and bone heads (:mod:`morf.body.parts`), the ears the body model's own ear keypoints.
+
+Two ways in:
+
+* :func:`head_hands_term` is a loss term for any fit that poses the body: (B,) robust
+  reprojection error of the landmark points, in the keypoint term's units.
+* :func:`fit_head_hands` refines finished fits: it keeps every bone but the head, the wrists and
+  the fingers, and fits those to the landmarks, frame by frame, with a pull toward the given
+  head and wrist rotations and toward the fingers' rest.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from morf.body.model import BodyOutput, BodyPose
+from morf.body.parts import HAND_CHAIN, face_anchor_vertices, hand_points
+from morf.fitting.losses import geman_mcclure
+
+HEAD_BONES = ("head",)
+WRIST_BONES = ("wrist.L", "wrist.R")
+EARS = (4, 3)  # the right and the left ear among the body keypoints (COCO order)
+NUM_FACE = 7  # the five face anchors and the two ears
+NUM_POINTS = NUM_FACE + 42
+GROUPS = ((0, NUM_FACE), (NUM_FACE, NUM_FACE + 21), (NUM_FACE + 21, NUM_POINTS))  # face, left hand, right hand
+
+
+@dataclass(frozen=True)
+class HeadHandsConfig:
+    """Fields: face_weight, hand_weight: weights of the face and hand points (per point, times
+    the point's confidence); sigma: Geman-McClure scale in units of 1 % of the image height;
+    prior: weight of the squared change of the head and wrist rotations (radians^2);
+    finger_prior: weight of the squared finger rotations (away from the rest, a relaxed hand);
+    fingers: fit the 15 finger bones of each hand; steps, lr: Adam steps and step size
+    (radians); batch: frames fitted together; min_points: confident points a hand (or the face)
+    needs to be fitted at all."""
+
+    face_weight: float = 1.0
+    hand_weight: float = 0.5
+    sigma: float = 3.0
+    prior: float = 2.0
+    finger_prior: float = 2.0
+    fingers: bool = True
+    steps: int = 100
+    lr: float = 0.02
+    batch: int = 16
+    min_points: int = 4
+
+
+@dataclass(frozen=True)
+class LandmarkIndex:
+    """Where each landmark point comes from on the posed body: ``vertex_sets`` (5, 2) the face
+    anchors' vertices (a one-vertex anchor repeats it), and per hand ``joints`` (2, 16) bone heads
+    and ``tips`` (2, 5) vertices; ``joint_slots`` (16,) and ``tip_slots`` (5,) their places among
+    the 21 hand points; ``head`` the head bone (the ears move with it)."""
+
+    vertex_sets: torch.Tensor
+    joints: torch.Tensor
+    tips: torch.Tensor
+    joint_slots: torch.Tensor
+    tip_slots: torch.Tensor
+    head: int
+
+
+def landmark_index(model) -> LandmarkIndex:
+    """The :class:`LandmarkIndex` of a body model (cached on it)."""
+    cached = getattr(model, "_landmark_index", None)
+    if cached is not None:
+        return cached
+    anchors = [tuple(a) * (2 // len(a)) for a in face_anchor_vertices(model)]
+    hands = [hand_points(model, s) for s in ("L", "R")]
+    idx = LandmarkIndex(torch.as_tensor(anchors, dtype=torch.long),
+                        torch.as_tensor([h[0] for h in hands], dtype=torch.long),
+                        torch.as_tensor([[v for _, v in h[1]] for h in hands], dtype=torch.long),
+                        torch.as_tensor([k for k in range(21) if k % 4 != 0 or k == 0], dtype=torch.long),
+                        torch.as_tensor([s for s, _ in hands[0][1]], dtype=torch.long), model.bone_index("head"))
+    object.__setattr__(model, "_landmark_index", idx)
+    return idx
+
+
+def landmark_points3d(index: LandmarkIndex, out: BodyOutput) -> torch.Tensor:
+    """(B, 7 + 42, 3) world positions of the face anchors, the right and the left ear, then the
+    left and the right hand's 21 points, on a posed body."""
+    B = out.vertices.shape[0]
+    face = out.vertices[:, index.vertex_sets.reshape(-1)].reshape(B, -1, 2, 3).mean(2)
+    face = torch.cat([face, out.keypoints3d[:, list(EARS)]], 1)
+    hands = out.vertices.new_zeros(B, 2, 21, 3)
+    hands[:, :, index.joint_slots] = out.joints[:, index.joints]
+    hands[:, :, index.tip_slots] = out.vertices[:, index.tips]
+    return torch.cat([face, hands.reshape(B, 42, 3)], 1)
+
+
+class LandmarkPoser:
+    """The landmark points of a posed body at a fixed shape, without skinning the whole mesh.
+
+    A model with the Anny interface (``rest`` and ``bone_transforms``) has its shaped rest
+    model computed once and only the dozen landmark vertices skinned per call (the refinement's
+    inner loop; the ears, averages of thousands of head vertices, ride on the head bone's
+    skinning matrix); any other :class:`~morf.body.model.BodyModel` goes through its full forward.
+    """
+
+    def __init__(self, model, shape: torch.Tensor):
+        self.model, self.shape, self.index = model, shape, landmark_index(model)
+        self.fast = hasattr(model, "rest") and hasattr(model, "bone_transforms")
+        if self.fast:
+            ids = torch.cat([self.index.vertex_sets.reshape(-1), self.index.tips.reshape(-1)])
+            with torch.no_grad():
+                rest = model.rest(shape)
+            self.rest_bones = rest["rest_bone_poses"]
+            self.rest_vertices = rest["rest_vertices"][:, ids]
+            self.weights = model.dense_weights[ids]
+            ears = model.keypoint_regressor[list(EARS)]  # (2, V)
+            self.rest_ears = torch.einsum("kv,bvc->bkc", ears, rest["rest_vertices"])  # (S, 2, 3)
+
+    def __call__(self, pose: BodyPose) -> torch.Tensor:
+        """(B, 49, 3) :func:`landmark_points3d` of ``pose``."""
+        if not self.fast:
+            return landmark_points3d(self.index, self.model(pose, self.shape))
+        from morf.body.lbs import linear_blend_skinning
+
+        transforms, bone_poses = self.model.bone_transforms(pose, self.rest_bones)
+        B = transforms.shape[0]
+        rest = self.rest_vertices.expand(B, -1, -1) if self.rest_vertices.shape[0] == 1 else self.rest_vertices
+        verts = linear_blend_skinning(rest, self.weights, transforms)
+        nf = self.index.vertex_sets.numel()
+        face = verts[:, :nf].reshape(B, -1, 2, 3).mean(2)
+        head = transforms[:, self.index.head]  # (B, 4, 4)
+        ears = torch.einsum("bij,bkj->bki", head[:, :3, :3], self.rest_ears.expand(B, -1, -1)) + head[:, None, :3, 3]
+        face = torch.cat([face, ears], 1)
+        hands = verts.new_zeros(B, 2, 21, 3)
+        hands[:, :, self.index.joint_slots] = bone_poses[:, self.index.joints, :3, 3]
+        hands[:, :, self.index.tip_slots] = verts[:, nf:].reshape(B, 2, 5, 3)
+        return torch.cat([face, hands.reshape(B, 42, 3)], 1)
+
+
+def landmark_targets(face_anchors: np.ndarray, hand_left: np.ndarray, hand_right: np.ndarray,
+                     body: np.ndarray | None = None) -> np.ndarray:
+    """(N, 49, 3) the evidence in :func:`landmark_points3d`'s order: (N, 5, 3) face anchors, the
+    ears of the (N, 23, 3) body keypoints (confidence 0 without them), (N, 21, 3) left and right
+    hand points (x, y pixels, confidence). Ears count only where the face was found too."""
+    ears = np.zeros((face_anchors.shape[0], 2, 3), np.float32)
+    if body is not None:
+        ears = np.array(body[:, list(EARS)], np.float32)
+        ears[..., 2] *= face_anchors[:, :, 2].min(1, keepdims=True) > 0
+    return np.concatenate([face_anchors, ears, hand_left, hand_right], 1).astype(np.float32)
+
+
+def head_hands_term(projected: torch.Tensor, targets: torch.Tensor, image_height: int,
+                    cfg: HeadHandsConfig = HeadHandsConfig()) -> torch.Tensor:
+    """(B,) the term: confidence-weighted Geman-McClure reprojection error of the 49 landmark
+    points. ``projected`` (B, 49, 2) pixels (:func:`landmark_points3d` through the camera);
+    ``targets`` (B, 49, 3) from :func:`landmark_targets`. A face or hand with fewer than
+    ``cfg.min_points`` confident points counts nothing (one stray point would twist a hand)."""
+    scale = image_height / 100
+    r2 = ((projected - targets[..., :2]) / scale).pow(2).sum(-1)
+    conf = targets[..., 2] * _usable(targets[..., 2], cfg.min_points)
+    w = torch.cat([conf[:, :NUM_FACE] * cfg.face_weight, conf[:, NUM_FACE:] * cfg.hand_weight], 1)
+    return (w * geman_mcclure(r2, cfg.sigma)).sum(-1)
+
+
+def _usable(conf: torch.Tensor, min_points: int) -> torch.Tensor:
+    """(B, 49) 1 where the point's group (face, left hand, right hand) has enough confident points."""
+    out = torch.zeros_like(conf)
+    for a, b in GROUPS:
+        enough = ((conf[:, a:b] > 0.1).sum(1) >= min(min_points, b - a)).to(conf.dtype)
+        out[:, a:b] = enough[:, None]
+    return out
+
+
+def fitted_bones(model, fingers: bool) -> tuple[list[int], list[int]]:
+    """(head and wrist bone indices, finger bone indices) the refinement moves."""
+    main = [model.bone_index(b) for b in HEAD_BONES + WRIST_BONES]
+    hand = [model.bone_index(f"{b}.{s}") for s in ("L", "R") for b in HAND_CHAIN] if fingers else []
+    return main, hand
+
+
+@dataclass(frozen=True)
+class HeadHandsFit:
+    """Fields: rotvecs (N, J, 3) the refined poses (other bones as given); residual_before,
+    residual_after: (N, 3) mean pixel distance of the confident face, left-hand and right-hand
+    points to their landmarks (NaN where a group has too few)."""
+
+    rotvecs: np.ndarray
+    residual_before: np.ndarray
+    residual_after: np.ndarray
+
+
+def landmark_residual_px(projected: torch.Tensor, targets: torch.Tensor, min_points: int) -> torch.Tensor:
+    """(B, 3) mean pixel distance per group (face, left hand, right hand), NaN without evidence."""
+    d = (projected - targets[..., :2]).norm(dim=-1)
+    w = (targets[..., 2] > 0.1).to(d.dtype) * _usable(targets[..., 2], min_points)
+    out = []
+    for a, b in GROUPS:
+        n = w[:, a:b].sum(1)
+        mean = (w[:, a:b] * d[:, a:b]).sum(1) / n.clamp_min(1)
+        out.append(torch.where(n > 0, mean, torch.full_like(n, float("nan"))))
+    return torch.stack(out, 1)
+
+
+def fit_head_hands(model, rotvecs: np.ndarray, transl: np.ndarray, shape: np.ndarray, camera, targets: np.ndarray,
+                   cfg: HeadHandsConfig = HeadHandsConfig()) -> HeadHandsFit:
+    """Refine the head, the wrists (and with ``cfg.fingers`` the fingers) of finished fits to the
+    landmarks ``targets`` (N, 49, 3) (:func:`landmark_targets`); every other bone, the root and
+    the translation stay as given. ``shape`` (1 or N, S); ``camera`` a PinholeCamera in the
+    landmarks' pixels. Frames without evidence come back unchanged."""
+    main, fingers = fitted_bones(model, cfg.fingers)
+    main_t, fing_t = torch.as_tensor(main), torch.as_tensor(fingers, dtype=torch.long)
+    rot_all = torch.as_tensor(np.asarray(rotvecs, np.float32))
+    out_rot = rot_all.clone()
+    tr_all = torch.as_tensor(np.asarray(transl, np.float32))
+    shape_t = torch.as_tensor(np.asarray(shape, np.float32)).reshape(-1, np.asarray(shape).shape[-1])
+    tgt_all = torch.as_tensor(np.asarray(targets, np.float32))
+    N = rot_all.shape[0]
+    before, after = torch.full((N, 3), float("nan")), torch.full((N, 3), float("nan"))
+    for s in range(0, N, cfg.batch):
+        sl = slice(s, min(s + cfg.batch, N))
+        rot0, tr, tgt = rot_all[sl], tr_all[sl], tgt_all[sl]
+        poser = LandmarkPoser(model, shape_t if shape_t.shape[0] == 1 else shape_t[sl])
+        d_main = torch.zeros(rot0.shape[0], len(main), 3, requires_grad=True)
+        d_fing = torch.zeros(rot0.shape[0], len(fingers), 3, requires_grad=True)
+        opt = torch.optim.Adam([d_main, d_fing], lr=cfg.lr)
+
+        def project(d_main, d_fing):
+            r = rot0.index_add(1, main_t, d_main)
+            if len(fingers):
+                r = r.index_add(1, fing_t, d_fing)
+            return camera.project(poser(BodyPose(r, tr))), r
+
+        for step in range(cfg.steps + 1):
+            px, r = project(d_main, d_fing)
+            if step == 0:
+                before[sl] = landmark_residual_px(px.detach(), tgt, cfg.min_points)
+            if step == cfg.steps:
+                break
+            loss = head_hands_term(px, tgt, camera.height, cfg).sum() + cfg.prior * d_main.pow(2).sum()
+            if len(fingers):
+                loss = loss + cfg.finger_prior * r[:, fing_t].pow(2).sum()
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+        after[sl] = landmark_residual_px(px.detach(), tgt, cfg.min_points)
+        out_rot[sl] = r.detach()
+    return HeadHandsFit(out_rot.numpy(), before.numpy(), after.numpy())
