@@ -54,6 +54,8 @@ def _open_form(state: AppState, ui: UiContext, x0: float) -> None:
         imgui.dummy(ImVec2(0, 4))
         imgui.push_text_wrap_pos(x0 + WIDTH)
         imgui.text_colored(RED, f"Cannot open this project: {state.project_error}")
+        if state.new_folder and state.new_folder == state.open_path:
+            imgui.text_colored(GREY, "To make it: choose a video below (or drop one on this window), then Make avatar.")
         imgui.pop_text_wrap_pos()
 
 
