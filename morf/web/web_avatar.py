@@ -132,7 +132,8 @@ def write_web_avatar(avatar: ExportedAvatar, folder: Path, motions: list[dict], 
     files = {p.name: {"bytes": p.stat().st_size, "sha256": sha256_of(p)} for p in sorted(folder.iterdir())}
     doc = {
         "format": FORMAT, "version": VERSION,
-        "source": {"avatar": str(avatar.root), "created": manifest.get("created"), "run": (manifest.get("source") or {}).get("run")},
+        # no paths of the exporting machine: the folder is meant to be published
+        "source": {"created": manifest.get("created"), "run": (manifest.get("source") or {}).get("run")},
         "image_size": manifest.get("image_size"),
         "size_multiple": avatar.size_multiple,
         "texture": {"file": "texture.bin", "height": int(tex.data.shape[0]), "width": int(tex.data.shape[1]),

@@ -95,7 +95,7 @@ async function check(app) {
   const request = await (await fetch('./check.json')).json();
   const images = [];
   app.playing = false;
-  app.player.keepOutputs = !!request.raster;
+  app.player.keepOutputs = !!request.outputs;  // the graph's outputs too (debugging)
   for (const f of request.frames) {
     if (app.size !== f.size) app.setSize(f.size);
     await app.player.render(Float32Array.from(f.pose), f.camera, request.background, { canvasSize: f.size });
@@ -103,7 +103,7 @@ async function check(app) {
     if (request.raster) {  // the renderer's input and the bone rows too
       item.raster = base64(app.player.raster.bytes);
       item.bones = Array.from(app.player.rows);
-      item.outputs = Object.fromEntries(Object.entries(app.player.lastOutputs).map(([k, t]) => [k, { dims: t.dims, type: t.type,
+      if (request.outputs) item.outputs = Object.fromEntries(Object.entries(app.player.lastOutputs).map(([k, t]) => [k, { dims: t.dims, type: t.type,
         data: base64(new Uint8Array(t.data.buffer, t.data.byteOffset, t.data.byteLength)) }]));
     }
     images.push(item);
@@ -114,17 +114,23 @@ async function check(app) {
 async function report(app, params) {
   const n = Number(params.get('report')) || 10;
   const shown = [];
+  let canvas = null, image = null;
   await new Promise((resolve) => {
     app.onFrame = async () => {
       shown.push(app.frameIndex);
-      if (shown.length >= n || !app.playing) { app.onFrame = null; resolve(); }
+      if (shown.length >= n || !app.playing) {
+        app.onFrame = null;
+        // what the canvas shows (read in the task that drew it) and the image it was drawn from
+        canvas = document.getElementById('view').toDataURL('image/png');
+        image = base64(app.player.compositor.readImage());
+        resolve();
+      }
     };
     app.dirty = true;
     app.loop();
   });
   return {
-    frames: shown, motion: app.motion.name, size: app.size, playing: app.playing,
-    image: base64(app.player.compositor.readImage()),
+    frames: shown, motion: app.motion.name, size: app.size, playing: app.playing, image, canvas,
     status: document.getElementById('status').textContent, notice: document.getElementById('notice').textContent,
     fps_text: document.getElementById('fps').textContent, motions: app.doc.motions.map((m) => m.name),
   };

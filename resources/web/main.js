@@ -145,6 +145,7 @@ class App {
   wireControls() {
     const select = $('motion'), button = $('play');
     for (const m of this.doc.motions) select.add(new Option(`${m.name} (${(m.frames / m.fps).toFixed(1)} s)`, m.name));
+    select.value = this.motion.name;
     select.disabled = button.disabled = false;
     select.addEventListener('change', () => this.selectMotion(select.value));
     button.textContent = this.playing ? 'Pause' : 'Play';

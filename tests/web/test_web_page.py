@@ -6,6 +6,7 @@ isolation headers it falls back to one thread and says so; a render against a go
 from __future__ import annotations
 
 import base64
+import io
 
 import numpy as np
 import pytest
@@ -19,6 +20,12 @@ def _image(b64: str) -> np.ndarray:
     a = np.frombuffer(base64.b64decode(b64), np.uint8)
     s = int(round(np.sqrt(a.size // 4)))
     return a.reshape(s, s, 4)[..., :3].copy()
+
+
+def _png(data_url: str) -> np.ndarray:
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(base64.b64decode(data_url.split(",", 1)[1]))).convert("RGB"))
 
 
 def _frames(num_bones: int, size: int, count: int = 2, seed: int = 3):
@@ -119,4 +126,6 @@ def test_golden_render(tiny_web):
 
     r = run_page(tiny_web.path, "report=1&size=128&motion=walk_in_place&frame=12&pause=1", timeout=240)
     assert "error" not in r and r["frames"] == [12] and not r["playing"]
-    check_golden("web_tiny_walk_in_place_12", _image(r["image"]), tolerance=0.01)
+    canvas = _png(r["canvas"])  # what the page shows: the image, upright
+    assert np.array_equal(canvas, _image(r["image"]))
+    check_golden("web_tiny_walk_in_place_12", canvas, tolerance=0.01)
