@@ -50,7 +50,7 @@ export class Renderer {
       // The graph names its image dimensions "height" and "width"; fixed, the shape arithmetic folds away.
       // A copy of the graph: a proxied runtime takes over (transfers) the buffers it is given.
       this.sessions.set(size, ort.InferenceSession.create(this.graph.slice(), {
-        executionProviders: [backend], graphOptimizationLevel: 'all',
+        executionProviders: [backend], graphOptimizationLevel: 'all', logSeverityLevel: 3,
         freeDimensionOverrides: { height: size, width: size },
       }));
     }

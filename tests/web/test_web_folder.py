@@ -112,3 +112,11 @@ def test_force_replaces_only_its_own_files(folder, tiny_avatar):
     keep.write_text("mine")
     again = build_web_folder(tiny_avatar, folder.path, force=True)
     assert keep.read_text() == "mine" and (again.path / "index.html").is_file()
+
+
+def test_export_web_refuses_before_exporting(folder, tmp_path):
+    """morf export --web checks its web folder (and the cached libraries) before the export's minutes."""
+    p = _morf("export", str(tmp_path / "no-project"), "--web", str(folder.path))
+    assert p.returncode == 2 and "--force" in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    p = _morf("export", str(tmp_path / "no-project"), "--webgpu")
+    assert p.returncode == 2 and "--webgpu goes with --web" in p.stderr
