@@ -149,3 +149,54 @@ def test_opening_a_damaged_project_is_an_error_not_a_crash(tmp_path):
         assert "damaged project manifest" in snap.error
     finally:
         assert w.close(5.0)
+
+
+def test_a_pipeline_run_publishes_each_stage_and_opens_the_project_it_continues(tiny_project, monkeypatch):
+    """RunPipeline as 'morf run PROJECT' plans it (ingest skipped: the project exists), each stage
+    with its own name, step of the chain and progress; stopping in train, then running again,
+    starts at train (fit is done by then, as the fake fit marks)."""
+    from studio import pipeline_run
+    from studio.commands import RunPipeline
+
+    ran, stop_in_train = [], threading.Event()
+
+    def fake(name):
+        def stage(args, control):
+            ran.append((name, args.project))
+            control.report(Progress(name, step=1, total=2, losses={"l1": 0.5}))
+            if name == "train" and stop_in_train.is_set():
+                while True:
+                    control.check()
+                    time.sleep(0.01)
+            if name == "fit":  # what a finished fit leaves: the plan skips it next time
+                monkeypatch.setattr("morf.cli.project_steps.fit_plan",
+                                    lambda root, preset: pipeline_run.Plan("skip", note="fits in fits/"))
+        return stage
+
+    for name in ("fit", "train", "export"):
+        monkeypatch.setitem(pipeline_run.RUNNERS, name, fake(name))
+    seen: list = []
+    w = Worker({})
+    w.mailbox = type(w.mailbox)(on_publish=lambda: seen.append(w.mailbox.latest()))
+    w.start()
+    try:
+        stop_in_train.set()
+        w.send(RunPipeline(pipeline_run.PipelineRequest(str(tiny_project.root))))
+        wait_for(w, lambda s: s.stage == "train" and s.progress is not None)
+        snap = w.latest()
+        assert snap.chain_step == (3, 4) and snap.project == str(tiny_project.root) and snap.project_rev == 1
+        assert [n for n, _ in ran] == ["fit", "train"]
+        w.send(Stop())
+        snap = wait_for(w, lambda s: not s.busy)
+        assert snap.state == "stopped" and f"morf run {tiny_project.root}" in snap.message
+        stop_in_train.clear()
+        ran.clear()
+        w.send(RunPipeline(pipeline_run.PipelineRequest(str(tiny_project.root))))
+        snap = wait_for(w, lambda s: s.state == "finished" and s.stage == "export")
+        assert [n for n, _ in ran] == ["train", "export"] and snap.chain_step == (4, 4)
+        assert snap.project_rev == 1  # the open project is not opened again
+        stages = [(s.stage, s.chain_step) for s in seen if s.chain_step is not None]
+        assert ("fit", (2, 4)) in stages and ("export", (4, 4)) in stages
+        assert max(s.stage_rev for s in seen) >= 4
+    finally:
+        w.close()
