@@ -178,6 +178,18 @@ def _usable(conf: torch.Tensor, min_points: int) -> torch.Tensor:
     return out
 
 
+def hide_turned_away_faces(targets: torch.Tensor, points3d: torch.Tensor, camera, margin: float = 0.02) -> torch.Tensor:
+    """``targets`` (B, 49, 3) with the face group's confidences zeroed in frames where the posed
+    body ``points3d`` (B, 49, 3) turns its face away: the nose tip not at least ``margin`` metres
+    nearer the camera than the ears' midpoint. A face detector finds faces on the back of a head
+    (hair with two dark patches); fitting to those turns the head round."""
+    z = camera.world_to_camera(points3d)[..., 2]  # depth along the optical axis
+    facing = z[:, 2] < z[:, 5:7].mean(1) - margin
+    out = targets.clone()
+    out[:, :NUM_FACE, 2] = out[:, :NUM_FACE, 2] * facing[:, None].to(out.dtype)
+    return out
+
+
 def fitted_bones(model, fingers: bool) -> tuple[list[int], list[int]]:
     """(head and wrist bone indices, finger bone indices) the refinement moves."""
     main = [model.bone_index(b) for b in HEAD_BONES + WRIST_BONES]
@@ -208,14 +220,37 @@ def landmark_residual_px(projected: torch.Tensor, targets: torch.Tensor, min_poi
     return torch.stack(out, 1)
 
 
+def _refine_bones(rot0: torch.Tensor, tr: torch.Tensor, tgt: torch.Tensor, poser: LandmarkPoser, camera,
+                  bones: torch.Tensor, prior: float, toward_rest: bool, cfg: HeadHandsConfig):
+    """Adam on ``bones``' rotvecs of ``rot0`` (B, J, 3) against the landmarks; the prior pulls
+    the change (or, ``toward_rest``, the rotation itself) toward zero. Returns (rotvecs, pixels)."""
+    delta = torch.zeros(rot0.shape[0], len(bones), 3, requires_grad=True)
+    opt = torch.optim.Adam([delta], lr=cfg.lr)
+    for _ in range(cfg.steps):
+        r = rot0.index_add(1, bones, delta)
+        px = camera.project(poser(BodyPose(r, tr)))
+        held = r[:, bones] if toward_rest else delta
+        loss = head_hands_term(px, tgt, camera.height, cfg).sum() + prior * held.pow(2).sum()
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+    with torch.no_grad():
+        r = rot0.index_add(1, bones, delta)
+        return r, camera.project(poser(BodyPose(r, tr)))
+
+
 def fit_head_hands(model, rotvecs: np.ndarray, transl: np.ndarray, shape: np.ndarray, camera, targets: np.ndarray,
                    cfg: HeadHandsConfig = HeadHandsConfig()) -> HeadHandsFit:
     """Refine the head, the wrists (and with ``cfg.fingers`` the fingers) of finished fits to the
     landmarks ``targets`` (N, 49, 3) (:func:`landmark_targets`); every other bone, the root and
     the translation stay as given. ``shape`` (1 or N, S); ``camera`` a PinholeCamera in the
-    landmarks' pixels. Frames without evidence come back unchanged."""
-    main, fingers = fitted_bones(model, cfg.fingers)
-    main_t, fing_t = torch.as_tensor(main), torch.as_tensor(fingers, dtype=torch.long)
+    landmarks' pixels. Faces found where the given pose turns the head away are ignored
+    (:func:`hide_turned_away_faces`). Frames without evidence come back unchanged.
+
+    The head and the wrists are fitted first, then the fingers with them held: fitted together,
+    the fingers soaked up the wrists' turn (wrist error on a synthetic capture 11-12 degrees
+    alone, 13-15 with the fingers)."""
+    main, fingers = (torch.as_tensor(b, dtype=torch.long) for b in fitted_bones(model, cfg.fingers))
     rot_all = torch.as_tensor(np.asarray(rotvecs, np.float32))
     out_rot = rot_all.clone()
     tr_all = torch.as_tensor(np.asarray(transl, np.float32))
@@ -225,30 +260,15 @@ def fit_head_hands(model, rotvecs: np.ndarray, transl: np.ndarray, shape: np.nda
     before, after = torch.full((N, 3), float("nan")), torch.full((N, 3), float("nan"))
     for s in range(0, N, cfg.batch):
         sl = slice(s, min(s + cfg.batch, N))
-        rot0, tr, tgt = rot_all[sl], tr_all[sl], tgt_all[sl]
+        rot, tr = rot_all[sl], tr_all[sl]
         poser = LandmarkPoser(model, shape_t if shape_t.shape[0] == 1 else shape_t[sl])
-        d_main = torch.zeros(rot0.shape[0], len(main), 3, requires_grad=True)
-        d_fing = torch.zeros(rot0.shape[0], len(fingers), 3, requires_grad=True)
-        opt = torch.optim.Adam([d_main, d_fing], lr=cfg.lr)
-
-        def project(d_main, d_fing):
-            r = rot0.index_add(1, main_t, d_main)
-            if len(fingers):
-                r = r.index_add(1, fing_t, d_fing)
-            return camera.project(poser(BodyPose(r, tr))), r
-
-        for step in range(cfg.steps + 1):
-            px, r = project(d_main, d_fing)
-            if step == 0:
-                before[sl] = landmark_residual_px(px.detach(), tgt, cfg.min_points)
-            if step == cfg.steps:
-                break
-            loss = head_hands_term(px, tgt, camera.height, cfg).sum() + cfg.prior * d_main.pow(2).sum()
-            if len(fingers):
-                loss = loss + cfg.finger_prior * r[:, fing_t].pow(2).sum()
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-        after[sl] = landmark_residual_px(px.detach(), tgt, cfg.min_points)
-        out_rot[sl] = r.detach()
+        with torch.no_grad():
+            points = poser(BodyPose(rot, tr))
+            tgt = hide_turned_away_faces(tgt_all[sl], points, camera)
+            before[sl] = landmark_residual_px(camera.project(points), tgt, cfg.min_points)
+        rot, px = _refine_bones(rot, tr, tgt, poser, camera, main, cfg.prior, False, cfg)
+        if len(fingers):
+            rot, px = _refine_bones(rot, tr, tgt, poser, camera, fingers, cfg.finger_prior, True, cfg)
+        after[sl] = landmark_residual_px(px, tgt, cfg.min_points)
+        out_rot[sl] = rot
     return HeadHandsFit(out_rot.numpy(), before.numpy(), after.numpy())
