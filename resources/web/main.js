@@ -1,7 +1,7 @@
 // The page: loads the folder's avatar and runtime, plays a motion with orbit and zoom, a motion
 // picker, play / pause, an fps readout, and a smaller output where the device cannot hold 30 fps.
 // Query parameters: size=N (fix the output side), adapt=0 (never shrink), motion=NAME, frame=K
-// and pause=1 (show one frame), threads=N, backend=wasm|webgpu; bench=N, check=1, report=N run
+// and pause=1 (show one frame), threads=N, backend=wasm|webgpu, tail=js|webgl, proxy=1, target=FPS; bench=N, check=1, report=N run
 // the checks of harness.js (tests and `morf bench web`).
 import { loadRuntime } from './renderer.js';
 import { Player, loadAvatar, loadMotion } from './player.js';
@@ -18,7 +18,7 @@ window.addEventListener('unhandledrejection', (e) => messages.push(`unhandled: $
 
 const params = new URLSearchParams(location.search);
 export const BACKGROUND = [255, 255, 255];
-const TARGET_FPS = 30;
+const TARGET_FPS = Number(params.get('target')) || 30;  // the rate the output size adapts to (target=N: tests)
 const SIZES = [640, 576, 512, 448, 384, 320, 256, 192, 128];
 const $ = (id) => document.getElementById(id);
 

@@ -120,6 +120,17 @@ def test_without_isolation_one_thread_and_says_so(tiny_web):
     assert r["messages"] == []
 
 
+def test_output_size_adapts_and_says_so(tiny_web):
+    """Under the target rate the page picks a smaller output and says why (target=1000: a rate no
+    machine holds, so the test does not depend on this one's speed)."""
+    from morf.web.browser import run_page
+
+    r = run_page(tiny_web.path, "report=24&target=1000&motion=idle_sway", timeout=300)
+    assert "error" not in r and r["messages"] == []
+    assert r["size"] < 640 and r["size"] % 8 == 0
+    assert "under 1000" in r["notice"] and f"Output {r['size']} × {r['size']} px" in r["notice"], r["notice"]
+
+
 def test_golden_render(tiny_web):
     from morf.web.browser import run_page
     from tests.studio.screenshots import check_golden
