@@ -102,12 +102,14 @@ def test_an_unknown_class_or_a_machine_without_faulting_is_a_clear_error(tmp_pat
 
 
 @needs_faulting
-def test_morf_bench_render_as_an_avx2_cpu_records_the_class(tmp_path):
+def test_morf_bench_render_as_an_avx2_cpu_records_the_class(tmp_path, tiny_avatar):
+    """The records say which class the kernels were; an avatar exported beforehand is played (the
+    benchmark's own synthetic avatars, trained and exported under the mask, took two minutes)."""
     out = tmp_path / "r"
     env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
     cli = "import sys; from morf.cli.main import main; sys.exit(main())"  # what the `morf` script runs
     r = subprocess.run([sys.executable, "-c", cli, "bench", "--cpu-as", "avx2", "render", "--size", "128",
-                        "--frames", "8", "--no-variants", "--out", str(out)], capture_output=True, text=True,
+                        "--frames", "8", "--no-variants", "--avatar", str(tiny_avatar), "--out", str(out)], capture_output=True, text=True,
                        timeout=600, env=env)
     assert r.returncode == 0, r.stderr[-3000:]
     rec = json.loads((out / "render.json").read_text())
