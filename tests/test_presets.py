@@ -60,7 +60,7 @@ def test_the_registry_imports_no_command():
     assert done.returncode == 0, done.stdout + done.stderr
 
 
-KNOWN = {"fit": "default, fast, tiny, baseline, cpu, gpu", "train": "tiny, cpu, gpu", "synth": "tiny, default, cpu, gpu",
+KNOWN = {"fit": "default, fast, tiny, baseline, cpu, gpu", "train": "tiny, cpu, gpu, detail", "synth": "tiny, default, cpu, gpu",
          "demo": "tiny, quick, full", "stability": "tiny, default", "sweep": "tiny, quick, default"}
 
 
