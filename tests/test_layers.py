@@ -314,6 +314,13 @@ def test_the_app_processes_listed_are_started_where_listed():
         assert app in project_modules()
 
 
+def test_the_cli_names_the_cpu_classes_of_the_mask():
+    from morf.cli.bench import CPU_CLASSES
+    from morf.machine.cpuid_mask import CLASSES
+
+    assert sorted(CPU_CLASSES) == sorted(CLASSES)
+
+
 def test_the_player_and_the_cli_start_without_the_machine_probes():
     """The CPU probes and benchmark tricks (morf.machine) load only where asked, never when the
     command line or the player is imported."""
@@ -321,6 +328,7 @@ def test_the_player_and_the_cli_start_without_the_machine_probes():
     import sys
 
     code = ("import sys, morf.cli.main, morf.playback.player, morf.playback.native_tail; "
+            "morf.cli.main.build_parser(); "  # every command builds the whole parser, morf bench's included
             "print(sorted(m for m in sys.modules if m.startswith('morf.machine')))")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=MORF.parent)
     assert r.returncode == 0, r.stderr
