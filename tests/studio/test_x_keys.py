@@ -31,7 +31,7 @@ SCRIPT = textwrap.dedent("""
 
     def xdo(*args):
         subprocess.run(["xdotool", *map(str, args)], check=True)
-        time.sleep(0.5)
+        time.sleep(0.35)
 
     def click(name):
         x0, y0, x1, y1 = app.state.item_rects[name]
@@ -41,15 +41,15 @@ SCRIPT = textwrap.dedent("""
     def drive():
         global wid
         try:
-            time.sleep(2.0)
+            time.sleep(1.0)
             wid = subprocess.check_output(["xdotool", "search", "--name", "MoRF Studio"]).split()[0].decode()
             click("new_source")
             xdo("type", "--delay", "60", "/tmp/abc")
             xdo("key", "ctrl+BackSpace")
             seen.append(app.state.new_source)
-            for _ in range(3):
+            for _ in range(2):
                 click("new_folder")
-                click("new_source")  # the field's second (third, fourth) focus
+                click("new_source")  # the field's second (third) focus
                 xdo("keydown", "ctrl")
                 xdo("keydown", "a", "keyup", "ctrl", "keyup", "a")
                 xdo("type", "x")
@@ -67,4 +67,4 @@ SCRIPT = textwrap.dedent("""
 
 
 def test_ctrl_a_on_a_fields_second_focus_selects_it_in_a_real_window():
-    assert _run_on_xvfb(24, SCRIPT, size="1280x800").split("|") == ["/tmp/", "x", "x", "x"]
+    assert _run_on_xvfb(24, SCRIPT, size="1280x800").split("|") == ["/tmp/", "x", "x"]
