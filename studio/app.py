@@ -35,7 +35,7 @@ from studio.cli import build_parser, run_cli  # noqa: E402  (build_parser: the h
 from studio.commands import Command, OpenProject, RunPipeline  # noqa: E402
 from studio.context import UiContext  # noqa: E402
 from studio.drops import DropClassifier, kind_by_name, suggested_folder  # noqa: E402
-from studio.input_events import KeyQueue  # noqa: E402
+from studio.input_events import KeyQueue, install_callbacks  # noqa: E402
 from studio.keys import handle_keys  # noqa: E402
 from studio.layout import draw_ui  # noqa: E402
 from studio.live_render import LiveRenderer  # noqa: E402
@@ -205,52 +205,15 @@ class StudioApp:
         imgui.backends.glfw_cursor_enter_callback(self._window_addr, 1)
 
     def _init_input_callbacks(self) -> None:
-        """The window's callbacks, installed here rather than by imgui's backend: keys and
-        characters wait in :attr:`keys` for the next frame (:mod:`studio.input_events`), mouse
-        and window events go to imgui's backend at once; every one of them asks for a frame."""
+        """The window's callbacks (:func:`studio.input_events.install_callbacks`): keys wait in
+        :attr:`keys` for the next frame, dropped paths in ``_dropped``; each event asks for a frame."""
         def on_input(*_):
             self._inputs += 1
             self.pacer.input()
 
-        w, b = self.window, imgui.backends
         self.keys = KeyQueue()
         self._dropped: list[str] = []  # paths dropped on the window, handled by the next full frame
-
-        def on_key(_w, key, scancode, action, _mods):
-            self.keys.key(key, scancode, action, glfw.get_key_name(key, scancode))
-            on_input()
-
-        def on_char(_w, codepoint):
-            self.keys.char(codepoint)
-            on_input()
-
-        def on_focus(_w, focused):
-            b.glfw_window_focus_callback(self._window_addr, focused)
-            if not focused:
-                self.keys.focus_lost()
-            on_input()
-
-        def forward(to_imgui):
-            def callback(_w, *args):
-                to_imgui(self._window_addr, *args)
-                on_input()
-            return callback
-
-        def on_drop(_window, paths):
-            self._dropped.extend(str(p) for p in paths)
-            on_input()
-
-        glfw.set_key_callback(w, on_key)
-        glfw.set_char_callback(w, on_char)
-        glfw.set_window_focus_callback(w, on_focus)
-        glfw.set_cursor_enter_callback(w, forward(b.glfw_cursor_enter_callback))
-        glfw.set_cursor_pos_callback(w, forward(b.glfw_cursor_pos_callback))
-        glfw.set_mouse_button_callback(w, forward(b.glfw_mouse_button_callback))
-        glfw.set_scroll_callback(w, forward(b.glfw_scroll_callback))
-        glfw.set_drop_callback(w, on_drop)
-        for install in (glfw.set_framebuffer_size_callback, glfw.set_window_refresh_callback,
-                        glfw.set_window_iconify_callback):
-            install(w, on_input)
+        install_callbacks(self.window, self._window_addr, self.keys, on_input, self._dropped.extend)
 
     # ---- project ------------------------------------------------------------------------
     def open_project(self, path: str) -> bool:

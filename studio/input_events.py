@@ -22,6 +22,7 @@ behind). Keys imgui saw go down always come up.
 from __future__ import annotations
 
 from collections import deque
+from typing import Callable
 
 import glfw
 from imgui_bundle import imgui
@@ -134,3 +135,47 @@ class KeyQueue:
             self._events.popleft()
             n += 1
         return n
+
+
+def install_callbacks(window, window_addr: int, keys: KeyQueue, on_input: Callable[[], None],
+                      on_drop: Callable[[list[str]], None]) -> None:
+    """The window's GLFW callbacks, installed instead of imgui's backend's (initialise it with
+    ``install_callbacks=False``): keys and characters go to ``keys``, mouse and window events to
+    imgui's backend at once, dropped paths to ``on_drop``; every event calls ``on_input``."""
+    b = imgui.backends
+
+    def on_key(_w, key, scancode, action, _mods):
+        keys.key(key, scancode, action, glfw.get_key_name(key, scancode))
+        on_input()
+
+    def on_char(_w, codepoint):
+        keys.char(codepoint)
+        on_input()
+
+    def on_focus(_w, focused):
+        b.glfw_window_focus_callback(window_addr, focused)
+        if not focused:
+            keys.focus_lost()
+        on_input()
+
+    def forward(to_imgui):
+        def callback(_w, *args):
+            to_imgui(window_addr, *args)
+            on_input()
+        return callback
+
+    def dropped(_w, paths):
+        on_drop([str(p) for p in paths])
+        on_input()
+
+    glfw.set_key_callback(window, on_key)
+    glfw.set_char_callback(window, on_char)
+    glfw.set_window_focus_callback(window, on_focus)
+    glfw.set_cursor_enter_callback(window, forward(b.glfw_cursor_enter_callback))
+    glfw.set_cursor_pos_callback(window, forward(b.glfw_cursor_pos_callback))
+    glfw.set_mouse_button_callback(window, forward(b.glfw_mouse_button_callback))
+    glfw.set_scroll_callback(window, forward(b.glfw_scroll_callback))
+    glfw.set_drop_callback(window, dropped)
+    for install in (glfw.set_framebuffer_size_callback, glfw.set_window_refresh_callback,
+                    glfw.set_window_iconify_callback):
+        install(window, lambda *_: on_input())
