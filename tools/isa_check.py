@@ -70,7 +70,7 @@ def main() -> int:
     args = p.parse_args()
     qemu = shutil.which("qemu-x86_64")
     if args.cpu_as:
-        from morf.cpuid_mask import masked_environ
+        from morf.machine.cpuid_mask import masked_environ
         from morf.errors import InputError
 
         try:

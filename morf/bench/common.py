@@ -46,7 +46,7 @@ def machine_info() -> dict:
                     break
     except OSError:
         pass
-    from morf.cpu_features import cpu_summary
+    from morf.machine.features import cpu_summary
 
     info["cpu_features"] = cpu_summary()
     masked = info["cpu_features"].get("cpuid_masked_to")

@@ -12,7 +12,7 @@ import pytest
 from studio.pacing import FramePacer, Wakeup
 from studio.snapshot import Mailbox, Snapshot
 
-MOTION = "morf/resources/motions/walk_forward.npz"
+MOTION = "resources/motions/walk_forward.npz"
 
 
 class Clock:
