@@ -79,6 +79,12 @@ def run_cli(args: argparse.Namespace, app_class) -> int:
         raise InputError("--video makes a new project: give its folder first, 'morf-studio NEWFOLDER --video FILE'")
     if args.video and args.stage:
         raise InputError("--video runs every stage from ingest on; --stage runs one on an existing project: give one")
+    if args.video and args.preset:
+        from morf.presets import PRESETS
+
+        sizes = (*PRESETS["train"], "auto")
+        if args.preset not in sizes:
+            raise InputError(f"with --video, --preset is the training size: one of {', '.join(sizes)} (got {args.preset})")
     opened = None if args.video else args.project
     with app_class(opened, size=size, headless=headless, max_fps=args.max_fps, idle_fps=args.idle_fps) as app:
         if args.video:

@@ -152,3 +152,5 @@ def test_the_command_line_takes_a_video_for_a_new_folder_only(capsys):
     assert "give its folder first, 'morf-studio NEWFOLDER --video FILE'" in capsys.readouterr().err
     assert main(["new", "--video", "clip.mp4", "--stage", "fit", "--headless-frames", "1"]) == 2
     assert "give one" in capsys.readouterr().err
+    assert main(["new", "--video", "clip.mp4", "--preset", "huge", "--headless-frames", "1"]) == 2
+    assert "--preset is the training size: one of tiny" in capsys.readouterr().err
