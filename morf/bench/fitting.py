@@ -108,6 +108,8 @@ def add_arguments(p) -> None:
     p.add_argument("--preset", default="default", help="synthetic capture preset when one is made: tiny | default")
     p.add_argument("--frames", type=int, default=None, help="override the capture's frame count when one is made")
     p.add_argument("--fit-preset", default="default", help="fit preset the ablation starts from")
+    p.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                   help="change a setting of the fit preset before the ablation (repeatable), as 'morf fit --set'")
     p.add_argument("--configs", default=",".join(ABLATION), help="comma-separated subset of: " + ", ".join(ABLATION))
     p.add_argument("--command-runs", type=int, default=0,
                    help="also time the whole 'morf fit CAPTURE --restart' command this many times, each in a "
@@ -236,7 +238,7 @@ def run(args) -> int:
     unknown = [k for k in keys if k not in ABLATION]
     if unknown:
         raise InputError(f"unknown fitting configs: {', '.join(unknown)}; choose from {', '.join(ABLATION)}")
-    base = preset(args.fit_preset).replace(shared_shape=False, frame_filter=False, temporal=False, silhouette=False,
+    base = preset(args.fit_preset).with_settings(args.set).replace(shared_shape=False, frame_filter=False, temporal=False, silhouette=False,
                                            overlays=False)
     model = load_body_model("anny")
     project = _capture(args, model)
@@ -272,6 +274,7 @@ def run(args) -> int:
                     "corrupted_frames": int(gt.corrupted.sum()), "true_jitter": jitter_mm(gt_verts),
                     "keypoints": project.manifest.get("source", {}).get("keypoints")},
         "fit_preset": args.fit_preset,
+        "fit_settings": list(args.set),
         "machine": machine_info(),
         "configs": {k: row.to_dict() for k, row in results.items()},
     }

@@ -58,6 +58,7 @@ def run(args) -> int:
     cfg = resolve_config(args)  # the cheap checks first: torch and the fitting stack take seconds to load
     project = CaptureProject.open(args.project)
 
+    import numpy as np
     import torch
 
     from morf.fitting.project_fit import fit_project
@@ -85,12 +86,16 @@ def run(args) -> int:
     if report.spacing:
         print(report.spacing)
     print(f"fitted {n} frames in {report.seconds:.1f} s ({n / max(report.seconds, 1e-9):.1f} frames/s)")
-    print(f"keypoint residual: median {float(torch.as_tensor(fits.keypoint_residual_px).nanmedian()):.1f} px")
-    if not torch.as_tensor(fits.silhouette_iou).isnan().all():
-        line = f"silhouette IoU: median {float(torch.as_tensor(fits.silhouette_iou).nanmedian()):.3f}"
+    # numpy's median, as filter.json records it (torch's is the lower middle value of an even count)
+    print(f"keypoint residual: median {float(np.nanmedian(fits.keypoint_residual_px)):.1f} px")
+    if fits.label_swapped is not None and fits.label_swapped.any():
+        print(f"{int(fits.label_swapped.sum())} frames fitted as seen from the back with the keypoints' left and "
+              "right exchanged (no face found where the labels said front)")
+    if not np.isnan(fits.silhouette_iou).all():
+        line = f"silhouette IoU: median {float(np.nanmedian(fits.silhouette_iou)):.3f}"
         if fits.offsets is not None and fits.silhouette_iou_body is not None:
             line += (f" with clothing offsets (mean {1000 * float(fits.offsets.mean()):.1f} mm), "
-                     f"{float(torch.as_tensor(fits.silhouette_iou_body).nanmedian()):.3f} body alone")
+                     f"{float(np.nanmedian(fits.silhouette_iou_body)):.3f} body alone")
         print(line)
     print(f"frame filter: {len(report.rejected)} of {n} frames rejected")
     for i, reason in list(report.rejected.items())[:10]:

@@ -98,6 +98,11 @@ class FitConfig:
     shape_weight: float = 0.5  # shape regularisation towards the default phenotype
     temporal_weight: float = 300.0  # adjacent-frame pose differences (radians^2); tuned on the default capture
     temporal_transl_weight: float = 3e4  # adjacent-frame translation differences (metres^2)
+    # what the temporal term penalises in the body's orientation: "speed" (first differences, weight
+    # temporal_weight; holds back a brisk turn at its ends) or "acceleration" (second differences,
+    # weight root_acceleration_weight; free for a turn at constant speed; losses.py)
+    root_smoothing: str = "speed"
+    root_acceleration_weight: float = 300.0
     silhouette_weight: float = 30.0  # Dice loss (10 -> 30: IoU +0.003 on the default capture, same jitter)
     # raster size of the long image side for the silhouette loss: at 96 px a pixel is 2 cm and the
     # 1-2 cm misfits that decide IoU at 256 px were below its resolution (IoU 0.87 vs 0.90 at 192,
@@ -168,7 +173,7 @@ class FitConfig:
             stage.validate()
         weights = ("keypoint_weight", "pose_prior_weight", "pose_l2_weight", "twist_weight", "shape_weight", "temporal_weight",
                    "temporal_transl_weight", "silhouette_weight", "offset_smooth_weight", "offset_l2_weight",
-                   "yaw_switch_weight")
+                   "yaw_switch_weight", "root_acceleration_weight")
         checks = [(getattr(self, w) >= 0, f"{w} must be >= 0, got {getattr(self, w)}") for w in weights]
         checks += [
             (self.keypoint_robust_sigma > 0, f"keypoint_robust_sigma must be positive, got {self.keypoint_robust_sigma}"),
@@ -182,6 +187,8 @@ class FitConfig:
             (self.offset_lr > 0, f"offset_lr must be positive, got {self.offset_lr}"),
             (self.proxy_cell > 0, f"proxy_cell must be positive metres, got {self.proxy_cell}"),
             (0 <= self.twist_limit_deg < 180, f"twist_limit_deg must lie in [0, 180) degrees, got {self.twist_limit_deg}"),
+            (self.root_smoothing in ("speed", "acceleration"),
+             f"root_smoothing must be 'speed' or 'acceleration', got {self.root_smoothing!r}"),
             (self.yaw_hypotheses >= 1, f"yaw_hypotheses must be >= 1, got {self.yaw_hypotheses}"),
             (self.chunk_frames >= 1, f"chunk_frames must be >= 1, got {self.chunk_frames}"),
             (self.cpu_threads >= 0, f"cpu_threads must be >= 0 (0: keep torch's setting), got {self.cpu_threads}"),

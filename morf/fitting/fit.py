@@ -144,7 +144,7 @@ def _fit_sequence(model, inputs, cfg, control, start, device, on_stage) -> FitSt
                        iterations=first.iterations, lr=first.lr, scale=0.01 * inputs.camera.height,
                        sigma=cfg.keypoint_robust_sigma, switch_weight=cfg.yaw_switch_weight,
                        spacing=known_spacing(inputs, cfg), control=control,
-                       evidence=HeadingEvidence() if cfg.front_back else None)
+                       evidence=HeadingEvidence() if cfg.front_back else None, turn_aware=cfg.frame_spacing)
         params = FitParameters(N, len(model.bone_names), bone_ids, g.root.to(device), g.transl.to(device),
                                shape0, cfg.shared_shape, n_off).to(device)
         done, spacing = 1, g.spacing

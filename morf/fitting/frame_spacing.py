@@ -30,6 +30,13 @@ HEADING_PER_FRAME_DEG = 2.0
 # ... once it exceeds what the rigid fit's noise and a brisk turn give between video frames
 HEADING_NOISE_DEG = 10.0
 NEIGHBOUR_GAP = 3.0  # frames further apart than this are not neighbours for the pose-jump test
+# a clip whose person turns faster than this (degrees per frame, over TURN_WINDOW frames either
+# side) is smoothed as if its frames were (speed / HEADING_PER_FRAME_DEG) frames apart. The first
+# stage's headings on the default synthetic capture (true turn at most 2.5 degrees a frame,
+# MediaPipe keypoints) reach 4.1 over 8 frames either side (5.8 over 3): below this, so such a
+# capture keeps its gaps of 1
+FAST_TURN_DEG = 4.5
+TURN_WINDOW = 8
 
 
 @dataclass(frozen=True)
@@ -85,6 +92,33 @@ def from_times(times: np.ndarray) -> FrameSpacing:
     """Gaps from (N,) frame times in seconds."""
     dt = np.diff(np.asarray(times, np.float64))
     return FrameSpacing(np.maximum(dt / REFERENCE_INTERVAL_S, 1.0), "times")
+
+
+def turn_speed_deg(root: np.ndarray, window: int = TURN_WINDOW) -> np.ndarray:
+    """(N-1,) heading change per frame around each neighbour pair, degrees: the angle between the
+    (N, 3, 3) root rotations ``window`` frames before and after the pair, over the frames between
+    (one pair's change is the first stage's noise; a turn keeps its direction over several)."""
+    N = len(root)
+    if N < 2:
+        return np.zeros(0)
+    i = np.arange(N - 1)
+    a, b = np.clip(i - window + 1, 0, N - 1), np.clip(i + window, 0, N - 1)
+    rel = np.einsum("nba,nbc->nac", root[a], root[b])
+    angle = np.degrees(np.arccos(np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1, 1)))
+    return angle / np.maximum(b - a, 1)
+
+
+def with_turn_speed(spacing: FrameSpacing, root: np.ndarray) -> FrameSpacing:
+    """``spacing`` (from frame times) with the pairs where the person turns faster than
+    ``FAST_TURN_DEG`` a frame counted as further apart: the temporal weights were set for a turn
+    of about ``HEADING_PER_FRAME_DEG`` a frame, and a brisk spin held to them lags at the turn's
+    ends (25 degrees at the start of a 7.5 degree-a-frame spin). A turn at the speed the weights
+    were tuned at keeps its gaps."""
+    if spacing.unordered or len(spacing.gaps) == 0:
+        return spacing
+    speed = turn_speed_deg(root)
+    fast = np.where(speed > FAST_TURN_DEG, speed / HEADING_PER_FRAME_DEG, 1.0)
+    return FrameSpacing(np.maximum(spacing.gaps, fast), spacing.source)
 
 
 def from_heading(root: np.ndarray) -> FrameSpacing:

@@ -112,7 +112,7 @@ def _choose_sequence(loss: torch.Tensor, R: torch.Tensor, switch_weight: torch.T
 def fit_global(points: np.ndarray, camera: PinholeCamera, rest_kp: torch.Tensor, *, hypotheses: int,
                iterations: int, lr: float, scale: float, sigma: float, switch_weight: float,
                spacing: FrameSpacing | None = None, control=None,
-               evidence: HeadingEvidence | None = None) -> GlobalInit:
+               evidence: HeadingEvidence | None = None, turn_aware: bool = True) -> GlobalInit:
     """Rigid fit of the rest-pose body to each frame's torso and head keypoints.
 
     Args:
@@ -122,6 +122,8 @@ def fit_global(points: np.ndarray, camera: PinholeCamera, rest_kp: torch.Tensor,
             not unordered): then the headings are chosen as for a video, the heading changes
             between them give the gaps, and the headings are chosen again with those gaps.
         evidence: the front/back choice's costs; None fits the labels as given only.
+        turn_aware: a clip with frame times whose person turns faster than the temporal weights
+            expect gets larger gaps there (:func:`frame_spacing.with_turn_speed`).
     """
     dtype = rest_kp.dtype
     N, Y = points.shape[0], max(1, hypotheses)
@@ -175,5 +177,10 @@ def fit_global(points: np.ndarray, camera: PinholeCamera, rest_kp: torch.Tensor,
         if spacing is None:
             spacing = frame_spacing.from_heading(R[ar, path].numpy())
             path = choose(spacing)
+        elif spacing.source == "times" and turn_aware:  # a brisk turn is smoothed as frames further apart
+            faster = frame_spacing.with_turn_speed(spacing, R[ar, path].numpy())
+            if not np.array_equal(faster.gaps, spacing.gaps):
+                spacing = faster
+                path = choose(spacing)
         return GlobalInit(root=R[ar, path], transl=transl[ar, path].detach(), loss=loss[ar, path], spacing=spacing,
                           swapped=swapped[path].numpy())

@@ -91,6 +91,21 @@ def rotation_temporal_loss(R: torch.Tensor, pair_weights: torch.Tensor | None = 
     return d if pair_weights is None else d * pair_weights
 
 
+def rotation_acceleration_loss(R: torch.Tensor, pair_weights: torch.Tensor | None = None) -> torch.Tensor:
+    """(N-2,) squared Frobenius norm of the second difference of rotations (N, 3, 3) over each
+    triple of neighbours, times the product of its two ``pair_weights`` (1 / gap^2 each: a smooth
+    motion's second difference grows with the gap squared).
+
+    Why not the first difference: it penalises the speed of a turn, so a person turning briskly is
+    held back, most at the ends of the turn where a frame has one neighbour to pull it (25 degrees
+    at the start of a 225 deg/s spin). A turn at constant speed has (nearly) no second difference,
+    while a frame's detection noise still has one."""
+    if R.shape[0] < 3:
+        return R.new_zeros(0)
+    d = 0.5 * (R[2:] - 2 * R[1:-1] + R[:-2]).pow(2).sum((-2, -1))
+    return d if pair_weights is None else d * pair_weights[1:] * pair_weights[:-1]
+
+
 def shape_loss(shape: torch.Tensor, mean: torch.Tensor) -> torch.Tensor:
     """(S_batch,) squared distance of phenotypes (B, 6) from the prior mean (1, 6)."""
     return (shape - mean).pow(2).sum(-1)

@@ -18,7 +18,8 @@ from morf.fitting.config import FitConfig, StageConfig
 from morf.fitting.evaluate import silhouettes
 from morf.fitting.fit_body import FitBody
 from morf.fitting.inputs import FitInputs
-from morf.fitting.losses import dice_loss_per_frame, keypoint_loss, rotation_temporal_loss, shape_loss, temporal_loss
+from morf.fitting.losses import (dice_loss_per_frame, keypoint_loss, rotation_acceleration_loss, rotation_temporal_loss,
+                                 shape_loss, temporal_loss)
 from morf.fitting.offsets import smoothness_loss
 from morf.fitting.params import FitParameters
 from morf.fitting.pose_prior import JointLimitPrior
@@ -98,10 +99,15 @@ def _sequence_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, 
     if cfg.temporal and params.num_frames > 1:
         w = problem.pair_weights
         tr = temporal_loss(params.transl, w).sum()
-        rot = rotation_temporal_loss(params.root_matrix(), w).sum()
+        R = params.root_matrix()
+        if cfg.root_smoothing == "acceleration":
+            root = cfg.root_acceleration_weight * rotation_acceleration_loss(R, w).sum()
+            rot = R.new_zeros(())
+        else:
+            root, rot = R.new_zeros(()), rotation_temporal_loss(R, w).sum()
         if stage.body_pose:
             rot = rot + temporal_loss(params.body, w).sum()
-        total = total + cfg.temporal_weight * rot + cfg.temporal_transl_weight * tr
+        total = total + cfg.temporal_weight * rot + root + cfg.temporal_transl_weight * tr
         logs["temporal"] = float(rot.detach())
     return total, logs
 

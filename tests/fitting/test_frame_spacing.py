@@ -60,3 +60,24 @@ def test_heading_choice_turns_freely_between_far_frames():
     assert video.tolist() == [0, 0, 0, 0]
     views = _choose_sequence(loss, R, torch.as_tensor(0.5 * frame_spacing.unordered(4).switch_weights()))
     assert views.tolist() == [0, 0, 1, 1]
+
+
+def test_a_brisk_turn_counts_as_frames_further_apart():
+    from morf.fitting.frame_spacing import from_times, turn_speed_deg, with_turn_speed
+
+    def yaw(deg):
+        c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+        R = np.zeros((len(deg), 3, 3))
+        R[:, 0, 0], R[:, 0, 1], R[:, 1, 0], R[:, 1, 1], R[:, 2, 2] = c, -s, s, c, 1.0
+        return R
+
+    times = np.arange(40) / 30.0
+    slow = yaw(np.arange(40) * 2.0)  # the speed the weights were set at
+    fast = yaw(np.arange(40) * 8.0)
+    assert turn_speed_deg(fast) == pytest.approx(np.full(39, 8.0))
+    assert with_turn_speed(from_times(times), slow).gaps == pytest.approx(np.ones(39))
+    assert with_turn_speed(from_times(times), fast).gaps == pytest.approx(np.full(39, 4.0))
+    # frame-to-frame noise of the first stage without a turn is not taken for one
+    rng = np.random.default_rng(0)
+    jitter = yaw(rng.normal(0.0, 4.0, 40))
+    assert with_turn_speed(from_times(times), jitter).gaps == pytest.approx(np.ones(39))

@@ -53,3 +53,24 @@ def test_temporal_terms():
     assert torch.allclose(temporal_loss(x), torch.full((3,), 3.0))
     R = torch.eye(3).expand(5, 3, 3)
     assert rotation_temporal_loss(R).abs().max() == 0
+
+
+def test_rotation_acceleration_is_free_for_a_steady_turn():
+    import math
+
+    from morf.body.rotations import axis_angle_to_matrix
+    from morf.fitting.losses import rotation_acceleration_loss, rotation_temporal_loss
+
+    yaw = torch.arange(10, dtype=torch.float64) * math.radians(7.5)  # a brisk spin, 7.5 degrees a frame
+    R = axis_angle_to_matrix(torch.stack([torch.zeros(10), torch.zeros(10), yaw], -1).double())
+    steady = rotation_acceleration_loss(R).sum()
+    assert rotation_temporal_loss(R).sum() > 30 * steady  # the speed term charges the turn itself
+    jerk = yaw.clone()
+    jerk[5] += math.radians(3.0)  # one frame's orientation off by 3 degrees
+    Rj = axis_angle_to_matrix(torch.stack([torch.zeros(10), torch.zeros(10), jerk], -1).double())
+    assert rotation_acceleration_loss(Rj).sum() > 4 * steady
+    # pair weights: a triple spanning an unordered pair costs nothing
+    w = torch.ones(9, dtype=torch.float64)
+    w[4] = 0.0
+    assert rotation_acceleration_loss(Rj, w)[3:5].abs().max() == 0.0
+    assert rotation_acceleration_loss(R[:2]).numel() == 0
