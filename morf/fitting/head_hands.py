@@ -4,9 +4,10 @@ The body fit sees 23 points: the nose, the eyes and the ears hold the head's ori
 loosely (a few pixels at a 40 px head are tens of degrees), and the wrist keypoint says nothing
 of the hand's turn. Face anchors (pupils, nose tip, mouth, chin) and the 21 points of each hand
 (:mod:`morf.capture.landmarks_face_hands`, MediaPipe or OpenPose alike) do; the body keypoints'
-ears join the face, since they lie 8 cm behind it and so fix the head's pitch and yaw better
-than the face's flat points alone. Their 3D counterparts on the body model are fixed vertices
-and bone heads (:mod:`morf.body.parts`), the ears the body model's own ear keypoints.
+ears can join the face (they lie 8 cm behind it, so they fix the head's pitch and yaw better
+than the face's flat points alone), with the caveat at ``HeadHandsConfig.ear_weight``. Their 3D
+counterparts on the body model are fixed vertices and bone heads (:mod:`morf.body.parts`), the
+ears the body model's own ear keypoints.
 
 Two ways in:
 
@@ -28,8 +29,9 @@ from morf.body.model import BodyOutput, BodyPose
 from morf.body.parts import HAND_CHAIN, face_anchor_vertices, hand_points
 from morf.fitting.losses import geman_mcclure
 
-# the neck lets the head move a little as well as turn: on a synthetic capture with exact
-# landmarks the head came to 5.6 degrees from the truth with it, 8.7 with the head alone
+# the neck lets the head move a little as well as turn: on a synthetic capture, fitted to the
+# truth's own face and ear points (1.5 px noise), the head came to 5.6 degrees from the truth
+# with it, 8.7 with the head alone
 HEAD_BONES = ("neck01", "head")
 WRIST_BONES = ("wrist.L", "wrist.R")
 EARS = (4, 3)  # the right and the left ear among the body keypoints (COCO order)
@@ -40,8 +42,11 @@ GROUPS = ((0, NUM_FACE), (NUM_FACE, NUM_FACE + 21), (NUM_FACE + 21, NUM_POINTS))
 
 @dataclass(frozen=True)
 class HeadHandsConfig:
-    """Fields: face_weight, hand_weight: weights of the face and hand points (per point, times
-    the point's confidence); sigma: Geman-McClure scale in units of 1 % of the image height;
+    """Fields: face_weight, ear_weight, hand_weight: weights of the face anchors, the ears and the
+    hand points (per point, times the point's confidence). The ears are off by default: with the
+    synthetic truth's own points they took the head's error from 8.9 to 5.6 degrees, but
+    MediaPipe's pose ears sit about 2 cm inside the body model's (COCO-regressed) ears, and with
+    detected landmarks they made it worse (8.9 -> 10.0); sigma: Geman-McClure scale in units of 1 % of the image height;
     prior: weight of the squared change of the head and wrist rotations (radians^2);
     finger_prior: weight of the squared finger rotations (away from the rest, a relaxed hand);
     fingers: fit the 15 finger bones of each hand; steps, lr: Adam steps and step size
@@ -49,6 +54,7 @@ class HeadHandsConfig:
     needs to be fitted at all."""
 
     face_weight: float = 1.0
+    ear_weight: float = 0.0
     hand_weight: float = 0.5
     sigma: float = 3.0
     prior: float = 2.0
@@ -167,7 +173,8 @@ def head_hands_term(projected: torch.Tensor, targets: torch.Tensor, image_height
     scale = image_height / 100
     r2 = ((projected - targets[..., :2]) / scale).pow(2).sum(-1)
     conf = targets[..., 2] * _usable(targets[..., 2], cfg.min_points)
-    w = torch.cat([conf[:, :NUM_FACE] * cfg.face_weight, conf[:, NUM_FACE:] * cfg.hand_weight], 1)
+    w = torch.cat([conf[:, :5] * cfg.face_weight, conf[:, 5:NUM_FACE] * cfg.ear_weight,
+                   conf[:, NUM_FACE:] * cfg.hand_weight], 1)
     return (w * geman_mcclure(r2, cfg.sigma)).sum(-1)
 
 
@@ -211,11 +218,12 @@ class HeadHandsFit:
 
 
 def landmark_residual_px(projected: torch.Tensor, targets: torch.Tensor, min_points: int) -> torch.Tensor:
-    """(B, 3) mean pixel distance per group (face, left hand, right hand), NaN without evidence."""
+    """(B, 3) mean pixel distance per group (the five face anchors, left hand, right hand), NaN
+    where the group has too few confident points."""
     d = (projected - targets[..., :2]).norm(dim=-1)
     w = (targets[..., 2] > 0.1).to(d.dtype) * _usable(targets[..., 2], min_points)
     out = []
-    for a, b in GROUPS:
+    for a, b in ((0, 5),) + GROUPS[1:]:
         n = w[:, a:b].sum(1)
         mean = (w[:, a:b] * d[:, a:b]).sum(1) / n.clamp_min(1)
         out.append(torch.where(n > 0, mean, torch.full_like(n, float("nan"))))
