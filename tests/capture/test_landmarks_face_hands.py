@@ -101,3 +101,27 @@ def test_mediapipe_finds_the_face_and_both_hands_of_the_real_sample(shared_data)
     for hand, wrist in ((left, body[9]), (right, body[10])):
         assert hand[0, 2] > 0.5 and np.linalg.norm(hand[0, :2] - wrist[:2]) < 12
         assert np.linalg.norm(hand[12, :2] - hand[0, :2]) > 10  # the middle fingertip away from the wrist
+
+
+def test_project_landmarks_are_stored_beside_the_keypoints(shared_data, tmp_path):
+    from tests.conftest import require
+
+    require("mediapipe")
+    from morf.capture.landmarks_detect import detect_project_landmarks
+    from morf.capture.landmarks_face_hands import LANDMARKS_FILE
+    from morf.capture.project import CaptureProject
+    from morf.cli.main import main
+
+    path = shared_data / "images" / "ryota.png"
+    if not path.is_file():
+        pytest.skip(f"{path} is absent")
+    assert main(["ingest", str(tmp_path / "p"), "--frames", str(path)]) == 0
+    project = CaptureProject.open(tmp_path / "p")
+    lm = detect_project_landmarks(project)
+    from morf.io.lock import lock_path
+
+    assert (project.root / LANDMARKS_FILE).is_file() and not lock_path(project.root, "landmarks").exists()
+    back = load_landmarks(project)
+    assert back.source == "mediapipe" and back.num_frames == 1
+    np.testing.assert_array_equal(back.face, lm.face)
+    assert back.face[0, :, 2].min() == 1 and back.hand_left[0, 0, 2] > 0.5 and back.hand_right[0, 0, 2] > 0.5
