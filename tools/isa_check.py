@@ -15,7 +15,7 @@ AVX2 kernels are the ones this can reach.
     python tools/isa_check.py AVATAR_DIR --cpu-as avx2|avx512-vnni
 
 runs the other side natively instead, with this CPU's CPUID masked to that class
-(:mod:`morf.cpuid_mask`; Linux CPUs with ``cpuid_fault``, a C compiler): the same kernels as on
+(:mod:`morf.machine.cpuid_mask`; Linux CPUs with ``cpuid_fault``, a C compiler): the same kernels as on
 such a CPU, on this silicon, in seconds, and an AVX-512 class QEMU cannot emulate.
 """
 

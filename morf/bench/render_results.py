@@ -163,7 +163,7 @@ class RenderResult:
 
     Fields:
         size, threads, frames: the measurement's image side, onnxruntime threads and timed frames;
-        machine: :func:`morf.bench.common.machine_info`; cpu_features: :func:`morf.cpu_features.cpu_summary`;
+        machine: :func:`morf.bench.common.machine_info`; cpu_features: :func:`morf.machine.features.cpu_summary`;
         command: the command line; avatar: what was measured (a folder, or the synthetic avatars);
         main: the headline avatar ("given" or :data:`DEFAULT_VARIANT`); avatars: name -> MeasuredAvatar;
         seconds: wall time of building and measuring;

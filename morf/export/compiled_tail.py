@@ -21,7 +21,7 @@ clamped) of a half-resolution tensor:
            opaque_margin pixels is 1
     image = round(255 * ((head[:3] + colour) * mask + (1 - mask) * background / 255)), clipped to 0-255
 
-The exporter finds the two tensors and the constants in the graph it wrote
+The exporter states the two tensors and the constants of the graph it wrote
 (:mod:`morf.export.native_tail_spec`), checks this pass against the whole graph on its views and
 records the spec in the manifest (``renderer.native_tail``).
 """

@@ -24,7 +24,7 @@ import numpy as np
 import onnx
 
 from morf.export.compiled_tail import HeadStage, TailShader, TailSpec
-from morf.export.onnx_graph import _attr, _const_value, _producer
+from morf.export.onnx_graph import attr, const_value, producer
 from morf.raster.neural_raster import COVERAGE_CHANNEL
 from morf.raster.texture_quant import ZERO_POINT
 
@@ -54,7 +54,7 @@ class TailParameters:
 
 
 def _node(model, name: str, op: str):
-    n = _producer(model, name)
+    n = producer(model, name)
     return n if n is not None and n.op_type == op else None
 
 
@@ -68,15 +68,15 @@ def _other(node, name: str) -> str | None:
 
 def _uncast(model, name: str) -> str:
     """``name``, or what a chain of no-op float Casts before it reads (torch's ``.to(dtype)``)."""
-    n = _producer(model, name)
-    while n is not None and n.op_type == "Cast" and _attr(n, "to") == onnx.TensorProto.FLOAT:
+    n = producer(model, name)
+    while n is not None and n.op_type == "Cast" and attr(n, "to") == onnx.TensorProto.FLOAT:
         name = n.input[0]
-        n = _producer(model, name)
+        n = producer(model, name)
     return name
 
 
 def _scalar(model, name: str) -> float | None:
-    v = _const_value(model, name)
+    v = const_value(model, name)
     return None if v is None or v.size != 1 else float(v.reshape(-1)[0])
 
 
@@ -86,10 +86,10 @@ def _resized(model, name: str, sizes_ok: bool = False) -> str | None:
     twice its input's side on the even sides the player renders; the pass checks the shapes each
     frame)."""
     rs = _node(model, name, "Resize")
-    if rs is None or _attr(rs, "mode") not in (b"linear", "linear") \
-            or _attr(rs, "coordinate_transformation_mode") not in (b"half_pixel", "half_pixel", b"pytorch_half_pixel", "pytorch_half_pixel"):
+    if rs is None or attr(rs, "mode") not in (b"linear", "linear") \
+            or attr(rs, "coordinate_transformation_mode") not in (b"half_pixel", "half_pixel", b"pytorch_half_pixel", "pytorch_half_pixel"):
         return None
-    scales = _const_value(model, rs.input[2]) if len(rs.input) > 2 and rs.input[2] else None
+    scales = const_value(model, rs.input[2]) if len(rs.input) > 2 and rs.input[2] else None
     if scales is not None and list(scales.reshape(-1)) == [1.0, 1.0, 2.0, 2.0]:
         return rs.input[0]
     if sizes_ok and scales is None and len(rs.input) > 3 and rs.input[3]:
@@ -99,10 +99,10 @@ def _resized(model, name: str, sizes_ok: bool = False) -> str | None:
 
 def _upsampled(model, name: str) -> str | None:
     """The input of the 2x Resize that makes ``name`` through a Split of 3 + 1 channels."""
-    split = _producer(model, name)
-    if split is None or split.op_type != "Split" or list(split.input[:1]) == [] or _attr(split, "axis") not in (1, -3):
+    split = producer(model, name)
+    if split is None or split.op_type != "Split" or list(split.input[:1]) == [] or attr(split, "axis") not in (1, -3):
         return None
-    sizes = _const_value(model, split.input[1]) if len(split.input) > 1 else None
+    sizes = const_value(model, split.input[1]) if len(split.input) > 1 else None
     if sizes is None or list(sizes.reshape(-1)) != [3, 1]:
         return None
     return _resized(model, split.input[0], sizes_ok=True)
@@ -119,7 +119,7 @@ def _head_stage(model, head: str, params: TailParameters) -> HeadStage | None:
     mm_out = next((i for i in add.input if _node(model, i, "MatMul") is not None), None) if add is not None else None
     if mm_out is None:
         return None
-    flat = _node(model, _producer(model, mm_out).input[1], "Reshape")
+    flat = _node(model, producer(model, mm_out).input[1], "Reshape")
     act = _node(model, flat.input[0], "LeakyRelu") if flat is not None else None
     total = _node(model, act.input[0], "Add") if act is not None else None
     if total is None:
@@ -131,7 +131,7 @@ def _head_stage(model, head: str, params: TailParameters) -> HeadStage | None:
     scale, zp = 1.0, 0
     dq = _node(model, skip, "DequantizeLinear")
     if dq is not None:
-        scale, zero = _scalar(model, dq.input[1]), _const_value(model, dq.input[2])
+        scale, zero = _scalar(model, dq.input[1]), const_value(model, dq.input[2])
         if scale is None or zero is None or zero.size != 1:
             return None
         skip, zp = dq.input[0], int(zero.reshape(-1)[0])
@@ -148,7 +148,7 @@ def _fill(model, colour: str) -> tuple[str, float] | None:
         return None
     fill_mul = None
     for i in add.input:
-        n = _producer(model, _uncast(model, i))
+        n = producer(model, _uncast(model, i))
         if n is not None and n.op_type == "Mul" and any(_node(model, j, "Div") is not None for j in n.input):
             fill_mul = n
     if fill_mul is None:
@@ -157,7 +157,7 @@ def _fill(model, colour: str) -> tuple[str, float] | None:
     fill_rgb = _other(fill_mul, div.output[0])
     fill = _upsampled(model, fill_rgb) if fill_rgb is not None else None
     clip = _node(model, div.input[1], "Clip")
-    if fill is None or clip is None or list(_producer(model, fill_rgb).output) != [fill_rgb, clip.input[0]]:
+    if fill is None or clip is None or list(producer(model, fill_rgb).output) != [fill_rgb, clip.input[0]]:
         return None
     weight_min = _scalar(model, clip.input[1])
     return None if weight_min is None else (fill, weight_min)

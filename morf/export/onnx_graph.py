@@ -25,7 +25,9 @@ def _consumers(model: onnx.ModelProto, name: str) -> list[onnx.NodeProto]:
     return [n for n in model.graph.node if name in n.input]
 
 
-def _const_value(model: onnx.ModelProto, name: str) -> np.ndarray | None:
+def const_value(model: onnx.ModelProto, name: str) -> np.ndarray | None:
+    """The value of tensor ``name`` when the graph fixes it (an initializer or a Constant node), else
+    None: what a graph pass may fold, and what the native tail reads its constants from."""
     inits = _initializers(model)
     if name in inits:
         return numpy_helper.to_array(inits[name])
@@ -60,7 +62,7 @@ def fold_input_scale(model: onnx.ModelProto, input_name: str) -> bool:
         return False
     mul = muls[0]
     other = mul.input[1] if mul.input[0] == input_name else mul.input[0]
-    s = _const_value(model, other)
+    s = const_value(model, other)
     if s is None or s.ndim != 4 or s.shape[0] != 1 or s.shape[2:] != (1, 1):
         return False
     scale = s.reshape(-1)
@@ -135,7 +137,7 @@ def uint8_input(model: onnx.ModelProto, float_input: str, layout: str, new_name:
         q = [n for n in _consumers(model, float_input) if n.op_type == "QuantizeLinear"]
         if len(q) != 1 or len(_consumers(model, float_input)) != 1:
             raise ValueError("expected one QuantizeLinear on the renderer input")
-        sc, zp = _const_value(model, q[0].input[1]), _const_value(model, q[0].input[2])
+        sc, zp = const_value(model, q[0].input[1]), const_value(model, q[0].input[2])
         if zp is None or zp.dtype != np.uint8 or int(zp) != ZERO_POINT or not np.isclose(float(sc), 1 / 127, rtol=1e-6):
             raise ValueError(f"input quantisation is scale {sc} zero point {zp}, expected 1/127 and {ZERO_POINT}")
         for node in _consumers(model, q[0].output[0]):
@@ -196,9 +198,9 @@ def append_composite(model: onnx.ModelProto, rgba: str = "rgba", background: str
                           numpy_helper.from_array(np.array([1, 3, 0, 0], np.int64), "composite_shape")])
     # The premultiplied RGB and the mask as the graph makes them, before they are concatenated into
     # ``rgba`` (splitting it again copied four full-resolution planes).
-    concat = _producer(model, rgba)
+    concat = producer(model, rgba)
     if concat is not None and concat.op_type == "Concat" and len(concat.input) == 2 \
-            and _attr(concat, "axis") in (1, -3):
+            and attr(concat, "axis") in (1, -3):
         nodes, (rgb, mask) = [], concat.input
     else:
         g.initializer.append(numpy_helper.from_array(np.array([3, 1], np.int64), "composite_split"))
@@ -224,11 +226,13 @@ def append_composite(model: onnx.ModelProto, rgba: str = "rgba", background: str
     return model
 
 
-def _producer(model: onnx.ModelProto, name: str) -> onnx.NodeProto | None:
+def producer(model: onnx.ModelProto, name: str) -> onnx.NodeProto | None:
+    """The node that writes tensor ``name``, or None for a graph input or an initializer."""
     return next((n for n in model.graph.node if name in n.output), None)
 
 
-def _attr(node: onnx.NodeProto, name: str):
+def attr(node: onnx.NodeProto, name: str):
+    """The value of ``node``'s attribute ``name`` (int, float, bytes, list...), or None when unset."""
     return next((helper.get_attribute_value(a) for a in node.attribute if a.name == name), None)
 
 
@@ -275,26 +279,26 @@ def uint8_colour_head(model: onnx.ModelProto, layout: str, raster: str = "raster
     nchw = raster if layout == "nchw" else f"{raster}_nchw"
     done = []
     for greater in [n for n in g.node if n.op_type == "Greater"]:
-        red = _producer(model, greater.input[0])
-        ab = _producer(model, red.input[0]) if red is not None and red.op_type == "ReduceSum" else None
-        dq = _producer(model, ab.input[0]) if ab is not None and ab.op_type == "Abs" else None
+        red = producer(model, greater.input[0])
+        ab = producer(model, red.input[0]) if red is not None and red.op_type == "ReduceSum" else None
+        dq = producer(model, ab.input[0]) if ab is not None and ab.op_type == "Abs" else None
         passed = []  # a no-op float Cast (torch's ``x.float()``) between the input and the Abs
-        while dq is not None and (dq.op_type == "Identity" or (dq.op_type == "Cast" and _attr(dq, "to") == TensorProto.FLOAT)):
+        while dq is not None and (dq.op_type == "Identity" or (dq.op_type == "Cast" and attr(dq, "to") == TensorProto.FLOAT)):
             passed.append(dq)
-            dq = _producer(model, dq.input[0])
-        zero = _const_value(model, greater.input[1])
+            dq = producer(model, dq.input[0])
+        zero = const_value(model, greater.input[1])
         if dq is None or dq.op_type != "DequantizeLinear" or dq.input[0] != nchw or zero is None or float(zero) != 0.0:
             continue
-        zp = _const_value(model, dq.input[2])
+        zp = const_value(model, dq.input[2])
         if zp is None or zp.dtype != np.uint8 or int(zp) != ZERO_POINT:
             continue
         # the colour first: the coverage plane is read from its bytes
         bytes_from = (nchw, COVERAGE_CHANNEL)  # a (1, C, H, W) uint8 tensor and the coverage byte's channel in it
         readers = [n for t in [dq] + passed for n in _consumers(model, t.output[0])]
         for sl in [n for n in readers if n.op_type == "Slice"]:
-            starts, ends = _const_value(model, sl.input[1]), _const_value(model, sl.input[2])
-            ax = _const_value(model, sl.input[3]) if len(sl.input) > 3 and sl.input[3] else np.array([0])
-            steps = _const_value(model, sl.input[4]) if len(sl.input) > 4 and sl.input[4] else np.array([1])
+            starts, ends = const_value(model, sl.input[1]), const_value(model, sl.input[2])
+            ax = const_value(model, sl.input[3]) if len(sl.input) > 3 and sl.input[3] else np.array([0])
+            steps = const_value(model, sl.input[4]) if len(sl.input) > 4 and sl.input[4] else np.array([1])
             if any(v is None for v in (starts, ends, ax, steps)) or list(ax.reshape(-1)) != [1] \
                     or int(starts.reshape(-1)[0]) != 0 or int(steps.reshape(-1)[0]) != 1:
                 continue
@@ -361,7 +365,7 @@ def opaque_body(model: onnx.ModelProto, margin: int = OPAQUE_MARGIN_PX) -> bool:
     g = model.graph
     marks = [n for n in g.node if n.op_type == "Greater" and n.name.endswith("_uint8_covered")]
     casts = [c for u in marks for c in _consumers(model, u.output[0])
-             if c.op_type == "Cast" and _attr(c, "to") == TensorProto.FLOAT]
+             if c.op_type == "Cast" and attr(c, "to") == TensorProto.FLOAT]
     sigmoids = [n for n in g.node if n.op_type == "Sigmoid"]
     if not casts or not sigmoids:
         return False

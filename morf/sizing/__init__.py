@@ -8,16 +8,10 @@ training feature: nothing here imports the benchmarks (``morf.bench`` measures t
 Nothing is imported eagerly, so ``import morf.sizing`` pulls in neither torch nor the body model.
 """
 
-_LAZY = {"SizingRule": "choose", "choose_from_features": "choose", "choose_train_config": "choose",
-         "CaptureFeatures": "features", "capture_features": "features"}
+from morf.lazy import lazy_attributes
 
-
-def __getattr__(name):
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(f"morf.sizing.{_LAZY[name]}"), name)
-    raise AttributeError(name)
-
-
-__all__ = list(_LAZY)
+__all__ = ["SizingRule", "choose_from_features", "choose_train_config", "CaptureFeatures", "capture_features"]
+__getattr__, __dir__ = lazy_attributes(__name__, {
+    "SizingRule": "morf.sizing.choose", "choose_from_features": "morf.sizing.choose",
+    "choose_train_config": "morf.sizing.choose", "CaptureFeatures": "morf.sizing.features",
+    "capture_features": "morf.sizing.features"})
