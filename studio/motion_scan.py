@@ -146,7 +146,7 @@ def bvh_problem(path: Path) -> str | None:
     channels or frames, more values in a frame than channels, or a skeleton that no body can be
     matched to (the retargeting's own name matcher). None when it plays."""
     from morf.errors import InputError
-    from morf.motion.bvh import _parse_hierarchy  # the reader's own parser, so the two cannot disagree
+    from morf.motion.bvh import parse_hierarchy  # the reader's own parser, so the two cannot disagree
     from morf.motion.name_matching import map_for
     from morf.motion.skeleton import SourceSkeleton
 
@@ -156,7 +156,7 @@ def bvh_problem(path: Path) -> str | None:
     if not lines or lines[0].strip().upper() != "HIERARCHY":
         return "not a BVH file (no HIERARCHY header)"
     try:
-        parsed, motion = _parse_hierarchy(lines, path)
+        parsed, motion = parse_hierarchy(lines, path)
     except InputError as e:
         return str(e).removeprefix(f"{path}: ")
     channels = sum(len(c) for c in parsed.channels)

@@ -19,7 +19,10 @@ _AXES = {"xrotation": "X", "yrotation": "Y", "zrotation": "Z"}
 _POS = {"xposition": 0, "yposition": 1, "zposition": 2}
 
 
-class _Parsed:
+class BvhHierarchy:
+    """A BVH's joints in file order (parents first): names, parent indices, offsets, channels.
+    Public so that a header check (the studio's motion browser) reads a file as the reader does."""
+
     def __init__(self):
         self.names: list[str] = []
         self.parents: list[int] = []
@@ -30,9 +33,10 @@ class _Parsed:
 # A BVH of this size holds hours of mocap at 120 fps; more is not a motion clip.
 MAX_BVH_BYTES = 256 * 2**20
 
-def _parse_hierarchy(lines: list[str], path: Path) -> tuple[_Parsed, int]:
-    """Joints in file order (parents first); returns the index of the MOTION line."""
-    out = _Parsed()
+def parse_hierarchy(lines: list[str], path: Path) -> tuple[BvhHierarchy, int]:
+    """Joints in file order (parents first) and the index of the MOTION line. Reads only the
+    hierarchy, so a header check costs no frame data; a malformed hierarchy is an InputError."""
+    out = BvhHierarchy()
     stack: list[int] = []
     pending: int | None = None  # joint declared, its "{" not yet seen
     for i, raw in enumerate(lines):
@@ -83,7 +87,7 @@ def _number(token: str, path: Path, line: int, what: str) -> float:
         raise InputError(f"{path}: line {line}: {what} value {token!r} is not a number") from None
 
 
-def _add(out: _Parsed, name: str, parent: int) -> int:
+def _add(out: BvhHierarchy, name: str, parent: int) -> int:
     out.names.append(name)
     out.parents.append(parent)
     out.offsets.append([0.0, 0.0, 0.0])
@@ -112,7 +116,7 @@ def read_bvh(path: str | os.PathLike, up_axis: str = "auto", unit: str = "auto")
     lines = text.splitlines()
     if not lines or lines[0].strip().upper() != "HIERARCHY":
         raise InputError(f"{path}: not a BVH file (no HIERARCHY header)")
-    parsed, motion_line = _parse_hierarchy(lines, path)
+    parsed, motion_line = parse_hierarchy(lines, path)
     if not parsed.names:
         raise InputError(f"{path}: no joints")
     n_channels = sum(len(c) for c in parsed.channels)
@@ -225,7 +229,7 @@ def _frame_rate(frame_time: float, path: Path) -> float:
     return check_fps(fps, str(path), f"the frame rate of 'Frame Time: {frame_time:g}'")
 
 
-def _check_numbers(parsed: _Parsed, offsets: np.ndarray, data: np.ndarray, scale: float, path: Path) -> None:
+def _check_numbers(parsed: BvhHierarchy, offsets: np.ndarray, data: np.ndarray, scale: float, path: Path) -> None:
     """Offsets and channel values finite and in range (lengths in metres once scaled by ``scale``);
     the message names the joint, the channel and the first bad frame."""
     for j, name in enumerate(parsed.names):
