@@ -6,7 +6,11 @@
   not measured (None) with one seed;
 * morf against stylepeople (the same network without the warp fields): at about equal quality
   (``psnr_delta_vs_stylepeople_db`` >= -0.5 dB; ``ssim_delta_vs_stylepeople`` reported) it
-  flickers at least 10 % less (``temporal_gain_vs_stylepeople`` = 1 - morf / stylepeople >= 0.10).
+  flickers at least 10 % less (``temporal_gain_vs_stylepeople`` = 1 - morf / stylepeople >= 0.10);
+* detail where people look (scores at native size, :mod:`morf.evaluate.detail`): the head's
+  shift-tolerant SSIM at least the floor's (``morf_minus_floor_head_ssim_shift`` >= 0; PSNR alone
+  would choose blur), and the head's high-frequency ratio render / real ``morf_head_hf_ratio``
+  >= 0.7 (under 1 is blur).
 
 A value is None when a method it needs was not run or has no scored run; its target's ``met`` is
 then None too.
@@ -43,6 +47,8 @@ TARGETS = (
     Target("morf_seed_spread_db", "<=", 1.0),
     Target("psnr_delta_vs_stylepeople_db", ">=", -0.5),
     Target("temporal_gain_vs_stylepeople", ">=", 0.10),
+    Target("morf_minus_floor_head_ssim_shift", ">=", 0.0),
+    Target("morf_head_hf_ratio", ">=", 0.7),
 )
 PLATEAU = Target("morf_plateau_minutes", "<=", 30.0)  # mean over morf's seeds, from the training logs
 
@@ -81,6 +87,8 @@ def block_checks(block: BlockScores, floor: str) -> Checks:
         "psnr_delta_vs_stylepeople_db": _diff(morf.get("psnr"), sp.get("psnr")),
         "ssim_delta_vs_stylepeople": _diff(morf.get("ssim"), sp.get("ssim")),
         "temporal_gain_vs_stylepeople": 1 - t_m / t_s if t_m is not None and t_s else None,
+        "morf_minus_floor_head_ssim_shift": _diff(morf.get("head_ssim_shift"), fl.get("head_ssim_shift")),
+        "morf_head_hf_ratio": morf.get("head_hf_ratio"),
     }
     return Checks(values, TARGETS)
 
