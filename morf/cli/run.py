@@ -216,8 +216,8 @@ def preset_hint(preset: str) -> str:
     from morf.train.config import DETAIL_PRESET
 
     if preset == "cpu":
-        return (f"; for the face and hands at the player's density in about half an hour on 2 cores, "
-                f"use --preset {DETAIL_PRESET}")
+        return (f"; --preset {DETAIL_PRESET} trains the face and hands at the player's density, in about half "
+                "an hour on 2 cores")
     return ""
 
 
