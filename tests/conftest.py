@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import os
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,16 @@ os.environ.setdefault("MORF_QUIET", "1")
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
+
+
+def pytest_configure(config):
+    """Under pytest-xdist (``-n N``) each worker gets its share of the cores for torch, so that N
+    workers do not each start a thread per core and wait on one another's threads."""
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    if os.environ.get("PYTEST_XDIST_WORKER") and workers > 1:
+        import torch
+
+        torch.set_num_threads(max(1, (os.cpu_count() or 1) // workers))
 
 
 def strict_install() -> bool:
@@ -124,6 +135,31 @@ def still_pose():
     rot = (rng.normal(size=(104, 3)) * 0.1).astype(np.float32)
     rot[0] = (0, 0, 0.4)
     return rot, np.array([0.02, 0.0, 0.0], np.float32)
+
+
+@pytest.fixture(scope="session")
+def tiny_capture_source(tmp_path_factory, body_model) -> Path:
+    """The folder of a tiny synthetic capture (``synth_config("tiny")``: 12 frames), rendered once
+    per session. Never written to: a test that writes into a capture takes a copy
+    (:func:`tiny_capture`, :func:`copy_capture`)."""
+    from morf.synth import make_synthetic_capture, synth_config
+
+    root = tmp_path_factory.mktemp("tiny-capture") / "tiny"
+    return make_synthetic_capture(root, synth_config("tiny"), model=body_model).root
+
+
+def copy_capture(source: Path, dest: Path):
+    """A copy of the capture project ``source`` at ``dest`` (which must not exist), opened."""
+    from morf.capture.project import CaptureProject
+
+    shutil.copytree(source, dest)
+    return CaptureProject.open(dest)
+
+
+@pytest.fixture()
+def tiny_capture(tiny_capture_source, tmp_path):
+    """A fresh copy of the session's tiny synthetic capture (a CaptureProject at ``tmp_path/cap``)."""
+    return copy_capture(tiny_capture_source, tmp_path / "cap")
 
 
 @pytest.fixture(scope="session")

@@ -27,17 +27,11 @@ def test_cpu_report_names_the_features_that_matter_for_int8():
 
 
 @pytest.fixture(scope="module")
-def tiny_player(tmp_path_factory, body_model, gl):
-    from types import SimpleNamespace
-
-    from morf.export.synthetic import build_synthetic_avatar, coverage_renderer, coverage_texture
+def tiny_player(tiny_avatar, gl):
+    """The session's tiny exported avatar, played: any int8 avatar serves the profile's checks."""
     from morf.playback.player import Player
 
-    out = tmp_path_factory.mktemp("avatar") / "avatar"
-    build_synthetic_avatar(out, body_model, renderer=coverage_renderer(), texture=coverage_texture(),
-                           renderer_cfg=SimpleNamespace(in_channels=16), image_size=64,
-                           calibration_views=4, heldout_views=1, seed=3)
-    with Player(out, size=64, ctx=gl.ctx) as p:
+    with Player(tiny_avatar, size=64, ctx=gl.ctx) as p:
         yield p
 
 

@@ -30,10 +30,8 @@ def test_demo_tiny_runs_every_stage_and_resumes(tmp_path, capsys):
     assert "[5/5] animation: done" in out
 
 
-def test_info_reports_excluded_frames(tmp_path, capsys):
-    from morf.synth import make_synthetic_capture, synth_config
-
-    p = make_synthetic_capture(tmp_path / "cap", synth_config("tiny"))
+def test_info_reports_excluded_frames(tiny_capture, capsys):
+    p = tiny_capture
     p.set_user_decision(2, "drop")
     assert main(["info", str(p.root), "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
@@ -41,10 +39,8 @@ def test_info_reports_excluded_frames(tmp_path, capsys):
     assert {"frame": 2, "reason": "dropped by user"} in info["excluded"]
 
 
-def test_animate_without_avatar_is_one_line_error(tmp_path, capsys):
-    from morf.synth import make_synthetic_capture, synth_config
-
-    p = make_synthetic_capture(tmp_path / "cap", synth_config("tiny"))
+def test_animate_without_avatar_is_one_line_error(tiny_capture, tmp_path, capsys):
+    p = tiny_capture
     rc = main(["animate", str(p.root), "--motion", "x.bvh", "--out", str(tmp_path / "v.mp4")])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "no exported avatar" in err[0]
@@ -56,13 +52,13 @@ def test_not_a_project_is_one_line_error(tmp_path, capsys):
     assert rc == 2 and len(err) == 1 and "not a MoRF capture project" in err[0]
 
 
-def test_train_preset_auto_logs_its_choice(tmp_path, capsys):
-    from morf.synth import make_synthetic_capture, synth_config
-
-    p = make_synthetic_capture(tmp_path / "cap", synth_config("tiny"))
-    # no inpainting: its fixed 200 fine-tuning steps were 80% of this test, and the choice is logged before it
-    rc = main(["train", str(p.root), "--preset", "auto", "--steps", "2", "--resolution", "64", "--fits", "ground-truth",
-               "--set", "inpaint_steps=0"])
+def test_train_preset_auto_logs_its_choice(tiny_capture, capsys):
+    p = tiny_capture
+    # no inpainting: its fixed 200 fine-tuning steps were 80% of this test, and the choice is logged
+    # before it; one step of one image: the choice is made before training (the steps' backward
+    # passes on the chosen renderer were most of what was left)
+    rc = main(["train", str(p.root), "--preset", "auto", "--steps", "1", "--resolution", "64", "--fits", "ground-truth",
+               "--set", "inpaint_steps=0", "--set", "batch_size=1"])
     assert rc == 0
     out = capsys.readouterr().out
     assert "automatic size choice" in out and "texture" in out

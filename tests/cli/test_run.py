@@ -25,10 +25,8 @@ def run(capsys, *argv) -> tuple[int, str, str]:
     return rc, out.out, out.err
 
 
-def test_run_until_fit_then_continue_to_export(tmp_path, capsys, body_model, one_torch_thread):
-    from morf.synth import make_synthetic_capture, synth_config
-
-    project = make_synthetic_capture(tmp_path / "cap", synth_config("tiny"), model=body_model).root
+def test_run_until_fit_then_continue_to_export(tiny_capture, capsys, one_torch_thread):
+    project = tiny_capture.root
     rc, out, err = run(capsys, project, "--preset", "tiny", "--until", "fit")
     assert rc == 0, err
     assert "[1/2] ingest: skipped (already done: 12 frames of a synthetic capture" in out

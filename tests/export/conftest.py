@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tests.conftest import require
+from tests.conftest import copy_capture, require
 
 # Enough tiny-preset steps for the renderer's mask to cover the body: after the preset's own 30 the
 # mask was still at its initial 0.13 on an Intel Xeon with AMX (Dice 0.87) and the bake views
@@ -13,17 +13,16 @@ STEPS = 150
 
 
 @pytest.fixture(scope="module")
-def exported(tmp_path_factory, body_model, gl, one_torch_thread):
+def exported(tmp_path_factory, tiny_capture_source, body_model, gl, one_torch_thread):
     """A tiny synthetic capture, trained with the tiny preset for ``STEPS`` steps (its renderer's
     mask then covers the body), exported with a 5-frame motion clip."""
     from morf.export.gltf_project import export_gltf
     from morf.export.project_export import ProjectExportConfig
-    from morf.synth import make_synthetic_capture, synth_config
     from morf.train.config import preset
     from morf.train.project_run import train_project
 
     root = tmp_path_factory.mktemp("gltf")
-    project = make_synthetic_capture(root / "tiny", synth_config("tiny"), model=body_model)
+    project = copy_capture(tiny_capture_source, root / "tiny")
     train_project(project, preset("tiny", inpaint_steps=0, steps=STEPS), model=body_model)
     J = len(body_model.bone_names)
     rng = np.random.default_rng(1)

@@ -11,16 +11,16 @@ from morf.errors import ProjectError
 from morf.export.project_export import ProjectExportConfig, export_project, pick_run, project_views
 from morf.pipeline.control import StageControl
 from morf.synth.ground_truth import load_ground_truth
+from tests.conftest import copy_capture
 
 
 @pytest.fixture(scope="module")
-def trained_capture(tmp_path_factory, body_model):
+def trained_capture(tmp_path_factory, tiny_capture_source, body_model):
     """``morf synth --preset tiny`` + 3 training steps of the tiny preset on the ground-truth fits."""
-    from morf.synth import make_synthetic_capture, synth_config
     from morf.train.config import preset
     from morf.train.project_run import train_project
 
-    project = make_synthetic_capture(tmp_path_factory.mktemp("export") / "tiny", synth_config("tiny"), model=body_model)
+    project = copy_capture(tiny_capture_source, tmp_path_factory.mktemp("export") / "tiny")
     train_project(project, preset("tiny", steps=3, inpaint_steps=0), model=body_model)
     return project
 

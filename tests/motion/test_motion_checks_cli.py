@@ -97,14 +97,10 @@ def test_motion_export_refuses(tmp_path, case):
 
 
 @pytest.fixture(scope="module")
-def avatar(tmp_path_factory, body_model):
-    """An exported avatar with an untrained renderer: what is played does not matter here."""
-    from morf.export.synthetic import build_synthetic_avatar
-
-    out = tmp_path_factory.mktemp("avatar") / "avatar"
-    build_synthetic_avatar(out, body_model=body_model, texture_size=64, image_size=64, calibration_views=2,
-                           heldout_views=1)
-    return out
+def avatar(tiny_avatar):
+    """The session's tiny exported avatar: what is played does not matter here, only that the motion
+    is refused (or played) before and around it."""
+    return tiny_avatar
 
 
 @pytest.mark.parametrize("case", ["bvh nan", "bvh frame time 0", "npz 1e30 transl", "text npz", "npz bomb"])
