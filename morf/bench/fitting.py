@@ -191,6 +191,28 @@ def root_error_deg(rotvecs: np.ndarray, true_rotvecs: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
 
 
+def bone_error_deg(model, fits, gt, bones: tuple[str, ...]) -> np.ndarray:
+    """(N, len(bones)) angle between the fitted and the true world orientation of ``bones``
+    (their skinning rotations), degrees."""
+    import torch
+
+    from morf.body.model import BodyPose
+
+    def world(rot, tr, shape):
+        out = []
+        with torch.no_grad():
+            for s in range(0, len(rot), 64):
+                sh = torch.as_tensor(shape if len(shape) == 1 else shape[s:s + 64], dtype=torch.float32)
+                o = model(BodyPose(torch.as_tensor(rot[s:s + 64], dtype=torch.float32),
+                                   torch.as_tensor(tr[s:s + 64], dtype=torch.float32)), sh)
+                out.append(o.bone_transforms[:, [model.bone_index(b) for b in bones], :3, :3].numpy())
+        return np.concatenate(out)
+
+    fit, true = world(fits.rotvecs, fits.transl, fits.shape), world(gt.rotvecs, gt.transl, gt.shape)
+    cos = (np.einsum("nkji,nkji->nk", true, fit) - 1.0) / 2.0
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
 def evaluate_config(model, fits, rejected: dict[int, str], gt, gt_verts, gt_roots) -> FitQuality:
     """Metrics of one fit against the ground truth (a :class:`morf.synth.ground_truth.GroundTruth`
     with keypoints_true and corrupted)."""
@@ -226,6 +248,21 @@ def evaluate_config(model, fits, rejected: dict[int, str], gt, gt_verts, gt_root
     )
 
 
+def head_hands_errors(model, fits, rejected: dict[int, str], gt) -> dict:
+    """{"head_error_deg", "wrist_error_deg"}: mean angle between the fitted and the true world
+    orientation of the head bone and of the two wrist bones over the frames kept, degrees (the
+    root's error included, as the image shows it), and "landmark_residual_px" (face, left hand,
+    right hand; medians) when the fit refined them to landmarks."""
+    used = np.ones(fits.num_frames, bool)
+    used[list(rejected)] = False
+    err = bone_error_deg(model, fits, gt, ("head", "wrist.L", "wrist.R"))[used]
+    out = {"head_error_deg": float(err[:, 0].mean()), "wrist_error_deg": float(err[:, 1:].mean()),
+           "landmark_residual_px": None}
+    if fits.landmark_residual_px is not None:
+        out["landmark_residual_px"] = [float(v) for v in np.nanmedian(fits.landmark_residual_px[used], 0)]
+    return out
+
+
 def run(args) -> int:
     import torch
 
@@ -254,6 +291,7 @@ def run(args) -> int:
     camera = project.camera()
     inputs = load_fit_inputs(project, camera, base.silhouette_resolution, base.iou_resolution)
     results: dict[str, ConfigRow] = {}
+    head_hands: dict[str, dict] = {}
     for key in keys:
         cfg = base.replace(**ABLATION[key])
         print(f"fitting: {key}")
@@ -264,8 +302,9 @@ def run(args) -> int:
         row = ConfigRow(evaluate_config(model, fits, rejected, gt, gt_verts, gt_roots), inputs.num_frames / seconds,
                         seconds)
         results[key] = row
+        head_hands[key] = head_hands_errors(model, fits, rejected, gt)
         print("  " + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
-                               for k, v in row.measured().items()))
+                               for k, v in {**row.measured(), **head_hands[key]}.items()))
     base_jitter = results["baseline"].quality.jitter if "baseline" in results else None
     results = {k: replace(row, jitter_reduction=None if not base_jitter else 1.0 - row.quality.jitter / base_jitter)
                for k, row in results.items()}
@@ -277,12 +316,18 @@ def run(args) -> int:
         "fit_settings": list(args.set),
         "machine": machine_info(),
         "configs": {k: row.to_dict() for k, row in results.items()},
+        "head_hands": head_hands,
+        "landmarks": inputs.landmarks is not None,
     }
     rows = [{"config": k, **row.to_dict()} for k, row in results.items()]
     md = (f"# Mesh fitting ablation\n\nCapture: {project.num_frames} frames, "
           f"{project.image_size[0]}x{project.image_size[1]}, {summary['capture']['corrupted_frames']} corrupted; "
           f"true motion jitter {summary['capture']['true_jitter']:.2f} mm/frame^2.\n\n"
-          + markdown_table(rows, COLUMNS))
+          + markdown_table(rows, COLUMNS)
+          + "\n\nHead and wrists (world orientation against the truth, degrees; "
+          + ("landmarks: " + ("yes" if inputs.landmarks is not None else "none in the capture")) + "):\n\n"
+          + markdown_table([{"config": k, **{c: v for c, v in d.items() if c != "landmark_residual_px"}}
+                            for k, d in head_hands.items()], ["config", "head_error_deg", "wrist_error_deg"]))
     if command is not None:
         summary["command"] = command
         md += ("\n\n'morf fit' as a whole command (fresh process, start-up, evaluation and overlays counted): "

@@ -57,6 +57,9 @@ class IngestConfig:
     frame_format: str = "auto"  # "png" | "jpg" | "auto"
     force: bool = False  # replace a project that already has fits / runs / an avatar
     mirror_average: bool = True  # MediaPipe's keypoints averaged with its pass on the mirrored frame
+    # detect face and hand landmarks (MediaPipe face mesh and hands on crops) for the fit's head and
+    # hands, unless the OpenPose files brought their own face and hand points
+    face_hands: bool = True
     tracker: TrackerConfig = field(default_factory=TrackerConfig)  # person choice and following
 
     def validate(self) -> None:
@@ -194,10 +197,41 @@ def ingest(project: str | Path, config: IngestConfig, control: StageControl | No
                 log(line)
     except OSError as e:
         raise ProjectError(f"writing the project {root} failed: {e}") from None
+    if config.face_hands and not labeller.has_hands_face:
+        _detect_face_hands(root, control, log)
     detected = sum(1 for _, lab in rows if lab.found)
     return IngestResult(root, len(rows), out_w, out_h, detected, labeller.people_seen,
                         tuple(labeller.rechosen_frames), replaced, tuple(source.warnings + labeller.warnings),
                         unordered_views=source.kind != "video" and (config.fps or source.fps) is None)
+
+
+def _detect_face_hands(root: Path, control: StageControl, log: Callable[[str], None]) -> None:
+    """Face and hand landmarks of the ingested project, stored beside its keypoints
+    (``morf.capture.landmarks_detect``). Without MediaPipe the project stays without them (the fit
+    then leaves the head and the hands as the body keypoints put them) and the user is told."""
+    from morf.capture.landmarks_detect import detect_project_landmarks
+    from morf.errors import MorfError
+
+    project = CaptureProject.open(root)
+    n = project.num_frames
+    bar = progress(total=n, desc="face and hands", unit="frame")
+
+    def step(i: int) -> None:
+        bar.update(1)
+        control.check()
+        control.report(Progress("ingest", i + 1, n, f"face and hand landmarks, frame {i + 1}", frame=i))
+
+    try:
+        lm = detect_project_landmarks(project, progress=step)
+    except MorfError as e:
+        log(f"face and hand landmarks not detected ({e}); the fit will pose the head and hands from the body "
+            "keypoints alone")
+        return
+    finally:
+        bar.close()
+    found = int((lm.face[:, :, 2].max(1) > 0).sum())
+    hands = int(((lm.hand_left[:, :, 2].max(1) > 0) | (lm.hand_right[:, :, 2].max(1) > 0)).sum())
+    log(f"face landmarks found in {found} of {n} frames, a hand in {hands}")
 
 
 def _nobody_found(frames: int, source: FrameSource, config: IngestConfig) -> str:

@@ -91,6 +91,11 @@ def run(args) -> int:
     if fits.label_swapped is not None and fits.label_swapped.any():
         print(f"{int(fits.label_swapped.sum())} frames fitted as seen from the back with the keypoints' left and "
               "right exchanged (no face found where the labels said front)")
+    if fits.landmark_residual_px is not None:
+        face, left, right = (np.nanmedian(c) if not np.isnan(c).all() else float("nan")
+                             for c in fits.landmark_residual_px.T)
+        print(f"head and hands turned to the face and hand landmarks: median residual face {face:.1f} px, "
+              f"hands {left:.1f} / {right:.1f} px (left / right)")
     if not np.isnan(fits.silhouette_iou).all():
         line = f"silhouette IoU: median {float(np.nanmedian(fits.silhouette_iou)):.3f}"
         if fits.offsets is not None and fits.silhouette_iou_body is not None:

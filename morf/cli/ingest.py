@@ -34,6 +34,10 @@ def add_parser(sub):
                    help="detect MediaPipe's keypoints on each frame once; by default they are detected on the "
                         "mirrored frame too and the two averaged where they agree (twice the detection time for "
                         "closer keypoints and fits, docs/formats.md)")
+    p.add_argument("--no-face-hands", dest="face_hands", action="store_false",
+                   help="skip the face and hand landmarks (MediaPipe face mesh and hands, about 0.1 s a frame) "
+                        "that the fit turns the head, wrists and fingers to; OpenPose files with face and hand "
+                        "points need none")
     return p
 
 
@@ -43,7 +47,7 @@ def run(args) -> int:
     config = IngestConfig(video=args.video, frames=args.frames, keypoints=args.keypoints, masks=args.masks,
                           max_frames=args.max_frames, every=args.every, resize=args.resize, fps=args.fps,
                           focal=args.focal, frame_format=args.frame_format, force=args.force,
-                          mirror_average=args.mirror_average)
+                          mirror_average=args.mirror_average, face_hands=args.face_hands)
     result = ingest(args.project, config)
     for w in result.warnings:
         print(f"morf ingest: warning: {w}", file=sys.stderr)

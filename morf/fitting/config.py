@@ -126,6 +126,9 @@ class FitConfig:
     # try every heading also with the keypoints' left/right labels exchanged, the face deciding
     # between a front view and its mirror-image back view (heading.py); off: the labels as given
     front_back: bool = True
+    # after the last stage, turn the head, the wrists and the fingers to the face and hand landmarks
+    # where the project has them (head_hands.py; detected by ingest, or OpenPose's face and hands)
+    head_hands: bool = True
 
     # evaluation and outputs
     iou_resolution: int = 256  # raster size of the long image side for silhouette IoU

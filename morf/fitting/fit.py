@@ -25,6 +25,7 @@ from morf.fitting.frame_spacing import FrameSpacing
 from morf.fitting.global_init import fit_global
 from morf.fitting.heading import HeadingEvidence, exchange_labels
 from morf.fitting.inputs import FitInputs
+from morf.fitting.landmark_refinement import refine_head_hands
 from morf.fitting.offsets import proxy_edges, spread_to_mesh
 from morf.fitting.optimize import FitProblem, run_stage
 from morf.fitting.params import FIT_BONES, FitParameters
@@ -194,6 +195,12 @@ def finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple
 def _finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tuple[BodyFits, dict[int, str]]:
     inputs = with_labels(inputs, state.swapped)
     device = next(iter(model.buffers())).device
+    landmark_px = None
+    if cfg.head_hands and inputs.landmarks is not None:
+        rotvecs, landmark_px = refine_head_hands(model, state.rotvecs.numpy(), state.transl.numpy(),
+                                                 state.shape.numpy(), inputs.camera, inputs.landmarks, state.swapped,
+                                                 None if state.spacing is None else state.spacing.gaps)
+        state = dataclasses.replace(state, rotvecs=torch.as_tensor(rotvecs))
     rv, tr, sh = (x.to(device) for x in (state.rotvecs, state.transl, state.shape))
     offsets = None
     if state.offsets.numel() > 0 and bool((state.offsets != 0).any()):
@@ -205,7 +212,7 @@ def _finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tupl
                     silhouette_iou=ev.silhouette_iou, silhouette_iou_body=ev.silhouette_iou_body,
                     offsets=None if offsets is None else offsets.cpu().numpy(),
                     projected_keypoints=ev.projected_keypoints, config=cfg.to_dict(), twist_deg=ev.twist_deg,
-                    label_swapped=state.swapped)
+                    label_swapped=state.swapped, landmark_residual_px=landmark_px)
     rejected: dict[int, str] = {}
     if cfg.frame_filter:
         bone_ids = [model.bone_index(b) for b in FIT_BONES]

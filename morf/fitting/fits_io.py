@@ -39,6 +39,11 @@ class BodyFits:
         label_swapped: (N,) bool, frames whose detected keypoints were fitted with left and right
             exchanged (``morf.fitting.heading``: a back view the detector labelled as a front
             view), or None when no frame was.
+        landmark_residual_px: (N, 3) float32 mean distance of the fitted face anchors, left hand
+            and right hand to their landmarks after the head-and-hands refinement, before its
+            changes are smoothed over video neighbours (``morf.fitting.landmark_refinement``;
+            NaN where a group had too little evidence), or
+            None when the fit had no landmarks.
     """
 
     rotvecs: np.ndarray
@@ -53,6 +58,7 @@ class BodyFits:
     offsets: np.ndarray | None = None
     twist_deg: np.ndarray | None = None
     label_swapped: np.ndarray | None = None
+    landmark_residual_px: np.ndarray | None = None
 
     @property
     def num_frames(self) -> int:
@@ -70,7 +76,8 @@ FITS_ONLY_KEYS = ("keypoint_residual_px", "projected_keypoints")
 
 def save_fits(path: str | Path, fits: BodyFits) -> None:
     """Atomically write ``fits`` (a project's is ``project.fits_path``)."""
-    extra = {k: getattr(fits, k).astype(np.float32) for k in ("silhouette_iou_body", "offsets", "twist_deg")
+    extra = {k: getattr(fits, k).astype(np.float32) for k in ("silhouette_iou_body", "offsets", "twist_deg",
+                                                              "landmark_residual_px")
              if getattr(fits, k) is not None}
     if fits.label_swapped is not None:
         extra["label_swapped"] = np.asarray(fits.label_swapped, bool)
@@ -91,12 +98,15 @@ def read_fits(path: str | Path) -> BodyFits:
                         silhouette_iou=d["silhouette_iou"],
                         projected_keypoints=d["projected_keypoints"], config=json.loads(str(d["config"])),
                         silhouette_iou_body=d.get("silhouette_iou_body"), offsets=d.get("offsets"),
-                        twist_deg=d.get("twist_deg"), label_swapped=d.get("label_swapped"))
+                        twist_deg=d.get("twist_deg"), label_swapped=d.get("label_swapped"),
+                        landmark_residual_px=d.get("landmark_residual_px"))
     except (KeyError, ValueError) as e:
         raise ProjectError(f"damaged fits file {path}: {e}") from None
     N = fits.rotvecs.shape[0]
     if fits.rotvecs.ndim != 3 or fits.transl.shape != (N, 3) or fits.shape.shape[0] not in (1, N):
         raise ProjectError(f"damaged fits file {path}: inconsistent shapes")
+    if fits.landmark_residual_px is not None and fits.landmark_residual_px.shape != (N, 3):
+        raise ProjectError(f"damaged fits file {path}: landmark_residual_px must be ({N}, 3)")
     if fits.label_swapped is not None and fits.label_swapped.shape != (N,):
         raise ProjectError(f"damaged fits file {path}: label_swapped must be ({N},)")
     if fits.offsets is not None and fits.offsets.ndim != 1:

@@ -23,6 +23,8 @@ class FitInputs:
         eval_scale: he / image height.
         frame_times: (N,) seconds of each frame (the capture's times, or index / fps), or None.
         unordered: the frames are views in no particular order (a photo set), not a clip.
+        landmarks: (N, 49, 3) float32 face anchors, ears and both hands' 21 points (x, y pixels,
+            confidence; :func:`morf.fitting.head_hands.landmark_targets`), or None without any.
     """
 
     keypoints: np.ndarray
@@ -34,6 +36,7 @@ class FitInputs:
     eval_scale: float = 1.0
     frame_times: np.ndarray | None = None
     unordered: bool = False
+    landmarks: np.ndarray | None = None
 
     @property
     def num_frames(self) -> int:
@@ -83,4 +86,16 @@ def load_fit_inputs(project, camera: PinholeCamera, silhouette_resolution: int, 
             masks_eval[i] = downsample_mask(m, ew, eh) >= 0.5
     unordered = project.unordered_views
     return FitInputs(points, kp.detected.astype(bool), camera, masks, sh / H, masks_eval, eh / H,
-                     None if unordered else project.frame_times(), unordered)
+                     None if unordered else project.frame_times(), unordered, project_landmarks(project, points))
+
+
+def project_landmarks(project, points: np.ndarray) -> np.ndarray | None:
+    """(N, 49, 3) the project's face and hand evidence as the head-and-hands refinement takes it:
+    its detected landmarks, else the OpenPose face and hand points ingest imported; None without."""
+    from morf.capture.landmarks_face_hands import load_landmarks
+    from morf.fitting.head_hands import landmark_targets
+
+    lm = load_landmarks(project)
+    if lm is None:
+        return None
+    return landmark_targets(lm.face_anchors(), lm.hand_left, lm.hand_right, points)

@@ -13,7 +13,10 @@ imitated).
 Where the points sit on the body model: body points are Anny's COCO keypoints (neck and mid-hip
 are midpoints, as OpenPose defines them); hand points are the wrist and finger bone heads and the
 finger tips; face points are vertices of the face's front surface under a template of the
-68-point layout (plus the two pupils) scaled to the model's eyes, nose, mouth and chin.
+68-point layout (plus the two pupils) scaled to the model's eyes, nose, mouth and chin. The points
+the fit reads as face anchors (the nose tip, the inner lips' middles, the chin, the pupils) are the
+body model's own anchor vertices (:func:`morf.body.parts.face_anchor_vertices`): the truth says
+where the fit's points are, so an error measured against it is the fit's.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ import numpy as np
 import torch
 
 from morf.body.model import BodyPose
+from morf.body.parts import face_anchor_vertices
 from morf.camera import PinholeCamera
 from morf.capture.keypoint_layout import BODY25_TO_OURS
 
@@ -98,6 +102,10 @@ def landmark_points(model) -> LandmarkPoints:
         dist2 = (v[ids, 0] - (centre[0] + x * d)) ** 2 + (v[ids, 2] - (centre[2] + z * d)) ** 2
         close = ids[dist2 < (0.004 + dist2.min() ** 0.5) ** 2]
         face[k] = close[np.argmin(v[close, 1])]  # the front-most of the vertices under the point
+    right_eye, left_eye, (nose_tip,), (upper_lip, lower_lip), (chin_v,) = face_anchor_vertices(model)
+    face[[8, 30, 62, 66, 68, 69]] = [chin_v, nose_tip, upper_lip, lower_lip, right_eye[0], left_eye[0]]
+    for first, ids, (pupil,) in ((36, eye_ids[0], right_eye), (42, eye_ids[1], left_eye)):
+        face[first:first + 6] = _eye_ring(v, ids, pupil)
     joints, tips = {}, {}
     for s in ("L", "R"):
         joints[s] = np.array([model.bone_index(f"wrist.{s}")]
@@ -109,6 +117,20 @@ def landmark_points(model) -> LandmarkPoints:
             tip.append(int(on[np.argmax(np.linalg.norm(v[on] - J[last], axis=1))]))
         tips[s] = np.array(tip)
     return LandmarkPoints(face, joints, tips)
+
+
+def _eye_ring(v: np.ndarray, ids: np.ndarray, pupil: int) -> np.ndarray:
+    """(6,) eyeball vertices around the pupil in the 68-point eye order (the corner on the person's
+    right, two upper, the other corner, two lower: outer first for the right eye, inner first for
+    the left), 8 mm to either side and 4 mm up and down: the eye contour whose mean the fit reads
+    as the eye sits on the pupil (an eyelid contour would sit a centimetre in front of it)."""
+    front = ids[v[ids, 1] < v[pupil, 1] + 0.006]
+    angles = (np.pi, 2 * np.pi / 3, np.pi / 3, 0.0, -np.pi / 3, -2 * np.pi / 3)
+    out = []
+    for a in angles:
+        target = v[pupil, [0, 2]] + np.array([0.008 * np.cos(a), 0.004 * np.sin(a)])
+        out.append(front[np.argmin(((v[front][:, [0, 2]] - target) ** 2).sum(1))])
+    return np.array(out)
 
 
 def _hand(joints: np.ndarray, verts: np.ndarray, lm: LandmarkPoints, side: str) -> np.ndarray:

@@ -300,3 +300,30 @@ def test_a_video_without_a_person_fails_through_the_command(tmp_path, inputs):
     line = _one_line_error(r.returncode, r.stderr)
     assert "no person was found in any of the 3 frames" in line and "film one person" in line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["empty room.avi", "in"]
+
+
+def test_face_and_hand_landmarks_are_detected_unless_openpose_brought_them(tmp_path, capsys):
+    from morf.capture.landmarks_face_hands import LANDMARKS_FILE, load_landmarks
+
+    frames = write_frames(tmp_path / "frames", 3)
+    masks = write_masks(tmp_path / "masks", 3, pattern="img_{i}_mask.png")
+    body_only = write_openpose(tmp_path / "kp", 3, [(20, 5, 60, 45)], pattern="img_{i}_keypoints.json")
+    with_hands = write_openpose(tmp_path / "kph", 3, [(20, 5, 60, 45)], hands=True, pattern="img_{i}_keypoints.json")
+    # OpenPose's own face and hand points are the evidence: no detector runs
+    rc, out, err = run_cli(capsys, tmp_path / "a", "--frames", frames, "--keypoints", with_hands, "--masks", masks)
+    assert rc == 0, err
+    a = CaptureProject.open(tmp_path / "a")
+    assert not (a.root / LANDMARKS_FILE).exists() and load_landmarks(a).source == "openpose"
+    # asked not to: nothing
+    rc, out, err = run_cli(capsys, tmp_path / "b", "--frames", frames, "--keypoints", body_only, "--masks", masks,
+                           "--no-face-hands")
+    assert rc == 0, err
+    assert load_landmarks(CaptureProject.open(tmp_path / "b")) is None
+    # body keypoints alone: the landmarks are detected and stored for every frame
+    require("mediapipe")
+    rc, out, err = run_cli(capsys, tmp_path / "c", "--frames", frames, "--keypoints", body_only, "--masks", masks)
+    assert rc == 0, err
+    c = CaptureProject.open(tmp_path / "c")
+    lm = load_landmarks(c)
+    assert (c.root / LANDMARKS_FILE).is_file() and lm.source == "mediapipe" and lm.num_frames == 3
+    assert "face landmarks found in" in out

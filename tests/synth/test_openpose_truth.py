@@ -31,6 +31,9 @@ def test_landmark_points_sit_on_the_face_and_hands(body_model):
     assert f[68, 0] < f[69, 0]  # the right pupil on the person's right (-X)
     assert f[8, 2] < f[57, 2] < f[30, 2] < f[68, 2]  # chin below the mouth below the nose tip below the eyes
     assert f[30, 1] < f[0, 1] and f[30, 1] < f[16, 1]  # the nose tip in front of the jaw's ends
+    assert f[36, 0] < f[39, 0] < 0 < f[42, 0] < f[45, 0]  # eye corners: right outer, right inner, left inner, left outer
+    # the eye contours' means sit on the pupils the fit reads as the eyes (within 2 mm)
+    assert np.abs(f[36:42].mean(0) - f[68]).max() < 0.002 and np.abs(f[42:48].mean(0) - f[69]).max() < 0.002
     tips = v[lm.hand_tips["L"]]
     wrist = out.joints[0, lm.hand_joints["L"][0]].numpy()
     assert (np.linalg.norm(tips - wrist, axis=1) > 0.05).all() and (tips[:, 0] > 0).all()
