@@ -66,7 +66,6 @@ def plan_steps(request: PipelineRequest) -> list[Step]:
     and the video are checked here, before anything runs: an :class:`InputError` otherwise)."""
     from morf.cli import run as morf_run
     from morf.cli.main import build_parser
-    from morf.cli.project_steps import export_plan, fit_plan, train_plan
     from morf.errors import InputError
     from morf.presets import PRESETS
 
@@ -79,27 +78,8 @@ def plan_steps(request: PipelineRequest) -> list[Step]:
     if request.source and not Path(request.source).exists():
         raise InputError(f"video not found: {request.source}")
     args = build_parser().parse_args(request.run_argv())
-    root = Path(args.project)
     frames = request.frames
-    ingest = _frames_plan(root, frames) if frames else morf_run._ingest_plan(root, args)
-    remembered = morf_run._recall(root)
-    if args.preset:
-        name, preset = f"morf-{args.preset}", args.preset
-    else:  # the last 'morf run' on the project chose it, else morf run's default
-        name, preset = morf_run._run_name(root, remembered.get("preset"))[:2]
-    holdout = remembered.get("holdout") if remembered.get("preset") == preset else None
-    fresh = ("train", str(root), "--preset", preset, "--name", name)
-    if holdout is not None:
-        fresh += ("--holdout", str(holdout))
-
-    def fit_step() -> Plan:
-        morf_run._remember(root, preset, holdout)  # the project exists from here on
-        return fit_plan(root, morf_run._fit_preset(preset))
-
-    steps = [Step("ingest", lambda: ingest), Step("fit", fit_step),
-             Step("train", lambda: train_plan(root, name, fresh, holdout)),
-             Step("export", lambda: export_plan(root, name))]
-    return steps[:STAGES.index(args.until) + 1]
+    return list(morf_run.plan_run(args, _frames_plan(Path(args.project), frames) if frames else None).steps)
 
 
 def _frames_plan(root: Path, frames: str) -> Plan:

@@ -10,6 +10,7 @@ training size and hold-out the last ``morf run`` on it chose (PROJECT/run.json).
 from __future__ import annotations
 
 import shlex
+from dataclasses import dataclass
 from pathlib import Path
 
 from morf.presets import PRESETS
@@ -50,11 +51,25 @@ def add_parser(sub):
     return p
 
 
-def run(args) -> int:
-    from morf.cli.main import main
+@dataclass(frozen=True)
+class RunPlan:
+    """What ``morf run`` will do: its steps (``morf.pipeline.chain.Step``, up to ``--until``), the
+    training run's name and preset and why that preset, and the hold-out. The studio's worker runs
+    the same plan, so a project made in the app continues with ``morf run`` and the other way round."""
+
+    steps: tuple
+    name: str
+    preset: str
+    why: str
+    holdout: int | None
+
+
+def plan_run(args, ingest=None) -> RunPlan:
+    """Plan ``morf run`` for parsed ``args`` (checks the project and the video first: an InputError
+    before anything runs). ``ingest``: a ``Plan`` that replaces the video's ingest (a frames folder)."""
     from morf.cli.project_steps import export_plan, fit_plan, train_plan
     from morf.errors import InputError
-    from morf.pipeline.chain import Step, run_steps
+    from morf.pipeline.chain import Step
 
     root = Path(args.project)
     if args.holdout is not None and args.holdout < 2:
@@ -62,7 +77,8 @@ def run(args) -> int:
     given = [flag for flag, value in _ingest_options(args) if value is not None]
     if given and not args.video:
         raise InputError(f"{', '.join(given)} go with --video (they are used while ingesting)")
-    ingest = _ingest_plan(root, args)  # checks the project and the video before anything runs
+    if ingest is None:
+        ingest = _ingest_plan(root, args)  # checks the project and the video before anything runs
     remembered = _recall(root)
     if args.preset:
         name, preset, why = f"morf-{args.preset}", args.preset, "given with --preset"
@@ -82,19 +98,25 @@ def run(args) -> int:
         _remember(root, preset, holdout)  # the project exists from here on
         return fit_plan(root, fit_preset)
 
-    print(f"training preset: {preset} ({why}){preset_hint(preset)}")
-    steps = [
-        Step("ingest", lambda: ingest),
-        Step("fit", fit_step),
-        Step("train", lambda: train_plan(root, name, fresh, holdout)),
-        Step("export", lambda: export_plan(root, name)),
-    ][:STAGES.index(args.until) + 1]
-    rc = run_steps(steps, main, "run", again_command(args))
+    steps = (Step("ingest", lambda: ingest), Step("fit", fit_step),
+             Step("train", lambda: train_plan(root, name, fresh, holdout)),
+             Step("export", lambda: export_plan(root, name)))
+    return RunPlan(steps[:STAGES.index(args.until) + 1], name, preset, why, holdout)
+
+
+def run(args) -> int:
+    from morf.cli.main import main
+    from morf.pipeline.chain import run_steps
+
+    root = Path(args.project)
+    plan = plan_run(args)
+    print(f"training preset: {plan.preset} ({plan.why}){preset_hint(plan.preset)}")
+    rc = run_steps(list(plan.steps), main, "run", again_command(args))
     if rc == 0 and args.until == "ingest":
-        _remember(root, preset, holdout)
+        _remember(root, plan.preset, plan.holdout)
     if rc == 0:
         if args.until == "export":
-            print(f"avatar ready in {root / 'avatar'} (run {name}); animate it with: "
+            print(f"avatar ready in {root / 'avatar'} (run {plan.name}); animate it with: "
                   f"morf animate {shlex.quote(str(root))} --motion FILE --out video.mp4")
         else:
             print(f"stopped after {args.until} as asked; continue to the export with: "
