@@ -238,7 +238,8 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
     refined, poses = None, None
     if cfg.refine_poses:
         frames, refined, poses = _refine(project, model, avatar, target, fits, frames, camera, cfg.refine, say)
-    scores = evaluate_frames(avatar, frames)
+    # a photo set's views are no sequence: flicker between unrelated photos means nothing
+    scores = evaluate_frames(avatar, frames, ordered=not (target.key.startswith("holdout") and project.unordered_views))
     colour = torch.tensor(scores.background, dtype=torch.float32)
     if tr.column is None:
         tr.column, tr.rows = person_column(frames), sheet_rows(frames.num_frames, cfg.sheet_rows)

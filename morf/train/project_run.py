@@ -120,7 +120,7 @@ def backdrop_colour(frames) -> torch.Tensor:
     return background_colour(sample.image, sample.mask)
 
 
-def evaluate_frames(avatar, frames, background: str = "capture") -> FrameScores:
+def evaluate_frames(avatar, frames, background: str = "capture", ordered: bool = True) -> FrameScores:
     """Render every frame of a FrameSet with a TrainedAvatar and score it against the frames.
 
     Both the render and the frame are composited over one flat colour, as the player composites
@@ -128,7 +128,8 @@ def evaluate_frames(avatar, frames, background: str = "capture") -> FrameScores:
     person masks of the frames (the capture's own backdrop), ``"black"`` compares on black.
     Returns PSNR / SSIM over the whole image and over the person only (``*_person``, the ground
     truth mask), ``temporal`` flicker (frames in order), the background colour and the frame count
-    (:class:`~morf.train.frame_scores.FrameScores`).
+    (:class:`~morf.train.frame_scores.FrameScores`). ``ordered=False`` (a photo set's unordered
+    views): no flicker (NaN), since neighbouring frames are unrelated photos.
     """
     from morf.avatar.metrics import composite_over, psnr, ssim, summarize, temporal_flicker
 
@@ -146,5 +147,6 @@ def evaluate_frames(avatar, frames, background: str = "capture") -> FrameScores:
         p_person.append(psnr(pred, gt, b.mask)); s_person.append(ssim(pred, gt, b.mask))
         preds.append(pred[0]); gts.append(gt[0]); masks.append(b.mask[0])
     return FrameScores(summarize(p_all), summarize(s_all), summarize(p_person), summarize(s_person),
-                       temporal_flicker(torch.stack(preds), torch.stack(gts), torch.stack(masks)),
+                       temporal_flicker(torch.stack(preds), torch.stack(gts), torch.stack(masks))
+                       if ordered else float("nan"),
                        tuple(round(float(c), 4) for c in colour), frames.num_frames)
