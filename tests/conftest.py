@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import importlib
 import os
 import shutil
@@ -116,16 +118,24 @@ def lpips_weights(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def local_ray():
-    """A local Ray of two CPUs (two workers at once), no dashboard, a small object store."""
+def local_ray(tmp_path_factory):
+    """A local Ray of two CPUs (two workers at once), no dashboard, a small object store.
+
+    Under pytest-xdist the test files that use it run one at a time (a file lock in the run's
+    temporary folder, which the workers share): two local clusters side by side would each start
+    two workers on the same two cores."""
     from morf.scale.ray_runtime import RayOptions, connect
 
     ray = require("ray")
-    if ray.is_initialized():
+    with contextlib.ExitStack() as stack:
+        if os.environ.get("PYTEST_XDIST_WORKER"):
+            lock = stack.enter_context(open(tmp_path_factory.getbasetemp().parent / "local-ray.lock", "w"))
+            fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+        if ray.is_initialized():
+            ray.shutdown()
+        connect(RayOptions(num_cpus=2, object_store_memory=80 * 1024**2))
+        yield ray
         ray.shutdown()
-    connect(RayOptions(num_cpus=2, object_store_memory=80 * 1024**2))
-    yield ray
-    ray.shutdown()
 
 
 @pytest.fixture()

@@ -16,12 +16,10 @@ from morf.errors import InputError
 
 
 @pytest.mark.slow
-def test_batch_of_three_with_one_broken(tmp_path, capsys, body_model, local_ray):
-    from morf.synth import make_synthetic_capture, synth_config
-
+def test_batch_of_three_with_one_broken(tmp_path, capsys, tiny_capture_source, local_ray):
     caps = tmp_path / "captures"
-    make_synthetic_capture(caps / "alice", synth_config("tiny"), model=body_model)
-    shutil.copytree(caps / "alice", caps / "bob")
+    shutil.copytree(tiny_capture_source, caps / "alice")
+    shutil.copytree(tiny_capture_source, caps / "bob")
     (caps / "broken").mkdir()
     (caps / "broken" / "morf_project.json").write_text("{not json")
 
