@@ -12,9 +12,7 @@ from morf.errors import InputError
 @pytest.mark.gl
 def test_tiny_auto_check(tmp_path, body_model, gl):
     out = tmp_path / "auto"
-    # one sweep point beside the base and the automatic choice: the whole tiny sweep's trainings
-    # were most of the suite's time, and test_pareto covers the sweep over every point
-    res = auto_check(out, "tiny", body_model, scenes=("plain", "print"), points=["texture-32"])
+    res = auto_check(out, "tiny", body_model, scenes=("plain", "print"))
     data = json.loads((out / "auto_check.json").read_text())
     assert [r["scene"] for r in data["table"]] == ["plain", "print"] == [r["scene"] for r in res["table"]]
     for row in data["table"]:
