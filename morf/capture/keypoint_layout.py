@@ -17,6 +17,21 @@ KEYPOINT_NAMES = (
 )
 NUM_KEYPOINTS = len(KEYPOINT_NAMES)
 
+
+def _mirror_index() -> np.ndarray:
+    """(23,) index of each keypoint's left/right partner (itself for the nose)."""
+    index = np.arange(NUM_KEYPOINTS)
+    for i, name in enumerate(KEYPOINT_NAMES):
+        for a, b in (("left_", "right_"), ("right_", "left_")):
+            if name.startswith(a):
+                index[i] = KEYPOINT_NAMES.index(b + name[len(a):])
+    return index
+
+
+# Each keypoint's mirror partner: a mirrored frame's points (mirror_average) and a detector's
+# exchanged left/right labels (the fit's front/back choice) are undone with it.
+MIRROR_INDEX = _mirror_index()
+
 # Skeleton edges for drawing overlays.
 SKELETON = (
     (5, 6), (5, 7), (7, 9), (6, 8), (8, 10), (5, 11), (6, 12), (11, 12),

@@ -14,23 +14,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from morf.capture.keypoint_layout import KEYPOINT_NAMES
+from morf.capture.keypoint_layout import MIRROR_INDEX
 
 AGREE = 0.025  # largest distance between the two passes' points that is averaged, x the keypoints' height
 MIN_AGREE_PX = 4.0
-
-
-def _mirror_index() -> np.ndarray:
-    """Index of each keypoint's mirror partner (left <-> right; itself for the nose)."""
-    index = np.arange(len(KEYPOINT_NAMES))
-    for i, name in enumerate(KEYPOINT_NAMES):
-        for a, b in (("left_", "right_"), ("right_", "left_")):
-            if name.startswith(a):
-                index[i] = KEYPOINT_NAMES.index(b + name[len(a):])
-    return index
-
-
-MIRROR_INDEX = _mirror_index()
 
 
 def unmirror(points: np.ndarray, width: int) -> np.ndarray:

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from morf.capture.keypoint_layout import KEYPOINT_NAMES
+from morf.capture.keypoint_layout import MIRROR_INDEX
 from morf.camera import PinholeCamera
 
 NOSE, EYES = 0, (1, 2)
@@ -38,19 +38,6 @@ FACE_SEEN_CONF = 0.3  # a face point counts as seen above this confidence
 # cosine between the body's forward direction and the direction to the camera above which the body
 # faces the camera fully (45 degrees), and below whose negative it faces away fully
 FACING_FULL = 0.7
-
-
-def _mirror_index() -> np.ndarray:
-    """(23,) index of each keypoint's left/right partner (itself for the nose)."""
-    index = np.arange(len(KEYPOINT_NAMES))
-    for i, name in enumerate(KEYPOINT_NAMES):
-        for a, b in (("left_", "right_"), ("right_", "left_")):
-            if name.startswith(a):
-                index[i] = KEYPOINT_NAMES.index(b + name[len(a):])
-    return index
-
-
-MIRROR_INDEX = _mirror_index()
 
 
 @dataclass(frozen=True)
