@@ -33,8 +33,6 @@ import base64
 import io
 import json
 import os
-import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -45,9 +43,12 @@ from pathlib import Path
 
 import numpy as np
 
+# the Chromium finder and process-group ending the web player's driver uses (morf is installed in
+# the virtualenv this script runs with)
+from morf.web.browser import BROWSERS, end_group, find_chromium
+
 HERE = Path(__file__).resolve().parent
 THREE_MODULE = HERE / "node_modules" / "three" / "build" / "three.module.js"
-BROWSERS = ("chromium-headless-shell", "chromium", "chromium-browser", "google-chrome")
 # WebGL on SwiftShader through ANGLE: the software path, the same on every machine.
 BROWSER_FLAGS = ("--headless", "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
                  "--ignore-gpu-blocklist", "--disable-dev-shm-usage", "--no-first-run", "--mute-audio",
@@ -57,13 +58,6 @@ BROWSER_FLAGS = ("--headless", "--use-gl=angle", "--use-angle=swiftshader", "--e
 BIND_TOL = 1e-4  # the bind pose must leave the mesh where it is (float32 rounding only)
 GPU_TOL = 1e-4  # the skinning shader against three's CPU skinning of the same pose
 MIN_BODY_SHARE = 0.02  # share of a panel's pixels off the background for "a body is drawn"
-
-
-def find_chromium(explicit: str | None = None) -> str | None:
-    """The Chromium binary: ``explicit``, else $CHROMIUM, else the first of :data:`BROWSERS` on PATH."""
-    if explicit or os.environ.get("CHROMIUM"):
-        return shutil.which(explicit or os.environ["CHROMIUM"])
-    return next((p for p in map(shutil.which, BROWSERS) if p), None)
 
 
 def missing_tools(chromium: str | None = None) -> str | None:
@@ -107,31 +101,6 @@ class _Handler(SimpleHTTPRequestHandler):
 
     def log_message(self, *args) -> None:
         pass
-
-
-def end_group(proc: subprocess.Popen, wait: float = 10.0) -> None:
-    """End the process group led by ``proc`` (started with ``start_new_session``): SIGTERM, then
-    SIGKILL for what is left after ``wait`` seconds."""
-
-    def gone() -> bool:
-        proc.poll()  # reap the leader, so that an emptied group reads as gone
-        try:
-            os.killpg(proc.pid, 0)
-            return False
-        except ProcessLookupError:
-            return True
-
-    for sig in (signal.SIGTERM, signal.SIGKILL):
-        if gone():
-            break
-        try:
-            os.killpg(proc.pid, sig)
-        except ProcessLookupError:  # emptied since
-            break
-        deadline = time.monotonic() + wait
-        while not gone() and time.monotonic() < deadline:
-            time.sleep(0.1)
-    proc.wait()
 
 
 def run_page(glb: Path, out_dir: Path, times: str | None = None, pose: Path | None = None,
