@@ -17,13 +17,14 @@ import sys
 from pathlib import Path
 
 import pytest
+from packaging.requirements import Requirement
 
-from tests.conftest import strict_install
+from tests.conftest import require, strict_install
 
 try:
     import tomllib
-except ModuleNotFoundError:  # Python 3.10
-    tomllib = pytest.importorskip("tomli")
+except ModuleNotFoundError:  # Python 3.10: the test extra brings tomli there
+    tomllib = require("tomli")
 
 REPO = Path(__file__).resolve().parents[1]
 SOURCES = ("morf", "studio")
@@ -42,6 +43,11 @@ NOT_IMPORTED = {
     "flatbuffers": "MediaPipe's",
     "protobuf": "MediaPipe's (and onnx's)",
 }
+# In the test extra, not imported by the tests: a pytest plugin, loaded by its command-line flag.
+TEST_PLUGINS = {"pytest-xdist": "scripts/test.sh runs the suite with -n"}
+# Imports of these (the optional one and the extras) must sit inside functions, or in a try
+# whose handler catches ImportError, so that the rest of morf imports without them.
+GUARDED = (*OPTIONAL_IMPORTS, "av", "ray")
 # MediaPipe 0.10.14's requirements that are deliberately not installed: its pose solution needs
 # none of them, and opencv-contrib-python would replace the headless cv2.
 MEDIAPIPE_LEFT_OUT = {"jax", "jaxlib", "opencv-contrib-python", "sounddevice"}
@@ -56,19 +62,31 @@ def requirement_name(requirement: str) -> str:
     return canonical(re.match(r"\s*([A-Za-z0-9][A-Za-z0-9._-]*)", requirement).group(1))
 
 
-def declared(extras: bool = True, test: bool = False) -> set[str]:
-    """Distributions pyproject.toml declares: core, and the extras other than ``test`` (and it too)."""
+def declared(extras: bool = True, test: bool = False, only: str | None = None) -> set[str]:
+    """Distributions pyproject.toml declares for this Python: core, and the extras other than
+    ``test`` (and it too); with ``only``, that extra alone."""
     project = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]
-    reqs = list(project["dependencies"])
+    reqs = [] if only else list(project["dependencies"])
     for extra, more in project.get("optional-dependencies", {}).items():
-        if extras and (extra != "test" or test):
+        if extra == only or (only is None and extras and (extra != "test" or test)):
             reqs += more
-    return {requirement_name(r) for r in reqs}
+    wanted = [Requirement(r) for r in reqs]
+    return {canonical(r.name) for r in wanted if r.marker is None or r.marker.evaluate()}
 
 
-def imported_modules(roots: list[Path], calls: bool = True) -> dict[str, set[str]]:
-    """Top-level module -> files importing it, for every absolute import under ``roots`` (with
-    ``calls``, also ``import_module("name")``: the tests import missing names on purpose)."""
+def _called_with_a_name(node: ast.AST, functions: tuple[str, ...]) -> str | None:
+    """``"name"`` of a call ``f("name")`` or ``x.f("name")`` with ``f`` in ``functions``."""
+    if not (isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant)
+            and isinstance(node.args[0].value, str)):
+        return None
+    f = node.func
+    return node.args[0].value if getattr(f, "attr", getattr(f, "id", None)) in functions else None
+
+
+def imported_modules(roots: list[Path], calls: tuple[str, ...] = ("import_module",)) -> dict[str, set[str]]:
+    """Top-level module -> files importing it, for every absolute import under ``roots``, and every
+    call of one of ``calls`` with a literal module name (the tests import missing names on purpose
+    with ``import_module``; they need a module through ``require``)."""
     found: dict[str, set[str]] = {}
     for root in roots:
         for path in sorted(root.rglob("*.py")):
@@ -79,9 +97,8 @@ def imported_modules(roots: list[Path], calls: bool = True) -> dict[str, set[str
                     names = [a.name for a in node.names]
                 elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
                     names = [node.module]
-                elif (calls and isinstance(node, ast.Call) and getattr(node.func, "attr", None) == "import_module"
-                      and node.args and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
-                    names = [node.args[0].value]
+                elif (called := _called_with_a_name(node, calls)) is not None:
+                    names = [called]
                 for name in names:
                     found.setdefault(name.split(".")[0], set()).add(str(path.relative_to(REPO)))
     return found
@@ -166,7 +183,7 @@ def test_tests_import_only_what_is_installed_with_the_project():
     tests = REPO / "tests"
     local = {p.stem for p in tests.rglob("*.py")} | {p.name for p in tests.rglob("*") if p.is_dir()}
     local |= {"tests", *SOURCES}
-    modules = third_party(imported_modules([tests], calls=False), local)
+    modules = third_party(imported_modules([tests], calls=()), local)
     modules = {m: f for m, f in modules.items() if m not in OPTIONAL_IMPORTS}
     dists, missing = distributions_of(modules)
     if missing:
@@ -177,3 +194,68 @@ def test_tests_import_only_what_is_installed_with_the_project():
     allowed = _requirements_closure(declared(test=True))
     stray = {d: sorted(dists[d]) for d in set(dists) - allowed}
     assert not stray, f"the tests import distributions pyproject.toml brings neither directly nor through another: {stray}"
+
+
+def test_every_test_extra_is_used_by_the_tests():
+    """The other way round for the test extra: each of its distributions is imported (or needed
+    through ``require``) by some test, or is a plugin with its reason above."""
+    tests = REPO / "tests"
+    modules = imported_modules([tests], calls=("import_module", "require", "importorskip"))
+    wanted = declared(only="test") - set(TEST_PLUGINS)
+    table = md.packages_distributions()
+    provided = {canonical(d) for m in modules for d in table.get(m, ())}
+    absent = sorted(d for d in wanted if not _installed(d))
+    if absent:
+        why = f"the test extra is not installed: {absent} (pip install -e '.[test]')"
+        if strict_install():
+            pytest.fail(why, pytrace=False)
+        pytest.skip(why)
+    unused = sorted(wanted - provided)
+    assert not unused, f"in pyproject.toml's test extra but needed by no test: {unused}"
+    assert re.search(r"pytest [^\n]*-n ", (REPO / "scripts" / "test.sh").read_text()), TEST_PLUGINS["pytest-xdist"]
+
+
+def _installed(distribution: str) -> bool:
+    try:
+        md.distribution(distribution)
+    except md.PackageNotFoundError:
+        return False
+    return True
+
+
+def _guarded_by_import_error(handlers: list[ast.ExceptHandler]) -> bool:
+    names = {n.id for h in handlers for n in ast.walk(h.type) if isinstance(n, ast.Name)} if handlers else set()
+    return bool(names & {"ImportError", "ModuleNotFoundError", "Exception"}) or any(h.type is None for h in handlers)
+
+
+def _module_level_imports(tree: ast.Module) -> list[tuple[int, str]]:
+    """(line, top-level module) of the imports that run when the module is imported: those not
+    inside a function and not in a ``try`` whose handler catches ImportError."""
+    found = []
+
+    def visit(body: list[ast.stmt]) -> None:
+        for node in body:
+            if isinstance(node, ast.Import):
+                found.extend((node.lineno, a.name.split(".")[0]) for a in node.names)
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                found.append((node.lineno, node.module.split(".")[0]))
+            elif isinstance(node, ast.Try):
+                if not _guarded_by_import_error(node.handlers):
+                    visit(node.body)
+                visit(node.orelse + node.finalbody + [s for h in node.handlers for s in h.body])
+            elif isinstance(node, (ast.If, ast.With, ast.ClassDef)):
+                visit(node.body + getattr(node, "orelse", []))
+
+    visit(tree.body)
+    return found
+
+
+def test_optional_imports_wait_until_they_are_needed():
+    """MediaPipe, PyAV and Ray are optional (not declared, or an extra): no module of morf/ or
+    studio/ imports them when it is imported itself, so every command that does not need them runs
+    without them (and the ones that do say what to install)."""
+    offenders = [f"{path.relative_to(REPO)}:{line}: import {name}"
+                 for source in SOURCES for path in sorted((REPO / source).rglob("*.py"))
+                 for line, name in _module_level_imports(ast.parse(path.read_text(), str(path)))
+                 if name in GUARDED]
+    assert not offenders, "imported at module level although optional:\n" + "\n".join(offenders)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import ast
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -82,6 +83,44 @@ def test_the_wheel_carries_every_shipped_file(built_wheel):
     missing = [f for f in files if f"morf/_resources/{f}" not in names]
     assert not missing, f"shipped files left out of the wheel: {missing}"
     assert "morf/machine/cpuid_mask.c" in names and "morf/train/trainer.py" in names  # data and namespace packages
+
+
+def _asked_for_by_the_code() -> set[str]:
+    """Shipped files the code names: the GLSL of every ``shader_stages("x")`` / ``shader_source("y")``
+    call with a literal name, the font, the demo's motion."""
+    wanted = {"fonts/DejaVuSans.ttf", "fonts/DejaVuSans-LICENSE.txt", "motions/walk_forward.npz"}
+    for path in [*(REPO / "morf").rglob("*.py"), *(REPO / "studio").rglob("*.py")]:
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not (isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant)):
+                continue
+            name = getattr(node.func, "id", getattr(node.func, "attr", None))
+            if name == "shader_stages":
+                wanted |= {f"shaders/{node.args[0].value}_vs.glsl", f"shaders/{node.args[0].value}_fs.glsl"}
+            elif name == "shader_source":
+                wanted.add(f"shaders/{node.args[0].value}")
+    return wanted
+
+
+def _asked_for_by_the_page() -> set[str]:
+    """The browser player's own files its page loads: index.html's ``src``/``href`` and the scripts'
+    relative ``import ... from './x.js'`` (``lib/`` holds onnxruntime-web, copied in at export)."""
+    web = ROOT / "web"
+    wanted = {"web/index.html"}
+    wanted |= {f"web/{m}" for m in re.findall(r'(?:src|href)="([^":/]+)"', (web / "index.html").read_text())}
+    for script in web.glob("*.js"):
+        wanted |= {f"web/{m}" for m in re.findall(r"from\s+'\./([^']+)'", script.read_text())}
+    return wanted
+
+
+def test_the_wheel_carries_what_the_code_and_the_page_ask_for(built_wheel):
+    """By kind: every shader a module compiles, the font and its licence, the sample motions, and
+    the web player's page with every script and style sheet it loads."""
+    names = {n.removeprefix("morf/_resources/") for n in zipfile.ZipFile(built_wheel).namelist()}
+    code, page = _asked_for_by_the_code(), _asked_for_by_the_page()
+    assert sum(f.startswith("shaders/") for f in code) >= 10 and len(page) >= 10  # the scan found the callers
+    assert not code - names, f"the code asks for shipped files the wheel lacks: {sorted(code - names)}"
+    assert not page - names, f"the web page loads files the wheel lacks: {sorted(page - names)}"
+    assert {f"motions/{n}.npz" for n in ("idle_sway", "walk_in_place", "walk_forward")} <= names
 
 
 def test_the_installed_wheel_finds_its_files_through_the_loader(built_wheel, tmp_path):
