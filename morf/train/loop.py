@@ -13,7 +13,6 @@ import copy
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import torch
@@ -24,23 +23,10 @@ from morf.pipeline.control import Progress, StageControl
 from morf.train.config import TrainConfig
 from morf.train.frames import FrameSet
 from morf.train.health import CollapseMonitor
+from morf.train.inpaint_views import InpaintViews
 from morf.train.run_session import finish_avatar, handle_divergence, open_run, recovery_policy, save_checkpoint
 
 SNAPSHOT_EVERY = 100  # steps between in-memory snapshots of a healthy state (rollback targets)
-
-
-@dataclass(frozen=True)
-class InpaintViews:
-    """What the inpainting fine-tune needs besides the frames.
-
-    Fields:
-        covered: (Ht, Wt) bool texels inside the UV islands.
-        make_views: callable () -> (uv (V, H, W, 2) float tensor, uv_mask (V, H, W) bool tensor),
-            rasterizations in extreme poses / views (called once, after the main stage).
-    """
-
-    covered: np.ndarray
-    make_views: Callable[[], tuple[torch.Tensor, torch.Tensor]]
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,6 @@ import copy
 import json
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import torch
 
@@ -22,15 +21,13 @@ from morf.pipeline.control import Progress, StageControl
 from morf.train.config import TrainConfig
 from morf.train.frames import FrameSet
 from morf.train.health import CollapseMonitor
+from morf.train.inpaint_views import InpaintViews
 from morf.train.recovery import RecoveryPolicy
 from morf.train.run_dir import RunDir
 from morf.train.run_files import last_step
 from morf.train.start_log import log_start
 from morf.train.trained_avatar import save_trained_avatar
 from morf.train.trainer import Trainer
-
-if TYPE_CHECKING:
-    from morf.train.loop import InpaintViews
 
 
 def open_run(frames: FrameSet, run_dir: str | Path, cfg: TrainConfig, texture_init: torch.Tensor, perceptual,
