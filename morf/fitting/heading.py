@@ -57,12 +57,16 @@ class HeadingEvidence:
     face_away: float = 0.03
 
 
-def exchange_labels(points: np.ndarray, swapped: np.ndarray | None) -> np.ndarray:
-    """(N, 23, 3) keypoints with left and right exchanged in the frames where ``swapped`` (N,) is set."""
+def exchange_labels(points: np.ndarray, swapped: np.ndarray | None, mirror: np.ndarray = MIRROR_INDEX) -> np.ndarray:
+    """(N, P, 3) points with left and right exchanged in the frames where ``swapped`` (N,) is set:
+    point ``k`` of such a frame becomes point ``mirror[k]`` (P,). The default is the 23 body
+    keypoints' table; the face and hand landmarks pass their own
+    (:func:`morf.fitting.landmark_refinement.exchange_landmark_labels`). ``points`` itself comes
+    back when no frame is swapped."""
     if swapped is None or not np.any(swapped):
         return points
     out = np.array(points, copy=True)
-    out[swapped] = out[swapped][:, MIRROR_INDEX]
+    out[swapped] = out[swapped][:, mirror]
     return out
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from morf.fitting.head_hands import HeadHandsConfig, fit_head_hands
+from morf.fitting.heading import exchange_labels
 
 SMOOTH_GAP = 1.5  # frames at most this many reference intervals apart are smoothed together
 # landmark_targets' order: 5 face anchors (right eye, left eye, nose tip, mouth, chin), 2 ears
@@ -22,11 +23,7 @@ _MIRROR = np.r_[[1, 0, 2, 3, 4, 6, 5], np.arange(28, 49), np.arange(7, 28)]
 
 def exchange_landmark_labels(targets: np.ndarray, swapped: np.ndarray | None) -> np.ndarray:
     """(N, 49, 3) landmark targets with left and right exchanged where ``swapped`` (N,) is set."""
-    if swapped is None or not np.any(swapped):
-        return targets
-    out = np.array(targets, copy=True)
-    out[swapped] = out[swapped][:, _MIRROR]
-    return out
+    return exchange_labels(targets, swapped, _MIRROR)
 
 
 def smooth_changes(before: np.ndarray, after: np.ndarray, gaps: np.ndarray | None, passes: int = 8) -> np.ndarray:
