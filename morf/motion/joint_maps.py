@@ -82,51 +82,53 @@ def limb_anchors(side: str, clavicle: str | None, upper: str, fore: str, hand: s
     return out
 
 
-def _smpl() -> JointMap:
-    anchors = [
-        Anchor("root", "pelvis"),
-        Anchor("spine03", "spine1", "spine02", "spine2"),
-        Anchor("spine02", "spine2", "spine01", "spine3"),
-        Anchor("spine01", "spine3", "neck01", "neck"),
-        Anchor("neck01", "neck", "head", "head"),
-        Anchor("head", "head"),
-    ]
-    for s, w in (("L", "left"), ("R", "right")):
-        anchors += limb_anchors(s, f"{w}_collar", f"{w}_shoulder", f"{w}_elbow", f"{w}_wrist", f"{w}_hand",
-                                f"{w}_hip", f"{w}_knee", f"{w}_ankle", f"{w}_foot", f"{w}_foot_end")
-    return JointMap("smpl", tuple(anchors), ("left_hip", "right_hip"), "neck")
+# The skeletons known by their joint names, one column each: the joint that drives each Anny
+# bone, ">" the joint its rest direction points to (the spine's; the limbs' follow from
+# limb_anchors), "-" none. Each spine bone's direction ends at the next anchored bone, the last
+# one's at the head; the joint on neck01 is the map's ``up``, the thighs are its ``hips``. Limb
+# names are templates: {side} "left" / "right", {Side} "Left" / "Right", {s} "L" / "R", {l} "l" / "r".
+# cmu: the 31-joint CMU conversion (fairmotion / Bruderlin names; Spine1 and LeftHand own no
+# segment); cmu-old: the older one (LeftHip / LeftKnee, lowerback / Chest / Chest2 / lowerneck).
+_NAMED_SKELETONS = """
+Anny        smpl               cmu                  cmu-old
+root        pelvis             Hips                 Hips
+spine04     -                  LowerBack>Spine      lowerback>Chest
+spine03     spine1>spine2      -                    -
+spine02     spine2>spine3      Spine>Spine1         Chest>Chest2
+spine01     spine3>neck        Neck>Neck1           lowerneck>Neck
+neck01      neck>head          Neck1>Head           Neck>Head
+head        head               Head                 Head
+clavicle    {side}_collar      {Side}Shoulder       {Side}Collar
+upperarm    {side}_shoulder    {Side}Arm            {Side}Shoulder
+lowerarm    {side}_elbow       {Side}ForeArm        {Side}Elbow
+hand        {side}_wrist       {Side}FingerBase     {l}hand
+hand_tip    {side}_hand        {s}Fingers           {s}Fingers
+thigh       {side}_hip         {Side}UpLeg          {Side}Hip
+shin        {side}_knee        {Side}Leg            {Side}Knee
+foot        {side}_ankle       {Side}Foot           {Side}Ankle
+toe         {side}_foot        {Side}ToeBase        {Side}Toe
+toe_tip     {side}_foot_end    {Side}ToeBase_end    {Side}Toe_end
+"""
+_SPINE_ROWS = ("spine04", "spine03", "spine02", "spine01", "neck01")
+_LIMB_ROWS = ("clavicle", "upperarm", "lowerarm", "hand", "hand_tip", "thigh", "shin", "foot", "toe", "toe_tip")
 
 
-def _cmu() -> JointMap:
-    # 31-joint CMU conversion (fairmotion / Bruderlin names). Spine1 and LeftHand own no segment.
-    anchors = [
-        Anchor("root", "Hips"),
-        Anchor("spine04", "LowerBack", "spine02", "Spine"),
-        Anchor("spine02", "Spine", "spine01", "Spine1"),
-        Anchor("spine01", "Neck", "neck01", "Neck1"),
-        Anchor("neck01", "Neck1", "head", "Head"),
-        Anchor("head", "Head"),
-    ]
-    for s, w in (("L", "Left"), ("R", "Right")):
-        anchors += limb_anchors(s, f"{w}Shoulder", f"{w}Arm", f"{w}ForeArm", f"{w}FingerBase", f"{s}Fingers",
-                                f"{w}UpLeg", f"{w}Leg", f"{w}Foot", f"{w}ToeBase", f"{w}ToeBase_end")
-    return JointMap("cmu", tuple(anchors), ("LeftUpLeg", "RightUpLeg"), "Neck1")
-
-
-def _cmu_old() -> JointMap:
-    # Older CMU conversion (LeftHip/LeftKnee, lowerback/Chest/Chest2/lowerneck, LeftCollar, lhand).
-    anchors = [
-        Anchor("root", "Hips"),
-        Anchor("spine04", "lowerback", "spine02", "Chest"),
-        Anchor("spine02", "Chest", "spine01", "Chest2"),
-        Anchor("spine01", "lowerneck", "neck01", "Neck"),
-        Anchor("neck01", "Neck", "head", "Head"),
-        Anchor("head", "Head"),
-    ]
-    for s, w in (("L", "Left"), ("R", "Right")):
-        anchors += limb_anchors(s, f"{w}Collar", f"{w}Shoulder", f"{w}Elbow", f"{s.lower()}hand", f"{s}Fingers",
-                                f"{w}Hip", f"{w}Knee", f"{w}Ankle", f"{w}Toe", f"{w}Toe_end")
-    return JointMap("cmu-old", tuple(anchors), ("LeftHip", "RightHip"), "Neck")
+def _named_joint_map(name: str) -> JointMap:
+    """The :class:`JointMap` of the skeleton ``name``, a column of the table above: the root, the
+    spine chain, the head, then each side's limbs."""
+    rows = [line.split() for line in _NAMED_SKELETONS.strip().splitlines()]
+    column = {row[0]: row[rows[0].index(name)] for row in rows[1:]}
+    spine = [(bone, *column[bone].split(">")) for bone in _SPINE_ROWS if column[bone] != "-"]
+    bones = [bone for bone, _, _ in spine] + ["head"]
+    anchors = [Anchor("root", column["root"])]
+    anchors += [Anchor(bone, joint, bones[k + 1], tip) for k, (bone, joint, tip) in enumerate(spine)]
+    anchors.append(Anchor("head", column["head"]))
+    hips = []
+    for s, side in (("L", "left"), ("R", "right")):
+        joints = [column[r].format(side=side, Side=side.title(), s=s, l=s.lower()) for r in _LIMB_ROWS]
+        anchors += limb_anchors(s, *joints)
+        hips.append(joints[_LIMB_ROWS.index("thigh")])
+    return JointMap(name, tuple(anchors), (hips[0], hips[1]), column["neck01"].split(">")[0])
 
 
 def _smpl_detail() -> JointMap:
@@ -134,15 +136,15 @@ def _smpl_detail() -> JointMap:
     # anchor per finger bone and eye with no rest direction, so it turns from Anny's own rest.
     from morf.motion.smpl_hands import detail_bones
 
-    base = _smpl()
+    base = _named_joint_map("smpl")
     extra = tuple(Anchor(bone, joint) for bone, joint in detail_bones())
     return JointMap("smpl-hands", base.anchors + extra, base.hips, base.up)
 
 
-SMPL_MAP = _smpl()
+SMPL_MAP = _named_joint_map("smpl")
 SMPL_DETAIL_MAP = _smpl_detail()
-CMU_MAP = _cmu()
-CMU_OLD_MAP = _cmu_old()
+CMU_MAP = _named_joint_map("cmu")
+CMU_OLD_MAP = _named_joint_map("cmu-old")
 # Most joints first: a skeleton with SMPL-X hands takes the map that drives them.
 KNOWN_MAPS = (SMPL_DETAIL_MAP, SMPL_MAP, CMU_MAP, CMU_OLD_MAP)
 
