@@ -11,6 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from morf.records import length_of
+
 
 @dataclass(frozen=True)
 class RenderMesh:
@@ -30,9 +32,7 @@ class RenderMesh:
     bone_indices: np.ndarray
     bone_weights: np.ndarray
 
-    @property
-    def num_vertices(self) -> int:
-        return int(self.vertex_map.shape[0])
+    num_vertices = length_of("vertex_map")
 
     def gather(self, model_vertices: torch.Tensor) -> torch.Tensor:
         """(B, V, 3) model-topology vertices -> (B, Vr, 3) render vertices."""

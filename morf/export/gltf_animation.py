@@ -14,6 +14,7 @@ import numpy as np
 from morf.export.gltf_rig import pose_nodes
 from morf.export.skeleton import SkinningSkeleton
 from morf.motion.checks import check_pose_arrays
+from morf.records import length_of
 
 
 @dataclass(frozen=True)
@@ -34,9 +35,7 @@ class JointAnimation:
     rotations: np.ndarray
     translations: np.ndarray
 
-    @property
-    def num_frames(self) -> int:
-        return int(self.times.shape[0])
+    num_frames = length_of("times")
 
 
 def align_quaternion_signs(q: np.ndarray) -> np.ndarray:

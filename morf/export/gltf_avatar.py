@@ -28,6 +28,7 @@ import numpy as np
 from morf.export.glb import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, GlbBuilder
 from morf.export.gltf_animation import JointAnimation, moving_joints
 from morf.export.gltf_rig import Y_UP, GltfRig, top_influences
+from morf.records import length_of
 
 # glTF sampler enums
 LINEAR, LINEAR_MIPMAP_LINEAR, CLAMP_TO_EDGE = 9729, 9987, 33071
@@ -52,9 +53,7 @@ class GltfMesh:
     joints: np.ndarray
     weights: np.ndarray
 
-    @property
-    def num_vertices(self) -> int:
-        return int(self.positions.shape[0])
+    num_vertices = length_of("positions")
 
 
 def gltf_mesh(model, shape, influences: int = 4) -> GltfMesh:

@@ -22,6 +22,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from morf.export.skeleton import SkinningSkeleton
+from morf.records import length_of
 
 # Anny world (Z up, faces -Y) -> glTF world (Y up, faces +Z)
 Y_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
@@ -44,9 +45,7 @@ class GltfRig:
     translations: np.ndarray
     inverse_bind: np.ndarray
 
-    @property
-    def num_joints(self) -> int:
-        return int(self.parents.shape[0])
+    num_joints = length_of("parents")
 
 
 def to_gltf_axes(frames: np.ndarray) -> np.ndarray:

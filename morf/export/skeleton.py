@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from morf.records import length_of
+
 
 @dataclass(frozen=True)
 class SkinningSkeleton:
@@ -34,9 +36,7 @@ class SkinningSkeleton:
     rest_heads: np.ndarray
     reference_rotations: np.ndarray
 
-    @property
-    def num_bones(self) -> int:
-        return int(self.parents.shape[0])
+    num_bones = length_of("parents")
 
     def __post_init__(self):
         p = self.parents

@@ -12,6 +12,7 @@ import numpy as np
 
 from morf.errors import ProjectError
 from morf.io import load_npz, save_npz
+from morf.records import length_of
 
 CHECKPOINT_FILE = "checkpoint.npz"
 
@@ -60,9 +61,7 @@ class BodyFits:
     label_swapped: np.ndarray | None = None
     landmark_residual_px: np.ndarray | None = None
 
-    @property
-    def num_frames(self) -> int:
-        return int(self.rotvecs.shape[0])
+    num_frames = length_of("rotvecs")
 
     def shape_of(self, i: int) -> np.ndarray:
         """(1, S) the shape of frame ``i``."""

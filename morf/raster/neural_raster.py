@@ -26,6 +26,7 @@ import numpy as np
 from morf.camera import GL_FRONT_FACE
 from morf.raster.gl_context import software_gl
 from morf.raster.texture_quant import ZERO_POINT, QuantizedTexture
+from morf.records import length_of
 from morf.resources import shader_source
 
 NEAR, FAR = 0.05, 100.0  # the same clip planes as the training rasterizer (morf.raster.gl_buffers)
@@ -58,9 +59,7 @@ class SkinnedMesh:
     bone_indices: np.ndarray
     bone_weights: np.ndarray
 
-    @property
-    def num_vertices(self) -> int:
-        return int(self.rest_vertices.shape[0])
+    num_vertices = length_of("rest_vertices")
 
 
 def _skin_on_cpu(ctx) -> bool:

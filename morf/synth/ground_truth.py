@@ -41,6 +41,7 @@ from morf.camera import PinholeCamera
 from morf.capture.project import CaptureProject
 from morf.errors import InputError, ProjectError
 from morf.io import load_npz, read_image, save_npz, write_image
+from morf.records import length_of
 
 
 class GroundTruthError(ProjectError, InputError):
@@ -72,9 +73,7 @@ class GroundTruth:
     vertex_regions: np.ndarray | None = None
     valid: np.ndarray | None = None
 
-    @property
-    def num_frames(self) -> int:
-        return len(self.rotvecs)
+    num_frames = length_of("rotvecs")
 
 
 @dataclass(frozen=True)
@@ -91,9 +90,7 @@ class HoldoutSequence:
     keypoints: np.ndarray | None = None
     camera: PinholeCamera | None = None
 
-    @property
-    def num_frames(self) -> int:
-        return len(self.rotvecs)
+    num_frames = length_of("rotvecs")
 
 
 _CAMERA_KEYS = ("K", "R", "t", "width", "height")
