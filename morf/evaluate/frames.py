@@ -40,15 +40,17 @@ def scaled_camera(working: PinholeCamera, side: int) -> PinholeCamera:
     return working if side == working.width else working.scaled(side / working.width)
 
 
-def capture_frames(project, model, fits: BodyFitArrays, ids, working: PinholeCamera) -> FrameSet:
-    """Project frames ``ids`` cropped to ``working``'s square, posed by ``fits`` and rasterized."""
+def capture_frames(project, model, fits: BodyFitArrays, ids, working: PinholeCamera,
+                   offsets: np.ndarray | None = None) -> FrameSet:
+    """Project frames ``ids`` cropped to ``working``'s square, posed by ``fits`` and rasterized
+    (the body dressed by clothing ``offsets`` (V,) when given)."""
     ids = list(ids)
     x0, y0, side = crop_of(project.camera(), working)
     R = working.width
     images, masks, uvs, uv_masks, facings = [], [], [], [], []
     rot, tr = fits.rotvecs[ids], fits.transl[ids]
     done = 0
-    for uv, uvm, fac in rasterize_frames(model, rot, tr, fits.shape, working):
+    for uv, uvm, fac in rasterize_frames(model, rot, tr, fits.shape, working, offsets=offsets):
         for i in ids[done:done + len(uv)]:
             images.append(crop_image(project.load_frame(i), x0, y0, side, R))
             masks.append(crop_image(project.load_mask(i).astype(np.uint8) * 255, x0, y0, side, R) > 127)
@@ -61,11 +63,12 @@ def capture_frames(project, model, fits: BodyFitArrays, ids, working: PinholeCam
 
 
 def target_frames(project, model, target, fits: BodyFitArrays | None, shape: np.ndarray,
-                  working: PinholeCamera) -> FrameSet:
-    """The FrameSet of an :class:`~morf.evaluate.targets.EvalTarget` through ``working``."""
+                  working: PinholeCamera, offsets: np.ndarray | None = None) -> FrameSet:
+    """The FrameSet of an :class:`~morf.evaluate.targets.EvalTarget` through ``working``, the body
+    dressed by the clothing ``offsets`` the run trained with (None: naked), as the player draws it."""
     if target.kind == "capture":
-        return capture_frames(project, model, fits, target.frame_ids, working)
-    fs = build_holdout_frames(project, model, working, shape, fits)  # moved into the fitted frame
+        return capture_frames(project, model, fits, target.frame_ids, working, offsets)
+    fs = build_holdout_frames(project, model, working, shape, fits, offsets)  # moved into the fitted frame
     if fs is None:
         raise InputError(f"{project.root} has no hold-out sequence")
     return fs

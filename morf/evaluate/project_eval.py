@@ -228,12 +228,15 @@ def _target_slot(targets: dict, target: EvalTarget) -> _TargetResults:
 def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _TargetResults, cfg: EvalConfig,
            metric, say) -> TargetScores:
     from morf.evaluate.frames import eval_side, scaled_camera, target_frames
+    from morf.evaluate.silhouette import mask_iou
     from morf.evaluate.views import person_column, real_views, render_views, sheet_rows
+    from morf.train.data import clothing_offsets
     from morf.train.project_run import evaluate_frames
 
     side = eval_side(avatar.camera, project.camera(), cfg.resolution, avatar.renderer.cfg.multiple)
     camera = scaled_camera(avatar.camera, side)
-    frames = target_frames(project, model, target, fits, avatar.shape.numpy(), camera)
+    offsets = clothing_offsets(fits, avatar.dressed)  # the body the run trained on, as the player draws it
+    frames = target_frames(project, model, target, fits, avatar.shape.numpy(), camera, offsets)
     say(f"{run.name}: {tr.target.key}, {frames.num_frames} frames at {side} px")
     refined, poses = None, None
     if cfg.refine_poses:
@@ -250,7 +253,7 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
         views = render_views(avatar, frames, colour, tr.rows, tr.column)
     detail = None
     if cfg.detail:
-        detail = _detail(project, model, avatar, target, fits, frames, camera, colour, poses, tr.rows)
+        detail = _detail(project, model, avatar, target, fits, frames, camera, colour, poses, tr.rows, offsets)
         for row, (real, _) in detail.crops.items():
             if real.shape[0] > tr.real_heads.get(row, np.zeros((0,))).shape[0]:
                 tr.real_heads[row] = real
@@ -262,16 +265,16 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
     # how many of these frames the run trained on (0 for its own hold-out); None for the novel poses
     seen = trained_on(project, fits, run.holdout, target.frame_ids) if target.kind == "capture" else None
     result = TargetScores.of(scores, lpips, side, seen, refined, None if detail is None else {
-        **detail.scores, "resolution": detail.resolution, "max_shift": detail.max_shift})
+        **detail.scores, "resolution": detail.resolution, "max_shift": detail.max_shift}, mask_iou(avatar, frames))
     if views is not None:
         tr.scored.append((run, result, views, {} if detail is None else {r: c[1] for r, c in detail.crops.items()}))
     return result
 
 
-def _detail(project, model, avatar, target, fits, frames, camera, colour, poses, rows):
+def _detail(project, model, avatar, target, fits, frames, camera, colour, poses, rows, offsets=None):
     """The detail scores of ``avatar`` on ``target`` at the crop's native size: ``frames`` when
-    they are at that size, else the target rasterized again there (in the refined poses when
-    ``poses`` = (RefinedPoses, shape) is given)."""
+    they are at that size, else the target rasterized again there (the body dressed by
+    ``offsets``; in the refined poses when ``poses`` = (RefinedPoses, shape) is given)."""
     from morf.body.parts import part_atlas
     from morf.evaluate.detail import max_shift_for
     from morf.evaluate.detail_eval import detail_scores
@@ -281,7 +284,7 @@ def _detail(project, model, avatar, target, fits, frames, camera, colour, poses,
     native = eval_side(avatar.camera, project.camera(), "native", avatar.renderer.cfg.multiple)
     if native != frames.resolution:
         camera = scaled_camera(avatar.camera, native)
-        frames = target_frames(project, model, target, fits, avatar.shape.numpy(), camera)
+        frames = target_frames(project, model, target, fits, avatar.shape.numpy(), camera, offsets)
         if poses is not None:
             from morf.evaluate.pose_refine import reposed_frames
 
@@ -353,7 +356,7 @@ def format_table(result: EvalResult) -> str:
         lines.append(f"{key}: {t.title}, {len(t.frame_ids)} frames"
                      + (", poses refined against the frames (--refine-poses)" if result.poses == "refined" else ""))
         lines.append(f"  {'run':<24} {'px':>5} {'PSNR':>7} {'person':>7} {'SSIM':>6} {'person':>6} {'flicker':>8}"
-                     + (f" {'LPIPS':>6} {'person':>6}" if lpips else ""))
+                     + f" {'maskIoU':>7}" + (f" {'LPIPS':>6} {'person':>6}" if lpips else ""))
         for name in result.scored_runs(key):
             m = result.runs[name].targets[key]
 
@@ -362,6 +365,7 @@ def format_table(result: EvalResult) -> str:
 
             lines.append(f"  {name:<24} {m.resolution:>5} {f('psnr', '7.2f'):>7} {f('psnr_person', '7.2f'):>7} "
                          f"{f('ssim', '6.3f'):>6} {f('ssim_person', '6.3f'):>6} {f('temporal', '8.4f'):>8}"
+                         f" {f('mask_iou', '7.3f'):>7}"
                          + (f" {f('lpips', '6.3f'):>6} {f('lpips_person', '6.3f'):>6}" if lpips else ""))
         lines += _detail_lines(result, key)
     for name, why in result.skipped.items():

@@ -31,7 +31,9 @@ class TargetScores:
         detail: the region scores at native size, ``{"<group>_<score>": value}`` for the groups
             person, head, hands and the scores psnr, ssim_shift, gmsd, hf_ratio, count
             (:mod:`morf.evaluate.detail_eval`), plus ``resolution`` and ``max_shift`` (None: not
-            scored; then left out of :meth:`to_dict`).
+            scored; then left out of :meth:`to_dict`);
+        mask_iou: mean IoU of the rendered mask (probability > 0.5) and the real person mask
+            (:mod:`morf.evaluate.silhouette`; None: not scored, then left out of :meth:`to_dict`).
     """
 
     psnr: float | None
@@ -47,10 +49,12 @@ class TargetScores:
     trained_on: int | None = None
     refined_l1: tuple[float, float] | None = None
     detail: dict | None = None
+    mask_iou: float | None = None
 
     @staticmethod
     def of(scores, lpips: dict | None, resolution: int, trained_on: int | None = None,
-           refined_l1: tuple[float, float] | None = None, detail: dict | None = None) -> TargetScores:
+           refined_l1: tuple[float, float] | None = None, detail: dict | None = None,
+           mask_iou: float | None = None) -> TargetScores:
         """From a :class:`morf.train.frame_scores.FrameScores` (non-finite values become None) and
         :func:`morf.evaluate.perceptual.lpips_scores` (None: not computed)."""
         lp = lpips or {}
@@ -58,7 +62,8 @@ class TargetScores:
                             _finite(scores.ssim_person), _finite(scores.temporal), tuple(scores.background),
                             scores.frames, lp.get("lpips"), lp.get("lpips_person"), resolution, trained_on,
                             None if refined_l1 is None else tuple(refined_l1),
-                            None if detail is None else {k: _finite(v) for k, v in detail.items()})
+                            None if detail is None else {k: _finite(v) for k, v in detail.items()},
+                            None if mask_iou is None else _finite(float(mask_iou)))
 
     def metric(self, key: str) -> float | None:
         """A score by name (psnr, psnr_person, ssim, ssim_person, temporal, lpips, lpips_person, or
@@ -77,6 +82,8 @@ class TargetScores:
             d["refined_l1"] = list(self.refined_l1)
         if self.detail is not None:
             d["detail"] = dict(self.detail)
+        if self.mask_iou is not None:
+            d["mask_iou"] = self.mask_iou
         return d
 
     @staticmethod
@@ -84,7 +91,7 @@ class TargetScores:
         return TargetScores(d["psnr"], d["ssim"], d["psnr_person"], d["ssim_person"], d["temporal"],
                             tuple(d["background"]), d["frames"], d["lpips"], d["lpips_person"], d["resolution"],
                             d.get("trained_on"), None if d.get("refined_l1") is None else tuple(d["refined_l1"]),
-                            d.get("detail"))
+                            d.get("detail"), d.get("mask_iou"))
 
 
 @dataclass(frozen=True)

@@ -57,15 +57,15 @@ class ExportConfig:
     extra: dict = field(default_factory=dict)  # free-form facts copied into the manifest
 
 
-def skinned_mesh_from_body_model(model, shape) -> SkinnedMesh:
-    """The shaped render mesh of a body model (seams split, top-8 bones)."""
-    import torch
-
+def skinned_mesh_from_body_model(model, shape, offsets: np.ndarray | None = None) -> SkinnedMesh:
+    """The shaped render mesh of a body model (seams split, top-8 bones); with clothing
+    ``offsets`` (V,) its rest vertices are the dressed ones the avatar trained on
+    (:func:`morf.fitting.offsets.dressed_rest_vertices`), so every player skins the dressed body."""
     from morf.body.render_mesh import render_mesh_for
+    from morf.fitting.offsets import dressed_rest_vertices
 
     rm = render_mesh_for(model)
-    with torch.no_grad():
-        rest = model.rest(shape)["rest_vertices"][0].float().cpu().numpy()
+    rest = dressed_rest_vertices(model, shape, offsets)[0].float().cpu().numpy()
     return SkinnedMesh(rest_vertices=np.ascontiguousarray(rest[rm.vertex_map], np.float32), uvs=rm.uvs,
                        faces=rm.faces, bone_indices=rm.bone_indices, bone_weights=rm.bone_weights)
 
@@ -134,7 +134,8 @@ def native_tails(folder: Path, specs: dict, layout: str, rasters: Sequence[np.nd
 
 def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, calibration: Sequence[View],
                   heldout: Sequence[View], cfg: ExportConfig = ExportConfig(), ctx=None,
-                  control: StageControl | None = None, claim: OutputClaim | None = None) -> dict:
+                  control: StageControl | None = None, claim: OutputClaim | None = None,
+                  offsets: np.ndarray | None = None) -> dict:
     """Write an avatar folder; returns its manifest.
 
     Args:
@@ -145,6 +146,8 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
         heldout: views kept out of calibration for the quality report (may be empty).
         claim: what :func:`morf.io.outputs.claim_output_folder` allowed at ``out_dir`` (None: the
             caller owns ``out_dir`` whole, e.g. a benchmark's work folder).
+        offsets: (V,) clothing offsets the avatar trained with (None: the naked body); mesh.npz
+            then stores the dressed rest vertices and the manifest's ``body`` says so.
     """
     control = control or StageControl()
     t0 = time.time()
@@ -157,7 +160,7 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
     # Fewer channels (small presets): pad with zero channels, which quantise to 128 = background.
     tex = np.concatenate([tex, np.zeros((NUM_CHANNELS - tex.shape[0], *tex.shape[1:]), tex.dtype)])
     qtex = quantize_texture(tex)
-    mesh = skinned_mesh_from_body_model(body_model, shape)
+    mesh = skinned_mesh_from_body_model(body_model, shape, offsets)
     skeleton = skeleton_from_body_model(body_model, shape)
     own_ctx = ctx is None
     ctx = ctx or create_headless_context()
@@ -203,6 +206,7 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
         rcfg = getattr(renderer, "cfg", None)
         fields = _manifest_fields(qtex, skeleton, mesh, rcfg, (H, W), shape, cfg, quality,
                                   len(calib) + len(close_calib), time.time() - t0)
+        fields["body"]["clothing"] = clothing_entry(offsets)
         tails = native_tails(tmp, specs, cfg.input_layout, held or calib[:4])
         if tails:
             fields["renderer"]["native_tail"] = tails
@@ -210,6 +214,17 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
         place_avatar_folder(tmp, out_dir, claim)
     step(5, "done")
     return manifest
+
+
+def clothing_entry(offsets: np.ndarray | None) -> dict:
+    """The manifest's ``body.clothing``: whether mesh.npz holds the dressed body and how far its
+    clothing offsets reach (mean and largest, mm along the rest normals)."""
+    from morf.fitting.offsets import offset_summary
+
+    s = offset_summary(offsets)
+    return {**s, "meaning": "mesh.npz rest_vertices are the shaped body moved outward along its rest normals by "
+                            "the fit's clothing offsets (the surface the renderer trained on)" if s["dressed"]
+            else "mesh.npz rest_vertices are the shaped body without clothing offsets"}
 
 
 def place_avatar_folder(tmp: Path, out_dir: Path, claim: OutputClaim | None) -> None:

@@ -119,6 +119,17 @@ def project_views(project, camera, num_bones: int, fits_source: str = "auto", he
     return calib, held
 
 
+def avatar_offsets(project, trained, run_dir: Path) -> np.ndarray | None:
+    """(V,) clothing offsets of the body ``trained`` (the TrainedAvatar of ``run_dir``) learned on:
+    those of the fits the run trained on (its log names them; the ground truth has none) for a
+    dressed run (:func:`morf.train.data.clothing_offsets`), None for a naked one. Every writer of
+    the avatar's mesh (the folder's mesh.npz, glTF) dresses the body with these."""
+    from morf.train.data import clothing_offsets, load_body_fits
+    from morf.train.run_files import RunFiles
+
+    return clothing_offsets(load_body_fits(project, RunFiles(run_dir).fits_source()), trained.dressed)
+
+
 def trained_scale(camera, views, config) -> dict:
     """The largest scale the renderer was trained at: pixels per metre at the body's root over the
     training views, times the zoom of the ``zoom_resolution`` crops. The player draws closer
@@ -204,5 +215,5 @@ def _export(project, cfg: ProjectExportConfig, claim, control: StageControl | No
                                           "method": trained.method}, "trained_scale": scale})
     manifest = export_avatar(out, texture=trained.texture, renderer=trained.renderer, body_model=body_model,
                              shape=trained.shape, calibration=calib[::stride], heldout=held, cfg=ecfg,
-                             control=control, claim=claim)
+                             control=control, claim=claim, offsets=avatar_offsets(project, trained, run_dir))
     return manifest

@@ -97,6 +97,32 @@ def offset_displacement(bone_transforms: torch.Tensor, weights: torch.Tensor, no
     return (R @ (offsets[:, None] * normals).unsqueeze(-1)).squeeze(-1)
 
 
+def dressed_rest_vertices(model, shape: torch.Tensor, offsets: np.ndarray | torch.Tensor | None) -> torch.Tensor:
+    """(1, V, 3) shaped rest vertices moved outward by ``offsets`` (V,) metres along the rest normals.
+
+    This is the surface the avatar carries (training rasterizes it posed, the avatar folder's
+    mesh.npz stores it), so a hood or a loose hem the naked body lacks gets texels instead of being
+    cut away by the mask. Skinning these vertices gives exactly :func:`dressed_vertices` (LBS is
+    linear). Without offsets (None) these are the body's own rest vertices.
+    """
+    with torch.no_grad():
+        rest = model.rest(shape)["rest_vertices"][:1]
+        if offsets is None:
+            return rest
+        o = torch.as_tensor(np.asarray(offsets), dtype=rest.dtype, device=rest.device)
+        return rest + o[None, :, None] * rest_normals(model, shape)[:1]
+
+
+def offset_summary(offsets: np.ndarray | None) -> dict:
+    """``{"dressed", "offset_mean_mm", "offset_max_mm"}`` of clothing offsets (V,) metres, for
+    manifests and logs; ``dressed`` is False (and the sizes None) without offsets."""
+    if offsets is None:
+        return {"dressed": False, "offset_mean_mm": None, "offset_max_mm": None}
+    o = np.asarray(offsets, np.float64)
+    return {"dressed": True, "offset_mean_mm": round(float(o.mean()) * 1000, 2),
+            "offset_max_mm": round(float(o.max()) * 1000, 2)}
+
+
 def dressed_vertices(model, out, shape: torch.Tensor, offsets: torch.Tensor | None) -> torch.Tensor:
     """(B, V, 3) posed vertices of the offset ("dressed") surface; ``out`` is ``model(pose, shape)``.
 

@@ -36,8 +36,9 @@ class BodyFitArrays:
     Fields:
         rotvecs: (N, J, 3) float32; transl: (N, 3) float32; shape: (1, S) float32;
         valid: (N,) bool frames the fit covers; source: "fits" | "ground-truth".
-        offsets: (V,) float32 clothing offsets of the fits (``BodyFits.offsets``), or None. The
-            training frames are rasterized from the body without them.
+        offsets: (V,) float32 clothing offsets of the fits (``BodyFits.offsets``), or None. A
+            dressed avatar (the default, :func:`clothing_offsets`) is rasterized, exported and
+            evaluated with them, so loose clothes the naked body lacks get texels.
     """
 
     rotvecs: np.ndarray
@@ -46,6 +47,18 @@ class BodyFitArrays:
     valid: np.ndarray
     source: str
     offsets: np.ndarray | None = None
+
+
+def clothing_offsets(fits: BodyFitArrays, dressed: bool = True) -> np.ndarray | None:
+    """(V,) float32 clothing offsets the avatar's body carries: the fits' own when ``dressed`` and
+    the fits have them (the ground truth has none), else None (the naked body).
+
+    Training, export and ``morf eval`` all take the offsets through here, so the player draws the
+    surface the renderer learned on.
+    """
+    if not dressed or fits.offsets is None:
+        return None
+    return np.asarray(fits.offsets, np.float32)
 
 
 def _mean_shape(shape: np.ndarray) -> np.ndarray:
@@ -162,25 +175,32 @@ def facing_map(verts: np.ndarray, faces: np.ndarray, face_id: np.ndarray, cam: P
     return out
 
 
-def posed_render_vertices(model, rotvecs: np.ndarray, transl: np.ndarray, shape: np.ndarray) -> np.ndarray:
-    """(B, Vr, 3) posed render-mesh vertices."""
+def posed_render_vertices(model, rotvecs: np.ndarray, transl: np.ndarray, shape: np.ndarray,
+                          offsets: np.ndarray | None = None) -> np.ndarray:
+    """(B, Vr, 3) posed render-mesh vertices; with clothing ``offsets`` (V,) those of the dressed
+    body (the rest vertices moved along the rest normals, then skinned:
+    :func:`morf.fitting.offsets.dressed_vertices`)."""
     from morf.body import BodyPose
     from morf.body.render_mesh import render_mesh_for
+    from morf.fitting.offsets import dressed_vertices
 
     with torch.no_grad():
-        out = model(BodyPose(torch.from_numpy(rotvecs).float(), torch.from_numpy(transl).float()),
-                    torch.from_numpy(shape).float())
-        return render_mesh_for(model).gather(out.vertices).numpy()
+        shape_t = torch.from_numpy(np.asarray(shape, np.float32))
+        out = model(BodyPose(torch.from_numpy(rotvecs).float(), torch.from_numpy(transl).float()), shape_t)
+        verts = dressed_vertices(model, out, shape_t, None if offsets is None else torch.from_numpy(offsets))
+        return render_mesh_for(model).gather(verts).numpy()
 
 
-def rasterize_frames(model, rotvecs, transl, shape, camera: PinholeCamera, chunk: int = 16):
-    """Yield (uv (B, H, W, 2) float32, uv_mask (B, H, W) bool, facing (B, H, W) uint8) per chunk."""
+def rasterize_frames(model, rotvecs, transl, shape, camera: PinholeCamera, chunk: int = 16,
+                     offsets: np.ndarray | None = None):
+    """Yield (uv (B, H, W, 2) float32, uv_mask (B, H, W) bool, facing (B, H, W) uint8) per chunk,
+    of the body dressed by clothing ``offsets`` (V,) when given (:func:`posed_render_vertices`)."""
     from morf.body.render_mesh import render_mesh_for
     from morf.raster import rasterize_uv_batch
 
     rm = render_mesh_for(model)
     for s in range(0, len(rotvecs), chunk):
-        verts = posed_render_vertices(model, rotvecs[s:s + chunk], transl[s:s + chunk], shape)
+        verts = posed_render_vertices(model, rotvecs[s:s + chunk], transl[s:s + chunk], shape, offsets)
         r = rasterize_uv_batch(verts, rm, camera)
         facing = np.stack([facing_map(v, rm.faces, f, camera) for v, f in zip(verts, r.face_id)])
         yield r.uv, r.mask, facing
@@ -192,20 +212,24 @@ class ProjectFrames:
 
     Fields:
         frames: the FrameSet; camera: the working camera (square crop, ``resolution`` px);
-        fits: the body fits used; cache_path: where the FrameSet is cached.
+        fits: the body fits used; cache_path: where the FrameSet is cached;
+        offsets: (V,) clothing offsets the body was rasterized with (:func:`clothing_offsets`),
+            or None: the naked body.
     """
 
     frames: FrameSet
     camera: PinholeCamera
     fits: BodyFitArrays
     cache_path: Path
+    offsets: np.ndarray | None = None
 
 
 def build_frames(project, model, resolution: int, fits_source: str = "auto",
-                 control: StageControl | None = None, holdout: int = 0) -> ProjectFrames:
+                 control: StageControl | None = None, holdout: int = 0, dressed: bool = True) -> ProjectFrames:
     """Load (or build and cache) the training FrameSet of a project at ``resolution``.
 
-    ``holdout`` = K > 0 leaves every K-th usable frame out (:func:`split_holdout`).
+    ``holdout`` = K > 0 leaves every K-th usable frame out (:func:`split_holdout`). ``dressed``:
+    rasterize the body with the fits' clothing offsets when they have them (:func:`clothing_offsets`).
     """
     control = control or StageControl()
     fits = load_body_fits(project, fits_source)
@@ -216,8 +240,9 @@ def build_frames(project, model, resolution: int, fits_source: str = "auto",
     ids = [i for i in ids if i not in test]
     if not ids:
         raise ProjectError(f"no usable training frames in {project.root} (all dropped or without fits)")
+    offsets = clothing_offsets(fits, dressed)
     digest = hashlib.sha1()
-    for a in (fits.rotvecs, fits.transl, fits.shape):
+    for a in (fits.rotvecs, fits.transl, fits.shape) + (() if offsets is None else (offsets,)):
         digest.update(np.ascontiguousarray(a).tobytes())
     key_src = {"v": CACHE_VERSION, "res": resolution, "ids": ids, "fits": digest.hexdigest(),
                "camera": project.camera().to_dict(), "size": list(project.image_size)}
@@ -228,7 +253,7 @@ def build_frames(project, model, resolution: int, fits_source: str = "auto",
             d = load_npz(path)
             cam = PinholeCamera.from_dict(json.loads(str(d["camera"])))
             fs = FrameSet(d["images"], d["masks"], d["uv"], d["uv_mask"], d["facing"], d["rotvecs"], d["frame_ids"])
-            return ProjectFrames(fs, cam, fits, path)
+            return ProjectFrames(fs, cam, fits, path, offsets)
         except (ProjectError, KeyError, ValueError):
             pass  # rebuilt below
     step = max(1, len(ids) // 64)
@@ -237,7 +262,7 @@ def build_frames(project, model, resolution: int, fits_source: str = "auto",
     images, masks, uvs, uv_masks, facings = [], [], [], [], []
     rot, tr = fits.rotvecs[ids], fits.transl[ids]
     done = 0
-    for uv, uvm, fac in rasterize_frames(model, rot, tr, fits.shape, cam):
+    for uv, uvm, fac in rasterize_frames(model, rot, tr, fits.shape, cam, offsets=offsets):
         for j in range(len(uv)):
             i = ids[done + j]
             images.append(crop_image(project.load_frame(i), x0, y0, side, resolution))
@@ -253,7 +278,7 @@ def build_frames(project, model, resolution: int, fits_source: str = "auto",
                   np.concatenate(facings), rot.astype(np.float32), np.asarray(ids, np.int64))
     save_npz(path, images=fs.images, masks=fs.masks, uv=fs.uv, uv_mask=fs.uv_mask, facing=fs.facing,
              rotvecs=fs.rotvecs, frame_ids=fs.frame_ids, camera=np.array(json.dumps(cam.to_dict())))
-    return ProjectFrames(fs, cam, fits, path)
+    return ProjectFrames(fs, cam, fits, path, offsets)
 
 
 def crop_of(camera: PinholeCamera, working: PinholeCamera) -> tuple[float, float, float]:
@@ -292,10 +317,11 @@ def holdout_poses(project, hold, fits: BodyFitArrays | None = None) -> tuple[np.
 
 
 def build_holdout_frames(project, model, working: PinholeCamera, shape: np.ndarray,
-                         fits: BodyFitArrays | None = None) -> FrameSet | None:
+                         fits: BodyFitArrays | None = None, offsets: np.ndarray | None = None) -> FrameSet | None:
     """The synthetic hold-out sequence (``ground_truth/holdout``) as a FrameSet at the training crop.
 
-    Poses are the hold-out ground truth; the shape is the avatar's. With ``fits`` (the body fits
+    Poses are the hold-out ground truth; the shape is the avatar's, dressed by clothing
+    ``offsets`` (V,) when given (those the avatar was trained with). With ``fits`` (the body fits
     the avatar was trained on) the poses are moved into the fitted frame
     (:func:`fitted_frame_offset`). None when the project has no hold-out sequence.
     """
@@ -310,7 +336,7 @@ def build_holdout_frames(project, model, working: PinholeCamera, shape: np.ndarr
     R = working.width
     images, masks, uvs, uvms, facings = [], [], [], [], []
     done = 0
-    for uv, uvm, fac in rasterize_frames(model, rot, tr, shape.reshape(1, -1), working):
+    for uv, uvm, fac in rasterize_frames(model, rot, tr, shape.reshape(1, -1), working, offsets=offsets):
         for j in range(len(uv)):
             i = done + j
             images.append(crop_image(read_holdout_frame(project, i), x0, y0, side, R))

@@ -53,6 +53,13 @@ class TrainedAvatar:
     camera: PinholeCamera | None
     method: str
 
+    @property
+    def dressed(self) -> bool:
+        """Whether the body was rasterized with the fits' clothing offsets in training (the run's
+        ``dressed`` setting, on by default), so export and evaluation must draw it dressed too
+        (:func:`morf.train.data.clothing_offsets`)."""
+        return bool(getattr(self.config, "dressed", True))
+
     @torch.no_grad()
     def render(self, uv: torch.Tensor, uv_mask: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """(B, H, W, 2) UVs + (B, H, W) coverage -> RGB (B, 3, H, W) premultiplied, mask (B, 1, H, W)."""
