@@ -54,6 +54,33 @@ def require(module: str):
     pytest.skip(f"{module} is not installed ({error})", allow_module_level=True)
 
 
+IMPORT_SKIP = "could not import "  # how pytest.importorskip words its skip
+
+
+def _fail_an_import_skip(report) -> None:
+    """Under :func:`strict_install`, a ``pytest.importorskip`` skip (of a test or of a whole file at
+    collection) becomes a failure: the install is broken, and a skip would hide it."""
+    if not (report.skipped and strict_install() and isinstance(report.longrepr, tuple)):
+        return
+    reason = str(report.longrepr[2]).removeprefix("Skipped: ")
+    if reason.startswith(IMPORT_SKIP):
+        report.outcome = "failed"
+        report.longrepr = (f"{reason}, although this install should have it (MORF_REQUIRE_DEPS / MORF_REQUIRE_GL "
+                           "is set): run bash scripts/install.sh")
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    _fail_an_import_skip(outcome.get_result())
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_make_collect_report(collector):
+    outcome = yield
+    _fail_an_import_skip(outcome.get_result())
+
+
 @pytest.fixture(scope="session")
 def body_model():
     from morf.body import load_body_model

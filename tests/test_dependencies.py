@@ -259,3 +259,28 @@ def test_optional_imports_wait_until_they_are_needed():
                  for line, name in _module_level_imports(ast.parse(path.read_text(), str(path)))
                  if name in GUARDED]
     assert not offenders, "imported at module level although optional:\n" + "\n".join(offenders)
+
+
+@pytest.mark.parametrize("strict", ["0", "1"])
+def test_an_import_skip_fails_in_a_strict_install(tmp_path, strict):
+    """``pytest.importorskip`` of a missing module skips, and fails (in a test and for a whole file)
+    under MORF_REQUIRE_DEPS: tests/conftest.py's guard, run on two throwaway test files."""
+    import os
+    import subprocess
+
+    (tmp_path / "test_in_a_test.py").write_text("import pytest\n\ndef test_it():\n    pytest.importorskip('no_such_module_here')\n\n"
+                                                "def test_other_skip():\n    pytest.skip('another reason')\n")
+    (tmp_path / "test_a_file.py").write_text("import pytest\npytest.importorskip('no_such_module_here')\n\ndef test_it():\n    pass\n")
+    env = {**os.environ, "PYTHONPATH": str(REPO), "MORF_REQUIRE_DEPS": strict, "MORF_REQUIRE_GL": "0"}
+    outcomes = {}
+    for name in ("test_in_a_test.py", "test_a_file.py"):
+        r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "tests.conftest",
+                            "--rootdir", str(tmp_path), name], cwd=tmp_path, env=env, capture_output=True, text=True,
+                           timeout=120)
+        outcomes[name] = r.stdout.strip().splitlines()[-1]
+    if strict == "1":
+        assert re.match(r"1 failed, 1 skipped", outcomes["test_in_a_test.py"]), outcomes
+        assert re.match(r"1 error", outcomes["test_a_file.py"]), outcomes
+    else:
+        assert re.match(r"2 skipped", outcomes["test_in_a_test.py"]), outcomes
+        assert re.match(r"1 skipped", outcomes["test_a_file.py"]), outcomes
