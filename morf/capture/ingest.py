@@ -16,6 +16,7 @@ leaves the previous project untouched.
 
 from __future__ import annotations
 
+from contextlib import closing
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Callable
@@ -25,6 +26,7 @@ import numpy as np
 
 from morf.camera import PinholeCamera
 from morf.capture.frame_times import FrameTiming, frame_timing
+from morf.capture.frame_writer import FrameWriter
 from morf.capture.labelling import FrameLabel, FrameLabeller
 from morf.capture.matching import FileMatch, list_files, match_files
 from morf.capture.openpose import HandsFace
@@ -32,8 +34,8 @@ from morf.capture.people import TrackerConfig
 from morf.capture.project import CaptureProject, Keypoints2D
 from morf.capture.staging import check_replaceable, staged_folder
 from morf.capture.video import IMAGE_EXTS, MAX_SIDE, MIN_SIDE, FrameSource, exif_focal_px, open_images, open_video
-from morf.errors import InputError, ProjectError
-from morf.io import save_npz, write_image
+from morf.errors import InputError, MorfError, ProjectError
+from morf.io import save_npz
 from morf.pipeline.control import Progress, StageControl
 from morf.progress import progress
 
@@ -164,24 +166,16 @@ def ingest(project: str | Path, config: IngestConfig, control: StageControl | No
         log(f"turning frames {abs(source.rotation)} degrees {turn}, as the video's rotation metadata says")
     try:
         with staged_folder(root) as staging:
-            bar = progress(total=total, desc="ingest", unit="frame")
-            try:
-                for n, frame in enumerate(source.frames(config.every, config.max_frames)):
-                    control.check()
+            with FrameWriter(staging, ext, "ingest", "ingesting", total, control) as out, closing(labeller):
+                for n, frame in out.numbered(source.frames(config.every, config.max_frames)):
                     rgb = frame.rgb
                     if scale != 1.0:
                         interp = cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR
                         rgb = cv2.resize(rgb, (out_w, out_h), interpolation=interp)
                     label = labeller.label(frame.index, rgb)
-                    write_image(staging / "frames" / f"{n:06d}{ext}", rgb)
-                    write_image(staging / "masks" / f"{n:06d}.png", label.mask.astype(np.uint8) * 255)
+                    out.write(n, rgb, label.mask)
                     rows.append((frame.index, replace(label, mask=None)))  # masks are on disk: memory stays flat
                     times.append(frame.time)
-                    bar.update(1)
-                    control.report(Progress("ingest", n + 1, total, f"ingesting frame {n + 1}", frame=n))
-            finally:
-                bar.close()
-                labeller.close()
             if not rows:
                 raise InputError(f"no frames could be read from {source.path}")
             source_total = source.frame_count if source.kind != "video" else (
@@ -210,7 +204,6 @@ def _detect_face_hands(root: Path, control: StageControl, log: Callable[[str], N
     (``morf.capture.landmarks_detect``). Without MediaPipe the project stays without them (the fit
     then leaves the head and the hands as the body keypoints put them) and the user is told."""
     from morf.capture.landmarks_detect import detect_project_landmarks
-    from morf.errors import MorfError
 
     project = CaptureProject.open(root)
     n = project.num_frames

@@ -10,6 +10,7 @@ parameters, the other cameras' frames) goes into ``PROJECT/dataset/`` through a 
 
 from __future__ import annotations
 
+from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterable
@@ -18,6 +19,7 @@ import numpy as np
 
 from morf.camera import PinholeCamera
 from morf.capture.detect_mediapipe import MediaPipeDetector
+from morf.capture.frame_writer import FrameWriter
 from morf.capture.keypoint_layout import NUM_KEYPOINTS
 from morf.capture.labelling import mask_box
 from morf.capture.people import TrackerConfig, detect_in_region, expand_box
@@ -25,9 +27,7 @@ from morf.capture.project import CaptureProject, Keypoints2D
 from morf.capture.staging import check_replaceable, staged_folder
 from morf.datasets.frames import DatasetFrame
 from morf.errors import InputError, ProjectError
-from morf.io import write_image
-from morf.pipeline.control import Progress, StageControl
-from morf.progress import progress
+from morf.pipeline.control import StageControl
 
 DATASET_DIR = "dataset"  # PROJECT/dataset/: what the dataset provides beyond frames and masks
 JPEG_AFTER = 300  # as ingest: PNG frames up to this many, JPEG (quality 95) beyond
@@ -104,24 +104,16 @@ def write_dataset_project(root: str | Path, frames: Iterable[DatasetFrame], *, t
     labeller = MaskedKeypoints(detect)
     try:
         with staged_folder(root) as staging:
-            bar = progress(total=total, desc="import", unit="frame")
-            try:
-                for n, fr in enumerate(frames):
-                    control.check()
+            with FrameWriter(staging, ext, "import", "importing", total, control) as out, closing(labeller):
+                for n, fr in out.numbered(frames):
                     if fr.rgb.shape[:2] != (camera.height, camera.width) or fr.mask.shape != fr.rgb.shape[:2]:
                         raise InputError(f"frame {fr.source_index}: image {fr.rgb.shape[1]}x{fr.rgb.shape[0]} and mask "
                                          f"{fr.mask.shape[1]}x{fr.mask.shape[0]} do not match the camera's "
                                          f"{camera.width}x{camera.height}")
                     p, ok, kind = labeller.label(fr.rgb, fr.mask)
-                    write_image(staging / "frames" / f"{n:06d}{ext}", fr.rgb)
-                    write_image(staging / "masks" / f"{n:06d}.png", fr.mask.astype(np.uint8) * 255)
+                    out.write(n, fr.rgb, fr.mask)
                     points.append(p), found.append(ok), kinds.append(kind)
                     source_frames.append(int(fr.source_index)), splits.append(fr.split)
-                    bar.update(1)
-                    control.report(Progress("import", n + 1, total, f"importing frame {n + 1}", frame=n))
-            finally:
-                bar.close()
-                labeller.close()
             if not source_frames:
                 raise InputError("no frames were selected for import (check --split, --every and --max-frames)")
             if detect and not any(found):  # nothing to fit: an error, as for 'morf ingest', and no project left
