@@ -9,6 +9,7 @@ package). Every user of a shipped file goes through this module, so both cases l
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from morf.errors import MorfError
@@ -45,9 +46,30 @@ def resource(*parts: str) -> Path:
     return path
 
 
-def shader_source(name: str) -> str:
-    """The text of ``resources/shaders/<name>`` (a GLSL stage)."""
-    return resource("shaders", name).read_text(encoding="utf-8")
+# GLSL has no include of its own: a stage's ``#include "file.glsl"`` line is replaced by that file's
+# text (a part shared by several stages, itself without a #version line).
+_INCLUDE = re.compile(r'^[ \t]*#include[ \t]+"([\w.-]+)"[ \t]*$', re.MULTILINE)
+_MAX_INCLUDE_DEPTH = 4
+
+
+def shader_source(name: str, defines: dict[str, object] | None = None) -> str:
+    """The text of ``resources/shaders/<name>`` (a GLSL stage), with its ``#include`` lines filled
+    in and ``defines`` (name -> value) as ``#define`` lines right after its ``#version`` line, where
+    GLSL wants them (a program compiled in several variants, e.g. its bone count)."""
+    text = _with_includes(name, 0)
+    if defines:
+        version, newline, rest = text.partition("\n")
+        if not version.startswith("#version"):
+            raise MorfError(f"shader {name} must start with a #version line to take defines")
+        text = version + newline + "".join(f"#define {k} {v}\n" for k, v in defines.items()) + rest
+    return text
+
+
+def _with_includes(name: str, depth: int) -> str:
+    if depth > _MAX_INCLUDE_DEPTH:
+        raise MorfError(f"shader include {name} nests deeper than {_MAX_INCLUDE_DEPTH} files (an include circle?)")
+    text = resource("shaders", name).read_text(encoding="utf-8")
+    return _INCLUDE.sub(lambda m: _with_includes(m.group(1), depth + 1).rstrip("\n"), text)
 
 
 def shader_stages(stem: str) -> dict[str, str]:

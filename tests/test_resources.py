@@ -39,6 +39,34 @@ def test_a_missing_shipped_file_is_one_line_naming_it():
         resource("shaders", "nope.glsl")
 
 
+def test_a_stage_gets_its_includes_and_defines():
+    """The UV rasterizer's and the textured renderer's vertex stages share one included body;
+    each gets only its own outputs, and defines land right after the #version line."""
+    mesh, textured = shader_source("gl_mesh_vs.glsl"), shader_source("gl_textured_vs.glsl")
+    for text in (mesh, textured):
+        assert not re.search(r"^\s*#include", text, re.MULTILINE)
+        assert text.startswith("#version 330\n") and "gl_Position = proj * pc;" in text
+    assert "#define POSED_DEPTH" in mesh and "#define POSED_NORMAL" not in mesh
+    assert "#define POSED_NORMAL" in textured and "#define POSED_DEPTH" not in textured
+    bones = shader_source("neural_raster_vs.glsl", {"NUM_BONES": 7})
+    assert bones.splitlines()[:2] == ["#version 330 core", "#define NUM_BONES 7"]
+    assert bones.replace("#define NUM_BONES 7\n", "", 1) == shader_source("neural_raster_vs.glsl")
+
+
+def test_an_include_circle_is_one_line(tmp_path, monkeypatch):
+    import morf.resources as r
+
+    (tmp_path / "shaders").mkdir()
+    (tmp_path / "shaders" / "a.glsl").write_text('#version 330\n#include "b.glsl"\n')
+    (tmp_path / "shaders" / "b.glsl").write_text('#include "a.glsl"\n')
+    monkeypatch.setattr(r, "ROOT", tmp_path)
+    with pytest.raises(MorfError, match="nests deeper"):
+        r.shader_source("a.glsl")
+    with pytest.raises(MorfError, match="shipped file shaders/c.glsl is missing"):
+        (tmp_path / "shaders" / "a.glsl").write_text('#version 330\n#include "c.glsl"\n')
+        r.shader_source("a.glsl")
+
+
 def _code_strings(path: Path) -> list[tuple[int, str]]:
     tree = ast.parse(path.read_text(encoding="utf-8"))
     docs = {id(n.body[0].value) for n in ast.walk(tree)

@@ -105,8 +105,8 @@ class NeuralRasterizer:
             self.vao = ctx.vertex_array(self.program, [(pos, "3f", "in_position"), (uv, "2f", "in_uv")],
                                         index_buffer=self._index, index_element_size=4)
         else:
-            vs = shader_source("neural_raster_vs.glsl").replace("#version 330 core", f"#version 330 core\n#define NUM_BONES {num_bones}", 1)
-            self.program = ctx.program(vertex_shader=vs, fragment_shader=shader_source("neural_raster_fs.glsl"))
+            self.program = ctx.program(vertex_shader=shader_source("neural_raster_vs.glsl", {"NUM_BONES": num_bones}),
+                                       fragment_shader=shader_source("neural_raster_fs.glsl"))
             self._buffers = [
                 ctx.buffer(np.ascontiguousarray(mesh.rest_vertices, np.float32).tobytes()), uv,
                 ctx.buffer(np.ascontiguousarray(mesh.bone_indices, np.int32).tobytes()),
