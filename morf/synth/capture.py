@@ -25,6 +25,7 @@ The manifest is written last, so an interrupted run never looks like a finished 
 from __future__ import annotations
 
 import shutil
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -68,6 +69,60 @@ def _frame_uvs(scene: SynthScene, field: SlideField, frame: int) -> np.ndarray:
     return (uv + scene.slide_weight[:, None] * field.displacement(uv, frame)).astype(np.float32)
 
 
+@dataclass(frozen=True)
+class CapturePlan:
+    """What the capture will show, drawn from the config's random streams before anything is
+    rendered.
+
+    Fields:
+        scene: the dressed body, its clothing and the camera.
+        motion: the poses of the N kept frames.
+        keep: (N,) int indices of the kept frames among the config's ``frames``.
+        field: the cloth sliding over all ``frames`` frames (the kept ones: ``keep``).
+        corrupted: (N,) bool kept frames whose keypoints get a wrong pose.
+    """
+
+    scene: SynthScene
+    motion: MotionSequence
+    keep: np.ndarray
+    field: SlideField
+    corrupted: np.ndarray
+
+
+def plan_capture(config: SynthConfig, streams, model=None) -> CapturePlan:
+    """Dress the body, draw the motion and the frames kept of it, the cloth sliding and the frames
+    whose keypoints are corrupted (each from its own random stream of ``streams``)."""
+    scene = build_scene(config, streams, model)
+    full = capture_motion(scene.model.bone_names, config.frames, streams["motion"], config.turn_fraction, config.sway,
+                          config.arms_out_deg, config.turn_degrees)
+    keep = kept_frames(full, config)
+    field = make_slide_field(config.frames, config.slide, streams["slide"])
+    n_bad = int(round(config.corrupt * config.frames))
+    corrupted = np.zeros(config.frames, bool)
+    corrupted[streams["corrupt"].choice(config.frames, size=n_bad, replace=False)] = True
+    return CapturePlan(scene, full.take(keep), keep, field, corrupted[keep])
+
+
+@dataclass(frozen=True)
+class CaptureKeypoints:
+    """The keypoints of the N rendered capture frames.
+
+    Fields:
+        points: (N, 23, 3) float32 what the project's keypoints.npz holds: detected, or the
+            truth with noise; a wrong pose's in the corrupted frames.
+        source: (N,) str "mediapipe" or "ground_truth", where ``points`` came from.
+        true_points: (N, 23, 3) float32 the body model's keypoints projected, confidence 1.
+        keypoints3d: (N, 23, 3) float32 the same in world coordinates (metres).
+        corruption: (N,) str the kind of corruption of each frame, "" for none.
+    """
+
+    points: np.ndarray
+    source: np.ndarray
+    true_points: np.ndarray
+    keypoints3d: np.ndarray
+    corruption: np.ndarray
+
+
 def make_synthetic_capture(root, config: SynthConfig, *, model=None, control: StageControl | None = None,
                            overwrite: bool = False) -> CaptureProject:
     """Render a synthetic capture project into ``root``.
@@ -87,78 +142,86 @@ def make_synthetic_capture(root, config: SynthConfig, *, model=None, control: St
     streams = rng_streams(config.seed)
     M = config.holdout_frames
     control.report(Progress("synth", 0, config.frames + M, "dressing the body"))
-    scene = build_scene(config, streams, model)
-    cam = scene.camera
-    bones = scene.model.bone_names
-    full = capture_motion(bones, config.frames, streams["motion"], config.turn_fraction, config.sway,
-                          config.arms_out_deg, config.turn_degrees)
-    keep = kept_frames(full, config)
-    motion, N = full.take(keep), len(keep)
-    field = make_slide_field(config.frames, config.slide, streams["slide"])
-    n_bad = int(round(config.corrupt * config.frames))
-    corrupted = np.zeros(config.frames, bool)
-    corrupted[streams["corrupt"].choice(config.frames, size=n_bad, replace=False)] = True
-    corrupted = corrupted[keep]
-    corruption = np.full(N, "", dtype="<U16")
-
+    plan = plan_capture(config, streams, model)
+    N = len(plan.keep)
     writer = CaptureProject(root, {"num_frames": N, "frame_ext": ".png", "width": config.size, "height": config.size})
-    gt_dir = writer.ground_truth_dir
     detector = make_detector(config.detector)
-    texture = upload_texture(scene.clothing.image)
-    points = np.zeros((N, 23, 3), np.float32)
-    true_points = np.zeros((N, 23, 3), np.float32)
-    kp3d = np.zeros((N, 23, 3), np.float32)
-    source = np.full(N, "ground_truth", dtype="<U16")
+    texture = upload_texture(plan.scene.clothing.image)
     bar = progress(total=N + M, desc="synth", unit="frame")
     try:
-        for i, posed in enumerate(posed_frames(scene, motion.rotvecs, motion.transl)):
-            control.check()
-            rgb, mask = render_textured(posed.dressed, scene.mesh, cam, texture, background=config.background,
-                                        msaa=config.msaa, shading=config.shading,
-                                        uvs=_frame_uvs(scene, field, int(keep[i])))
-            body_mask = rasterize_uv(posed.body, scene.mesh, cam).mask
-            kp3d[i] = posed.keypoints3d
-            true_points[i] = project_keypoints(posed.keypoints3d[None], cam)[0]
-            found, det_mask = detect(detector, rgb) if detector is not None else (None, None)
-            if found is not None:
-                points[i], source[i] = found, "mediapipe"
-                if det_mask is not None:
-                    det_png = (np.clip(det_mask, 0, 1) * 255).astype(np.uint8)
-                    write_image(gt_dir / "detector_masks" / f"{i:06d}.png", det_png)
-            else:
-                points[i] = noisy(true_points[i], config.kp_noise, streams["noise"])
-            if corrupted[i]:
-                points[i], corruption[i] = corrupt_keypoints(points[i], streams["corrupt"])
-            writer.save_frame(i, rgb)
-            writer.save_mask(i, mask)
-            write_image(gt_dir / "masks" / f"{i:06d}.png", mask.astype(np.uint8) * 255)
-            write_image(gt_dir / "body_masks" / f"{i:06d}.png", body_mask.astype(np.uint8) * 255)
-            bar.update(1)
-            control.report(Progress("synth", i + 1, N + M, f"capture frame {i + 1}/{N}", frame=i))
-        _render_holdout(scene, config, streams, texture, writer, control, bar, N)
+        keypoints = _render_capture(plan, config, streams, texture, detector, writer, control, bar)
+        _render_holdout(plan.scene, config, streams, texture, writer, control, bar, N)
     finally:
         bar.close()
         texture.release()
         close_detector(detector)
+    used = _write_truth(writer, plan, keypoints, config, "mediapipe" if detector is not None else "none")
+    return CaptureProject.create(
+        root, num_frames=N, width=config.size, height=config.size, fps=None if config.photo_set else config.fps,
+        camera=plan.scene.camera, source={"kind": "synthetic", "preset": config.preset, "seed": config.seed,
+                                          "keypoints": used["detector"]},
+        extra={"frame_ext": ".png", **_timing(plan.keep, config)})
 
-    writer.save_keypoints(Keypoints2D(points=points, detected=np.ones(N, bool), source=source))
+
+def _render_capture(plan: CapturePlan, config: SynthConfig, streams, texture, detector, writer: CaptureProject,
+                    control: StageControl, bar) -> CaptureKeypoints:
+    """Render the kept frames into the project (frames, masks) and its ground truth (clean and
+    body-only masks, the detector's masks), and give their keypoints."""
+    scene, cam, keep, N = plan.scene, plan.scene.camera, plan.keep, len(plan.keep)
+    gt_dir = writer.ground_truth_dir
+    points = np.zeros((N, 23, 3), np.float32)
+    true_points = np.zeros((N, 23, 3), np.float32)
+    kp3d = np.zeros((N, 23, 3), np.float32)
+    source = np.full(N, "ground_truth", dtype="<U16")
+    corruption = np.full(N, "", dtype="<U16")
+    for i, posed in enumerate(posed_frames(scene, plan.motion.rotvecs, plan.motion.transl)):
+        control.check()
+        rgb, mask = render_textured(posed.dressed, scene.mesh, cam, texture, background=config.background,
+                                    msaa=config.msaa, shading=config.shading,
+                                    uvs=_frame_uvs(scene, plan.field, int(keep[i])))
+        body_mask = rasterize_uv(posed.body, scene.mesh, cam).mask
+        kp3d[i] = posed.keypoints3d
+        true_points[i] = project_keypoints(posed.keypoints3d[None], cam)[0]
+        found, det_mask = detect(detector, rgb) if detector is not None else (None, None)
+        if found is not None:
+            points[i], source[i] = found, "mediapipe"
+            if det_mask is not None:
+                det_png = (np.clip(det_mask, 0, 1) * 255).astype(np.uint8)
+                write_image(gt_dir / "detector_masks" / f"{i:06d}.png", det_png)
+        else:
+            points[i] = noisy(true_points[i], config.kp_noise, streams["noise"])
+        if plan.corrupted[i]:
+            points[i], corruption[i] = corrupt_keypoints(points[i], streams["corrupt"])
+        writer.save_frame(i, rgb)
+        writer.save_mask(i, mask)
+        write_image(gt_dir / "masks" / f"{i:06d}.png", mask.astype(np.uint8) * 255)
+        write_image(gt_dir / "body_masks" / f"{i:06d}.png", body_mask.astype(np.uint8) * 255)
+        bar.update(1)
+        control.report(Progress("synth", i + 1, N + config.holdout_frames, f"capture frame {i + 1}/{N}", frame=i))
+    return CaptureKeypoints(points, source, true_points, kp3d, corruption)
+
+
+def _write_truth(writer: CaptureProject, plan: CapturePlan, keypoints: CaptureKeypoints, config: SynthConfig,
+                 detector: str) -> dict:
+    """The project's keypoints and the ground truth's files besides the rendered masks (texture,
+    camera, gt.npz, the resolved config). Returns what was used (``detector``: "mediapipe" or
+    "none"), as synth_config.json records it."""
+    scene, motion, field, keep = plan.scene, plan.motion, plan.field, plan.keep
+    gt_dir = writer.ground_truth_dir
+    writer.save_keypoints(Keypoints2D(points=keypoints.points, detected=np.ones(len(keep), bool),
+                                      source=keypoints.source))
     write_image(gt_dir / "texture.png", scene.clothing.image)
-    atomic_write_json(gt_dir / "camera.json", cam.to_dict())
+    atomic_write_json(gt_dir / "camera.json", scene.camera.to_dict())
     save_ground_truth(writer, GroundTruth(
         rotvecs=motion.rotvecs, transl=motion.transl, shape=scene.shape.numpy(), yaw=motion.yaw,
-        phase=motion.phase.astype(str), keypoints3d=kp3d, keypoints_true=true_points, corrupted=corrupted,
-        corruption=corruption, slide_freqs=field.freqs, slide_phases=field.phases,
+        phase=motion.phase.astype(str), keypoints3d=keypoints.keypoints3d, keypoints_true=keypoints.true_points,
+        corrupted=plan.corrupted, corruption=keypoints.corruption, slide_freqs=field.freqs, slide_phases=field.phases,
         slide_coeffs=field.coeffs[keep].astype(np.float32), slide_weight=scene.slide_weight,
         slide_grid=np.stack([field.grid(int(i)) for i in keep]).astype(np.float32),
         loose_offset=scene.loose_offset, vertex_regions=scene.vertex_regions))
-    used = {"detector": "mediapipe" if detector is not None else "none",
-            "frames_with_detector_keypoints": int((source == "mediapipe").sum())}
+    used = {"detector": detector, "frames_with_detector_keypoints": int((keypoints.source == "mediapipe").sum())}
     atomic_write_json(gt_dir / "synth_config.json", {"config": config.to_dict(), "resolved": used})
-    return CaptureProject.create(
-        root, num_frames=N, width=config.size, height=config.size, fps=None if config.photo_set else config.fps,
-        camera=cam, source={"kind": "synthetic", "preset": config.preset, "seed": config.seed,
-                            "keypoints": used["detector"]},
-        extra={"frame_ext": ".png", **_timing(keep, config)})
+    return used
 
 
 def kept_frames(motion: MotionSequence, config: SynthConfig) -> np.ndarray:
