@@ -9,6 +9,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import onnx
 from onnx import TensorProto, helper, numpy_helper
@@ -260,6 +262,105 @@ def _sort_nodes(model: onnx.ModelProto) -> None:
     g.node.extend(ordered)
 
 
+@dataclass(frozen=True)
+class _CoverageOp:
+    """The torch graph's coverage ``sum(|x|, channels) > 0`` on the dequantised input, as found in
+    the graph: ``greater`` (the comparison with 0), ``reduce`` (the ReduceSum over channels),
+    ``abs``, ``passed`` (no-op float Casts and Identities between the input and the Abs, nearest
+    the Abs first) and ``dequantize`` (the raster's ``DequantizeLinear``)."""
+
+    greater: onnx.NodeProto
+    reduce: onnx.NodeProto
+    abs: onnx.NodeProto
+    passed: tuple[onnx.NodeProto, ...]
+    dequantize: onnx.NodeProto
+
+
+def _find_coverage(model: onnx.ModelProto, greater: onnx.NodeProto, nchw: str) -> _CoverageOp | None:
+    """The coverage ending at ``greater`` when it reads the uint8 input ``nchw`` through a
+    ``DequantizeLinear`` with the texture's zero point; None for any other comparison."""
+    red = producer(model, greater.input[0])
+    ab = producer(model, red.input[0]) if red is not None and red.op_type == "ReduceSum" else None
+    dq = producer(model, ab.input[0]) if ab is not None and ab.op_type == "Abs" else None
+    passed = []  # a no-op float Cast (torch's ``x.float()``) between the input and the Abs
+    while dq is not None and (dq.op_type == "Identity" or (dq.op_type == "Cast" and attr(dq, "to") == TensorProto.FLOAT)):
+        passed.append(dq)
+        dq = producer(model, dq.input[0])
+    zero = const_value(model, greater.input[1])
+    if dq is None or dq.op_type != "DequantizeLinear" or dq.input[0] != nchw or zero is None or float(zero) != 0.0:
+        return None
+    zp = const_value(model, dq.input[2])
+    if zp is None or zp.dtype != np.uint8 or int(zp) != ZERO_POINT:
+        return None
+    return _CoverageOp(greater, red, ab, tuple(passed), dq)
+
+
+def _colour_from_bytes(model: onnx.ModelProto, op: _CoverageOp, nchw: str) -> tuple[list[str], tuple[str, int]]:
+    """Each colour ``x[:, :k]`` sliced from the dequantised input becomes the same slice of the
+    bytes, then dequantised, in place. Returns what was rewritten and where the coverage byte is
+    read from: a (1, C, H, W) uint8 tensor and the coverage byte's channel in it (a sliced
+    colour's contiguous planes when they hold that channel, else the whole input)."""
+    g, dq, done = model.graph, op.dequantize, []
+    bytes_from = (nchw, COVERAGE_CHANNEL)
+    readers = [n for t in (dq,) + op.passed for n in _consumers(model, t.output[0])]
+    for sl in [n for n in readers if n.op_type == "Slice"]:
+        starts, ends = const_value(model, sl.input[1]), const_value(model, sl.input[2])
+        ax = const_value(model, sl.input[3]) if len(sl.input) > 3 and sl.input[3] else np.array([0])
+        steps = const_value(model, sl.input[4]) if len(sl.input) > 4 and sl.input[4] else np.array([1])
+        if any(v is None for v in (starts, ends, ax, steps)) or list(ax.reshape(-1)) != [1] \
+                or int(starts.reshape(-1)[0]) != 0 or int(steps.reshape(-1)[0]) != 1:
+            continue
+        # from the channel-planar bytes (for "nhwc" a uint8 transpose of 0.5 ms at 640x640):
+        # slicing 3 of a pixel's 16 interleaved bytes took 1.8 ms, three contiguous planes 0.7
+        q = f"{sl.name}_uint8"
+        nodes = [helper.make_node("Slice", [nchw] + list(sl.input[1:]), [f"{q}_bytes"], name=q),
+                 helper.make_node("DequantizeLinear", [f"{q}_bytes", dq.input[1], dq.input[2]], [sl.output[0]],
+                                  name=f"{q}_dq")]
+        _replace_node(model, sl, nodes)
+        done.append(f"colour {sl.name}")
+        if int(ends.reshape(-1)[0]) > COVERAGE_CHANNEL:
+            bytes_from = (f"{q}_bytes", COVERAGE_CHANNEL)
+    return done, bytes_from
+
+
+def _coverage_from_bytes(model: onnx.ModelProto, greater: onnx.NodeProto, src: str, channel: int) -> None:
+    """``greater``'s output computed as ``|byte - zp| > 0`` on the one byte plane ``channel`` of
+    ``src``, in place (onnxruntime's uint8 comparisons with a broadcast scalar took 5 ms each at
+    640x640; these float ops on one plane take tenths)."""
+    p = f"{greater.name}_uint8"
+    model.graph.initializer.extend([numpy_helper.from_array(np.array(ZERO_POINT, np.float32), f"{p}_zp"),
+                                    numpy_helper.from_array(np.array(0.0, np.float32), f"{p}_zero"),
+                                    numpy_helper.from_array(np.array([channel], np.int64), f"{p}_start"),
+                                    numpy_helper.from_array(np.array([channel + 1], np.int64), f"{p}_end"),
+                                    numpy_helper.from_array(np.array([1], np.int64), f"{p}_axis")])
+    nodes = [helper.make_node("Slice", [src, f"{p}_start", f"{p}_end", f"{p}_axis"], [f"{p}_byte"], name=f"{p}_byte"),
+             helper.make_node("Cast", [f"{p}_byte"], [f"{p}_value"], to=TensorProto.FLOAT, name=f"{p}_value"),
+             helper.make_node("Sub", [f"{p}_value", f"{p}_zp"], [f"{p}_off"], name=f"{p}_off"),
+             helper.make_node("Abs", [f"{p}_off"], [f"{p}_offabs"], name=f"{p}_offabs"),
+             helper.make_node("Greater", [f"{p}_offabs", f"{p}_zero"], [greater.output[0]], name=f"{p}_covered")]
+    _replace_node(model, greater, nodes)
+
+
+def _replace_node(model: onnx.ModelProto, old: onnx.NodeProto, nodes: list[onnx.NodeProto]) -> None:
+    """``nodes`` where ``old`` stood in the graph's node list, ``old`` removed."""
+    g = model.graph
+    at = list(g.node).index(old)
+    g.node.remove(old)
+    for i, n in enumerate(nodes):
+        g.node.insert(at + i, n)
+
+
+def _drop_unused_constants(model: onnx.ModelProto) -> None:
+    """Remove the Constant nodes and initializers nothing reads (the replaced nodes' constants:
+    onnxruntime warns about unused ones)."""
+    g = model.graph
+    used = {i for n in g.node for i in n.input}
+    for n in [n for n in g.node if n.op_type == "Constant" and n.output[0] not in used]:
+        g.node.remove(n)
+    for t in [t for t in g.initializer if t.name not in used]:
+        g.initializer.remove(t)
+
+
 def uint8_colour_head(model: onnx.ModelProto, layout: str, raster: str = "raster") -> list[str]:
     """Feed the texture-colour head (``TextureColour`` of an ``rgb_skip`` renderer) from the uint8
     bytes, in place, after :func:`uint8_input`. Returns what was rewritten ([] when the graph has
@@ -275,77 +376,25 @@ def uint8_colour_head(model: onnx.ModelProto, layout: str, raster: str = "raster
       one plane, taken from the colour's byte planes (contiguous; 1.6 ms a frame less than a
       max / min over the 16 bytes of each pixel on 2 cores).
     """
-    g = model.graph
     nchw = raster if layout == "nchw" else f"{raster}_nchw"
     done = []
-    for greater in [n for n in g.node if n.op_type == "Greater"]:
-        red = producer(model, greater.input[0])
-        ab = producer(model, red.input[0]) if red is not None and red.op_type == "ReduceSum" else None
-        dq = producer(model, ab.input[0]) if ab is not None and ab.op_type == "Abs" else None
-        passed = []  # a no-op float Cast (torch's ``x.float()``) between the input and the Abs
-        while dq is not None and (dq.op_type == "Identity" or (dq.op_type == "Cast" and attr(dq, "to") == TensorProto.FLOAT)):
-            passed.append(dq)
-            dq = producer(model, dq.input[0])
-        zero = const_value(model, greater.input[1])
-        if dq is None or dq.op_type != "DequantizeLinear" or dq.input[0] != nchw or zero is None or float(zero) != 0.0:
-            continue
-        zp = const_value(model, dq.input[2])
-        if zp is None or zp.dtype != np.uint8 or int(zp) != ZERO_POINT:
+    for greater in [n for n in model.graph.node if n.op_type == "Greater"]:
+        op = _find_coverage(model, greater, nchw)
+        if op is None:
             continue
         # the colour first: the coverage plane is read from its bytes
-        bytes_from = (nchw, COVERAGE_CHANNEL)  # a (1, C, H, W) uint8 tensor and the coverage byte's channel in it
-        readers = [n for t in [dq] + passed for n in _consumers(model, t.output[0])]
-        for sl in [n for n in readers if n.op_type == "Slice"]:
-            starts, ends = const_value(model, sl.input[1]), const_value(model, sl.input[2])
-            ax = const_value(model, sl.input[3]) if len(sl.input) > 3 and sl.input[3] else np.array([0])
-            steps = const_value(model, sl.input[4]) if len(sl.input) > 4 and sl.input[4] else np.array([1])
-            if any(v is None for v in (starts, ends, ax, steps)) or list(ax.reshape(-1)) != [1] \
-                    or int(starts.reshape(-1)[0]) != 0 or int(steps.reshape(-1)[0]) != 1:
-                continue
-            # from the channel-planar bytes (for "nhwc" a uint8 transpose of 0.5 ms at 640x640):
-            # slicing 3 of a pixel's 16 interleaved bytes took 1.8 ms, three contiguous planes 0.7
-            q = f"{sl.name}_uint8"
-            nodes = [helper.make_node("Slice", [nchw] + list(sl.input[1:]), [f"{q}_bytes"], name=q),
-                     helper.make_node("DequantizeLinear", [f"{q}_bytes", dq.input[1], dq.input[2]], [sl.output[0]],
-                                      name=f"{q}_dq")]
-            at = list(g.node).index(sl)
-            g.node.remove(sl)
-            for i, n in enumerate(nodes):
-                g.node.insert(at + i, n)
-            done.append(f"colour {sl.name}")
-            if int(ends.reshape(-1)[0]) > COVERAGE_CHANNEL:
-                bytes_from = (f"{q}_bytes", COVERAGE_CHANNEL)
-        src, channel = bytes_from
-        p = f"{greater.name}_uint8"
-        g.initializer.extend([numpy_helper.from_array(np.array(ZERO_POINT, np.float32), f"{p}_zp"),
-                              numpy_helper.from_array(np.array(0.0, np.float32), f"{p}_zero"),
-                              numpy_helper.from_array(np.array([channel], np.int64), f"{p}_start"),
-                              numpy_helper.from_array(np.array([channel + 1], np.int64), f"{p}_end"),
-                              numpy_helper.from_array(np.array([1], np.int64), f"{p}_axis")])
-        # covered = |byte - zp| > 0 on one float plane (onnxruntime's uint8 comparisons with a
-        # broadcast scalar took 5 ms each at 640x640; these take tenths)
-        nodes = [helper.make_node("Slice", [src, f"{p}_start", f"{p}_end", f"{p}_axis"], [f"{p}_byte"], name=f"{p}_byte"),
-                 helper.make_node("Cast", [f"{p}_byte"], [f"{p}_value"], to=TensorProto.FLOAT, name=f"{p}_value"),
-                 helper.make_node("Sub", [f"{p}_value", f"{p}_zp"], [f"{p}_off"], name=f"{p}_off"),
-                 helper.make_node("Abs", [f"{p}_off"], [f"{p}_offabs"], name=f"{p}_offabs"),
-                 helper.make_node("Greater", [f"{p}_offabs", f"{p}_zero"], [greater.output[0]], name=f"{p}_covered")]
-        at = list(g.node).index(greater)
-        g.node.remove(greater)
-        for i, n in enumerate(nodes):
-            g.node.insert(at + i, n)
-        for node in [red, ab]:
+        colour, (src, channel) = _colour_from_bytes(model, op, nchw)
+        done += colour
+        _coverage_from_bytes(model, greater, src, channel)
+        for node in [op.reduce, op.abs]:
             _remove_if_unused(model, node)
         done.append(f"coverage {greater.name}")
-        for node in reversed(passed):
+        for node in reversed(op.passed):
             _remove_if_unused(model, node)
-        _remove_if_unused(model, dq)
+        _remove_if_unused(model, op.dequantize)
     if done:
         _sort_nodes(model)
-    used = {i for n in g.node for i in n.input}  # the replaced nodes' constants (onnxruntime warns about unused ones)
-    for n in [n for n in g.node if n.op_type == "Constant" and n.output[0] not in used]:
-        g.node.remove(n)
-    for t in [t for t in g.initializer if t.name not in used]:
-        g.initializer.remove(t)
+    _drop_unused_constants(model)
     return done
 
 

@@ -22,8 +22,9 @@ import io
 import os
 import tempfile
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable
+from typing import Any, Iterable
 
 import numpy as np
 import onnx
@@ -114,37 +115,55 @@ def _tail_parameters(renderer, scales: np.ndarray, w, b, k: float, c: float) -> 
                           head_alpha=f32(renderer.head[1].negative_slope))
 
 
-def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int],
-                        colours: tuple[float, float] | None = None) -> tuple[onnx.ModelProto, str | None, TailParameters | None]:
-    """Export ``renderer(x * 127 * scales)`` with output RGB + sigmoid(mask) and fold the scale.
+@dataclass(frozen=True)
+class _GraphHead:
+    """How the exported graph ends, settled before tracing.
 
-    A renderer with fewer input channels than the 16 GL channels (small presets) reads the first
-    ones; the texture's extra channels are zero (128) and the scale then stays a ``Mul``.
-
-    ``colours`` (int8 graphs): the RGB range of :func:`colour_range`. The last convolution then
-    writes the mask logit mapped affinely from [-8, 8] onto that range (and the graph maps it
-    back before the sigmoid), so one per-tensor int8 range serves both, pinned to ``colours``
-    by the caller. Returns the model, the name of the last convolution's output (or None) and
-    the tail's parameters (:func:`_tail_parameters`; the graph then has the two named tensors of
-    :mod:`morf.export.native_tail_spec` as extra outputs, which :func:`_finish` drops).
+    Fields:
+        split: the renderer has ``features`` and a ``last`` convolution, which the graph applies
+            itself with ``weight`` and ``bias``; otherwise the renderer runs whole.
+        k, c: the mask logit is ``k * channel + c`` of the last convolution's mask channel (1, 0
+            without an int8 colour range).
+        weight, bias: the last convolution's parameters with the mask channel mapped (None
+            unless ``split``).
+        tail: the player's compiled tail's parameters (:func:`_tail_parameters`), or None.
     """
+
+    split: bool
+    k: float = 1.0
+    c: float = 0.0
+    weight: Any = None
+    bias: Any = None
+    tail: TailParameters | None = None
+
+
+def _graph_head(renderer, scales: np.ndarray, colours: tuple[float, float] | None) -> _GraphHead:
+    """The :class:`_GraphHead` of ``renderer``; ``colours`` as in :func:`_export_float_graph`."""
     import torch
 
-    cfg = getattr(renderer, "cfg", None)
-    used = int(getattr(cfg, "in_channels", len(scales)))
     split = hasattr(renderer, "features") and isinstance(getattr(renderer, "last", None), torch.nn.Conv2d)
     k, c = 1.0, 0.0
     if colours is not None:
         lo, hi = colours
         k = 2 * MASK_LOGIT_SPAN / (hi - lo)  # logit = k * channel + c
         c = -MASK_LOGIT_SPAN - lo * k
-    w = b = tail = None
-    if split:
-        with torch.no_grad():
-            w, b = renderer.last.weight.clone(), renderer.last.bias.clone()
-            w[3] /= k
-            b[3] = (b[3] - c) / k
-        tail = _tail_parameters(renderer, scales, w, b, k, c)
+    if not split:
+        return _GraphHead(False, k, c)
+    with torch.no_grad():
+        w, b = renderer.last.weight.clone(), renderer.last.bias.clone()
+        w[3] /= k
+        b[3] = (b[3] - c) / k
+    return _GraphHead(True, k, c, w, b, _tail_parameters(renderer, scales, w, b, k, c))
+
+
+def _graph_module(renderer, scales: np.ndarray, head: _GraphHead, colours: tuple[float, float] | None):
+    """The module the graph is traced from: ``renderer(x * 127 * scales)`` with output RGB +
+    sigmoid(mask) (and, with a tail, the two tensors the tail reads)."""
+    import torch
+
+    cfg = getattr(renderer, "cfg", None)
+    used = int(getattr(cfg, "in_channels", len(scales)))
+    split, w, b, k, c, tail = head.split, head.weight, head.bias, head.k, head.c, head.tail
 
     class _Wrapper(torch.nn.Module):
         def __init__(self):
@@ -180,29 +199,56 @@ def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int]
             rgba = torch.cat([rgb, mask], dim=1)
             return (rgba, head, colour) if tail is not None else rgba
 
-    wrapper = _Wrapper().eval().float()
-    x = torch.zeros(1, len(scales), *sample_hw)
+    return _Wrapper().eval().float()
+
+
+def _trace(wrapper, renderer, channels: int, sample_hw: tuple[int, int], tail: bool) -> onnx.ModelProto:
+    """``wrapper`` traced to ONNX on a (1, ``channels``, *sample_hw) zero input, with free height
+    and width; the colour fill's reach set for player-sized frames (:data:`FILL_SIDE`)."""
+    import torch
+
+    cfg = getattr(renderer, "cfg", None)
+    x = torch.zeros(1, channels, *sample_hw)
     buf = io.BytesIO()
     colour = getattr(renderer, "colour", None) if getattr(cfg, "rgb_skip", False) else None
     reach = colour.reaching(FILL_SIDE) if colour is not None else contextlib.nullcontext()
-    outputs = ["rgba", TAIL_HEAD, TAIL_COLOUR] if tail is not None else ["rgba"]
+    outputs = ["rgba", TAIL_HEAD, TAIL_COLOUR] if tail else ["rgba"]
     with warnings.catch_warnings(), torch.no_grad(), reach:
         warnings.simplefilter("ignore")
         torch.onnx.export(wrapper, (x,), buf, opset_version=OPSET, dynamo=False, input_names=[FLOAT_INPUT],
                           output_names=outputs, do_constant_folding=True,
                           dynamic_axes={FLOAT_INPUT: {2: "height", 3: "width"},
                                         **{o: {2: "height", 3: "width"} for o in outputs}})
-    model = onnx.load_from_string(buf.getvalue())
+    return onnx.load_from_string(buf.getvalue())
+
+
+def _export_float_graph(renderer, scales: np.ndarray, sample_hw: tuple[int, int],
+                        colours: tuple[float, float] | None = None) -> tuple[onnx.ModelProto, str | None, TailParameters | None]:
+    """Export ``renderer(x * 127 * scales)`` with output RGB + sigmoid(mask) and fold the scale.
+
+    A renderer with fewer input channels than the 16 GL channels (small presets) reads the first
+    ones; the texture's extra channels are zero (128) and the scale then stays a ``Mul``.
+
+    ``colours`` (int8 graphs): the RGB range of :func:`colour_range`. The last convolution then
+    writes the mask logit mapped affinely from [-8, 8] onto that range (and the graph maps it
+    back before the sigmoid), so one per-tensor int8 range serves both, pinned to ``colours``
+    by the caller. Returns the model, the name of the last convolution's output (or None) and
+    the tail's parameters (:func:`_tail_parameters`; the graph then has the two named tensors of
+    :mod:`morf.export.native_tail_spec` as extra outputs, which :func:`_finish` drops).
+    """
+    head = _graph_head(renderer, scales, colours)
+    wrapper = _graph_module(renderer, scales, head, colours)
+    model = _trace(wrapper, renderer, len(scales), sample_hw, head.tail is not None)
     if not fold_input_scale(model, FLOAT_INPUT):
         warnings.warn("renderer input scale could not be folded into the first convolutions; kept as a Mul")
-    if not split:
+    if not head.split:
         return model, None, None
     if getattr(renderer, "pointwise_matmul", False):  # the last 1x1 convolution is a MatMul (+ bias Add)
         last_node = _head_output(model)
         if last_node is not None:
-            return model, last_node, tail
+            return model, last_node, head.tail
     convs = [n for n in model.graph.node if n.op_type == "Conv"]
-    return model, (convs[-1].output[0] if convs else None), tail
+    return model, (convs[-1].output[0] if convs else None), head.tail
 
 
 def _head_output(model: onnx.ModelProto) -> str | None:
