@@ -168,6 +168,13 @@ def _asked_for_by_the_code() -> set[str]:
                 wanted |= {f"shaders/{node.args[0].value}_vs.glsl", f"shaders/{node.args[0].value}_fs.glsl"}
             elif name == "shader_source":
                 wanted.add(f"shaders/{node.args[0].value}")
+    todo = [w for w in wanted if w.startswith("shaders/")]
+    while todo:  # and the parts they include
+        shader = todo.pop()
+        text = (ROOT / shader).read_text(encoding="utf-8") if (ROOT / shader).is_file() else ""
+        parts = {f"shaders/{m}" for m in re.findall(r'^\s*#include\s+"([^"]+)"', text, re.MULTILINE)}
+        todo += sorted(parts - wanted)
+        wanted |= parts
     return wanted
 
 
