@@ -29,21 +29,18 @@ from morf.train.frames import FrameSet, pack_uv
 
 @dataclass(frozen=True)
 class RefineConfig:
-    """Fields: steps: Adam steps a frame; lr: step size (radians for rotations, metres for the
-    translation); raster_every: steps between re-rasterizations (which triangle covers a pixel);
-    prior: weight of the squared pose change (radians^2) and translation (metres^2, times 100);
-    levels: pyramid levels of the loss (1 = full resolution only); batch: frames refined
-    together; bones: refine the fitter's bones (``FIT_BONES``) besides the root and the
-    translation, at step size ``bone_lr``."""
+    """How the poses are refined: the optimisation, the bones it may turn, the loss."""
 
-    steps: int = 40
-    lr: float = 0.004
-    raster_every: int = 1
-    prior: float = 0.05
-    levels: int = 3
-    batch: int = 4
-    bones: bool = False
+    steps: int = 40  # Adam steps a frame
+    lr: float = 0.004  # step size of the root (radians) and the translation (metres)
+    batch: int = 4  # frames refined together
+    # bones refined besides the root and the translation (e.g. the fitter's,
+    # morf.fitting.params.FIT_BONES), at step size bone_lr; none by default
+    bones: tuple[str, ...] = ()
     bone_lr: float = 0.001
+    raster_every: int = 1  # steps between re-rasterizations (which triangle covers a pixel)
+    prior: float = 0.05  # weight of the squared pose change (radians^2) and translation (metres^2, times 100)
+    levels: int = 3  # pyramid levels of the loss (1: full resolution only)
 
 
 @dataclass(frozen=True)
@@ -101,20 +98,18 @@ def _pyramid_l1(pred: torch.Tensor, gt: torch.Tensor, levels: int) -> torch.Tens
 
 def refine_poses(avatar, model, frames: FrameSet, rotvecs: np.ndarray, transl: np.ndarray, shape: np.ndarray,
                  camera: PinholeCamera, colour: torch.Tensor, cfg: RefineConfig = RefineConfig()) -> RefinedPoses:
-    """Refine every frame's root orientation and translation (and the fitter's bones with
-    ``cfg.bones``) against ``frames``' images composited over ``colour``, with ``avatar`` (texture
-    and renderer) frozen: its renderer's parameters stop requiring gradients. ``camera`` is the
-    camera ``frames`` were rasterized through."""
+    """Refine every frame's root orientation and translation (and ``cfg.bones``) against
+    ``frames``' images composited over ``colour``, with ``avatar`` (texture and renderer) frozen:
+    its renderer's parameters stop requiring gradients. ``camera`` is the camera ``frames`` were
+    rasterized through."""
     from morf.avatar.metrics import composite_over
     from morf.avatar.model import render_with_texture
     from morf.body import BodyPose
     from morf.body.render_mesh import render_mesh_for
-    from morf.fitting.params import FIT_BONES
     from morf.raster import rasterize_uv_batch
 
     rm = render_mesh_for(model)
-    names = FIT_BONES if cfg.bones else ()
-    bone_ids = torch.as_tensor([model.bone_index(b) for b in names if model.bone_index(b) > 0], dtype=torch.long)
+    bone_ids = torch.as_tensor([model.bone_index(b) for b in cfg.bones if model.bone_index(b) > 0], dtype=torch.long)
     faces = torch.as_tensor(rm.faces, dtype=torch.long)
     uvs = torch.as_tensor(rm.uvs, dtype=torch.float32)
     shape_t = torch.as_tensor(np.asarray(shape, np.float32).reshape(1, -1))

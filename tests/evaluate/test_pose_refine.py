@@ -88,3 +88,28 @@ def test_a_known_texture_recovers_a_perturbed_pose(gl, body_model):
     assert start > 20  # a few pixels at this camera
     assert res.loss_after < 0.5 * res.loss_before
     assert vertex_error_mm(res.rotvecs, res.transl) < 0.4 * start
+
+
+def test_only_the_named_bones_turn_besides_the_root(gl, body_model):
+    from morf.avatar.passthrough import PassthroughRenderer
+    from morf.evaluate.pose_refine import RefineConfig, refine_poses
+    from morf.raster.camera_paths import front_camera
+
+    cam = front_camera(64, center=(0.0, -0.3, 0.0))
+    J = len(body_model.bone_names)
+    shape = body_model.default_shape().reshape(1, -1).numpy()
+    avatar = SimpleNamespace(renderer=PassthroughRenderer(), texture=_pattern_texture())
+    colour = torch.tensor([0.2, 0.3, 0.4])
+    true_rot, true_tr = _body(J, (0.0, 0.5, 0.0))
+    frames = _frames(body_model, cam, avatar, true_rot, true_tr, shape, colour)
+    start_rot, start_tr = _body(J, (0.0, 0.55, 0.0))
+    start_rot[:, body_model.bone_index("lowerarm01.L")] = (0.0, 0.0, 0.3)
+    turned = {}
+    for bones in ((), ("lowerarm01.L",)):
+        res = refine_poses(avatar, body_model, frames, start_rot, start_tr, shape, cam, colour,
+                           RefineConfig(steps=8, batch=1, bones=bones, bone_lr=0.01))
+        moved = np.abs(res.rotvecs - start_rot).max(axis=(0, 2)) > 1e-6
+        turned[bones] = {body_model.bone_names[j] for j in np.flatnonzero(moved)}
+    assert turned[()] <= {body_model.bone_names[0]}
+    assert "lowerarm01.L" in turned[("lowerarm01.L",)] and turned[("lowerarm01.L",)] <= {
+        body_model.bone_names[0], "lowerarm01.L"}
