@@ -60,19 +60,26 @@ def test_uvs_match_the_gl_rasterizer(gl, body_model):
     assert np.all(uv[~covered] == 0)
 
 
-def test_a_known_texture_recovers_a_perturbed_pose(gl, body_model):
+def _truth(body_model, side: int):
+    """A frozen avatar (the pattern texture, passed through) and one frame of it rendered in a
+    known pose: (camera, shape, avatar, backdrop colour, frames, true rotvecs, true translation)."""
     from morf.avatar.passthrough import PassthroughRenderer
-    from morf.evaluate.pose_refine import RefineConfig, refine_poses
     from morf.raster.camera_paths import front_camera
 
-    cam = front_camera(96, center=(0.0, -0.3, 0.0))
-    J = len(body_model.bone_names)
+    cam = front_camera(side, center=(0.0, -0.3, 0.0))
     shape = body_model.default_shape().reshape(1, -1).numpy()
     avatar = SimpleNamespace(renderer=PassthroughRenderer(), texture=_pattern_texture())
     colour = torch.tensor([0.2, 0.3, 0.4])
-    true_rot, true_tr = _body(J, (0.0, 0.5, 0.0))
+    true_rot, true_tr = _body(len(body_model.bone_names), (0.0, 0.5, 0.0))
     frames = _frames(body_model, cam, avatar, true_rot, true_tr, shape, colour)
-    start_rot, start_tr = _body(J, (0.0, 0.5 + np.radians(5), 0.0), (0.015, 0.0, 0.0))
+    return cam, shape, avatar, colour, frames, true_rot, true_tr
+
+
+def test_a_known_texture_recovers_a_perturbed_pose(gl, body_model):
+    from morf.evaluate.pose_refine import RefineConfig, refine_poses
+
+    cam, shape, avatar, colour, frames, true_rot, true_tr = _truth(body_model, 96)
+    start_rot, start_tr = _body(len(body_model.bone_names), (0.0, 0.5 + np.radians(5), 0.0), (0.015, 0.0, 0.0))
     res = refine_poses(avatar, body_model, frames, start_rot, start_tr, shape, cam, colour,
                        RefineConfig(steps=40, batch=1))
 
@@ -91,18 +98,10 @@ def test_a_known_texture_recovers_a_perturbed_pose(gl, body_model):
 
 
 def test_only_the_named_bones_turn_besides_the_root(gl, body_model):
-    from morf.avatar.passthrough import PassthroughRenderer
     from morf.evaluate.pose_refine import RefineConfig, refine_poses
-    from morf.raster.camera_paths import front_camera
 
-    cam = front_camera(64, center=(0.0, -0.3, 0.0))
-    J = len(body_model.bone_names)
-    shape = body_model.default_shape().reshape(1, -1).numpy()
-    avatar = SimpleNamespace(renderer=PassthroughRenderer(), texture=_pattern_texture())
-    colour = torch.tensor([0.2, 0.3, 0.4])
-    true_rot, true_tr = _body(J, (0.0, 0.5, 0.0))
-    frames = _frames(body_model, cam, avatar, true_rot, true_tr, shape, colour)
-    start_rot, start_tr = _body(J, (0.0, 0.55, 0.0))
+    cam, shape, avatar, colour, frames, _, _ = _truth(body_model, 64)
+    start_rot, start_tr = _body(len(body_model.bone_names), (0.0, 0.55, 0.0))
     start_rot[:, body_model.bone_index("lowerarm01.L")] = (0.0, 0.0, 0.3)
     turned = {}
     for bones in ((), ("lowerarm01.L",)):
