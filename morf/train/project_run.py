@@ -14,7 +14,8 @@ from morf.errors import InputError
 from morf.pipeline.control import Progress, StageControl
 from morf.train.config import TrainConfig
 from morf.train.frame_scores import FrameScores
-from morf.train.loop import InpaintViews, TrainResult, train_avatar
+from morf.train.inpaint_views import InpaintViews
+from morf.train.loop import TrainResult, train_avatar
 from morf.io.lock import project_lock
 from morf.train.run_dir import RunDir
 from morf.train.run_files import restart_run, run_path
