@@ -12,6 +12,7 @@ import shutil
 import signal
 import subprocess
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -25,6 +26,9 @@ BROWSER_FLAGS = ("--headless", "--use-gl=angle", "--use-angle=swiftshader", "--e
                  "--disable-background-timer-throttling", "--disable-renderer-backgrounding",
                  # every host but the local server unresolvable: a page that asked another would fail
                  "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1")
+
+# WebGPU in headless Chromium: on a machine without a GPU, SwiftShader's Vulkan adapter (software)
+WEBGPU_FLAGS = ("--enable-unsafe-webgpu", "--enable-features=Vulkan", "--use-webgpu-adapter=swiftshader")
 
 
 def find_chromium(explicit: str | None = None) -> str | None:
@@ -67,35 +71,76 @@ def end_group(proc: subprocess.Popen, wait: float = 10.0) -> None:
     proc.wait()
 
 
-def run_page(folder: str | Path, query: str, extra: dict[str, Path] | None = None, isolation: bool = True,
-             chromium: str | None = None, timeout: float = 300.0, log: Path | None = None) -> dict:
-    """Open ``folder``'s index.html?``query`` in headless Chromium; returns what the page posted.
+def group_cpu_seconds(pgid: int) -> float | None:
+    """CPU seconds (user + system) used so far by the live processes of process group ``pgid``
+    (Linux /proc; None elsewhere). On a shared machine a page's CPU time is steadier than its wall
+    time, which other processes' load stretches."""
+    proc = Path("/proc")
+    if not proc.is_dir():
+        return None
+    ticks, total = os.sysconf("SC_CLK_TCK"), 0
+    for d in proc.iterdir():
+        if not d.name.isdigit():
+            continue
+        try:
+            fields = (d / "stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[2]) == pgid:  # fields after the name: state, ppid, pgrp, ..., utime (12), stime (13)
+            total += int(fields[11]) + int(fields[12])
+    return total / ticks
 
-    ``extra``: URL path -> file served beside the folder (``/check.json``). Raises InputError when
-    Chromium is missing, TimeoutError when the page does not post within ``timeout`` seconds,
-    RuntimeError when the browser exits first."""
+
+def browse_until(url: str, done: threading.Event, timeout: float = 300.0, chromium: str | None = None,
+                 log: Path | None = None, flags: tuple[str, ...] = BROWSER_FLAGS) -> float | None:
+    """Open ``url`` in headless Chromium (a fresh profile) and wait until ``done`` is set (the page
+    posted its result to the caller's server); then end the browser. Returns the CPU seconds the
+    browser's processes used by then (:func:`group_cpu_seconds`). ``log``: a file for the browser's
+    own output. Raises InputError when Chromium is missing, TimeoutError when ``done`` is not set
+    within ``timeout`` seconds, RuntimeError when the browser exits first."""
     browser = find_chromium(chromium)
     if browser is None:
         raise InputError(missing_browser(chromium))
-    server = WebServer(folder, isolation=isolation, extra=extra, accept_results=True).start()
-    url = f"{server.url}index.html?{query}"
     sandbox = ("--no-sandbox",) if os.geteuid() == 0 else ()  # Chromium refuses root with its sandbox on
     with tempfile.TemporaryDirectory(prefix="morf-web-", ignore_cleanup_errors=True) as profile:
         out = open(log, "wb") if log else subprocess.DEVNULL
-        proc = subprocess.Popen([browser, *BROWSER_FLAGS, *sandbox, f"--user-data-dir={profile}", url],
+        # A session of its own: Debian's /usr/bin/chromium* are shell scripts that do not exec, so
+        # the browser is ended as the process group started here, not by the wrapper's pid alone.
+        proc = subprocess.Popen([browser, *flags, *sandbox, f"--user-data-dir={profile}", url],
                                 stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
         try:
             deadline = time.monotonic() + timeout
-            while not server.posted.wait(0.25):
+            while not done.wait(0.25):
                 if proc.poll() is not None:
-                    raise RuntimeError(f"Chromium exited ({proc.returncode}) before the page reported")
+                    raise RuntimeError(f"Chromium exited ({proc.returncode}) before the page reported"
+                                       + (f"; see {log}" if log else ""))
                 if time.monotonic() > deadline:
                     raise TimeoutError(f"the page did not report within {timeout:.0f} s")
+            return group_cpu_seconds(proc.pid)
         finally:
             end_group(proc)
-            server.stop()
             if log:
                 out.close()
+
+
+def run_page(folder: str | Path, query: str, extra: dict[str, Path] | None = None, isolation: bool = True,
+             chromium: str | None = None, timeout: float = 300.0, log: Path | None = None,
+             webgpu: bool = False) -> dict:
+    """Open ``folder``'s index.html?``query`` in headless Chromium; returns what the page posted.
+
+    ``extra``: URL path -> file served beside the folder (``/check.json``). ``webgpu``: offer the
+    page WebGPU (:data:`WEBGPU_FLAGS`: headless Chromium has none by default). The result's
+    ``browser_cpu_s`` is the CPU time the browser's processes used until the page posted. Raises
+    as :func:`browse_until` does."""
+    if find_chromium(chromium) is None:
+        raise InputError(missing_browser(chromium))
+    server = WebServer(folder, isolation=isolation, extra=extra, accept_results=True).start()
+    try:
+        cpu = browse_until(f"{server.url}index.html?{query}", server.posted, timeout, chromium, log,
+                           BROWSER_FLAGS + (WEBGPU_FLAGS if webgpu else ()))
+    finally:
+        server.stop()
     result = server.results[0]
     result["requests"] = server.log
+    result["browser_cpu_s"] = cpu
     return result

@@ -22,21 +22,25 @@ def camera_json(camera) -> dict:
 
 def page_frames(folder: str | Path, frames: list[tuple[np.ndarray, np.ndarray, object]], background=(255, 255, 255),
                 timeout: float = 180.0, isolation: bool = True, query: str = "",
-                rasters: bool = False) -> tuple[list[np.ndarray], dict]:
+                rasters: bool = False, webgpu: bool = False) -> tuple[list[np.ndarray], dict]:
     """The page's images of (rotvecs (J, 3), transl (3,), camera) frames, each (H, W, 3) uint8 at its
     camera's size, and the rest of what the page posted (environment, console messages). ``query``:
     more of the page's parameters (``tail=js``). ``rasters``: also the renderer input the page read
-    back for each frame, as ``info["rasters"]`` ((H, W, 16) uint8 each)."""
+    back for each frame, as ``info["rasters"]`` ((H, W, 16) uint8 each; the renderer then runs on
+    the whole frame, not the person's window). ``info["windows"]``: the window each frame's renderer
+    ran on ({x, y, w, h}). ``webgpu``: offer the page WebGPU (the query's ``backend=webgpu`` picks it)."""
     request = {"background": [float(v) for v in background], "raster": rasters, "frames": [
         {"pose": [float(v) for v in np.concatenate([np.asarray(r, np.float64).reshape(-1), np.asarray(t, np.float64)])],
          "camera": camera_json(c), "size": int(c.width)} for r, t, c in frames]}
     with tempfile.TemporaryDirectory(prefix="morf-web-check-") as tmp:
         path = Path(tmp) / "check.json"
         path.write_text(json.dumps(request))
-        result = run_page(folder, "check=1" + (f"&{query}" if query else ""), extra={"/check.json": path}, timeout=timeout, isolation=isolation)
+        result = run_page(folder, "check=1" + (f"&{query}" if query else ""), extra={"/check.json": path}, timeout=timeout,
+                          isolation=isolation, webgpu=webgpu)
     if "error" in result:
         raise RuntimeError(f"the page failed: {result['error']}")
     images, result["rasters"] = [], []
+    result["windows"] = [item.get("window") for item in result["images"]]
     for item in result.pop("images"):
         s = item["size"]
         images.append(np.frombuffer(base64.b64decode(item["rgba"]), np.uint8).reshape(s, s, 4)[..., :3].copy())

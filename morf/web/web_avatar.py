@@ -11,7 +11,8 @@ Layout (format "morf-web-avatar", version 1)::
       mesh.bin        rest vertices (Vr, 3) f32, uvs (Vr, 2) f32, bone weights (Vr, 8) f32,
                       bone indices (Vr, 8) u8 (u16 past 255 bones), faces (F, 3) u32; offsets in avatar.json
       renderer.onnx   the int8 renderer (fp32 where the export measured int8 far from it), cut
-                      before its full-resolution tail when the avatar folder has one: the page's
+                      before its full-resolution tail when the avatar folder has one (and with the
+                      web-only rewrites of :mod:`morf.web.graph_rewrite`): the page's
                       WebGL pass plays the tail (:mod:`morf.export.compiled_tail`), as the native
                       player's compiled pass does; otherwise the whole graph up to the composited image
 
@@ -33,6 +34,7 @@ import numpy as np
 from morf.export.avatar_folder import ExportedAvatar, int8_check_db, sha256_of
 from morf.playback.graph_outputs import cut_graph, keep_outputs
 from morf.playback.native_tail import spec_for
+from morf.web.graph_rewrite import slice_before_transpose
 
 FORMAT = "morf-web-avatar"
 VERSION = 1
@@ -73,7 +75,7 @@ def web_renderer(avatar: ExportedAvatar, precision: str = "auto") -> WebRenderer
         # graph's own layers in onnxruntime-web.
         spec = dataclasses.replace(spec, head_stage=None)
         contract = {"mode": "tail", "input": renderer["input"], "outputs": list(spec.cut), "tail": spec.to_dict()}
-        return WebRenderer(cut_graph(raw, spec.cut), precision, "tail", contract)
+        return WebRenderer(slice_before_transpose(cut_graph(raw, spec.cut)), precision, "tail", contract)
     if avatar.input_layout != "nhwc" or "composite" not in renderer:
         from morf.errors import InputError
 
@@ -82,7 +84,7 @@ def web_renderer(avatar: ExportedAvatar, precision: str = "auto") -> WebRenderer
     lean = keep_outputs(raw, ("image",))
     contract = {"mode": "image", "input": renderer["input"], "outputs": ["image"],
                 "background": renderer["composite"]["input"]}
-    return WebRenderer(lean if lean is not None else raw, precision, "image", contract)
+    return WebRenderer(slice_before_transpose(lean if lean is not None else raw), precision, "image", contract)
 
 
 def _mesh_bytes(avatar: ExportedAvatar) -> tuple[bytes, dict]:

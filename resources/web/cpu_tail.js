@@ -33,47 +33,45 @@ function erode(src, dst, width, height, m, alongRows) {
 export class CpuTail {
   constructor(spec) {
     this.spec = spec;
-    this.size = 0;
+    this.W = this.H = 0;
   }
 
-  resize(size) {
-    if (size === this.size) return;
-    this.size = size;
-    const n = size * size;
+  resize(W, H) {  // the window's width and height (even)
+    if (W === this.W && H === this.H) return;
+    this.W = W; this.H = H;
+    const n = W * H;
     this.rgba = new Uint8ClampedArray(4 * n);  // stores round-half-even and clip, as np.rint + clip
     this.covered = new Uint8Array(n);
     this.rows = new Uint8Array(n);
     this.inside = new Uint8Array(n);
-    this.t = taps(size / 2);
-  }
-
-  lineBuffers(h) {
-    if (!this.lines || this.lines[0].length !== h) this.lines = Array.from({ length: 8 }, () => new Float32Array(h));
-    return this.lines;
+    this.tx = taps(W / 2);
+    this.ty = taps(H / 2);
+    this.lines = Array.from({ length: 8 }, () => new Float32Array(W / 2));
   }
 
   // raster: Uint8Array (H*W*16); head, fill: Float32Array planar (4, H/2, W/2); background: [r, g, b].
+  // Returns the (H, W) RGBA image (a view of a buffer reused by the next call).
   run(raster, head, fill, background) {
-    const s = this.spec, S = this.size, h = S / 2, plane = h * h, zp = s.zero_point, m = s.opaque_margin;
-    const { a, b, f } = this.t, covered = this.covered, inside = this.inside, out = this.rgba;
-    for (let i = 0; i < S * S; i++) covered[i] = raster[16 * i] !== zp ? 1 : 0;
-    if (m > 0) { erode(covered, this.rows, S, S, m, true); erode(this.rows, inside, S, S, m, false); }
+    const s = this.spec, W = this.W, H = this.H, w = W / 2, plane = w * (H / 2), zp = s.zero_point, m = s.opaque_margin;
+    const { a, b, f } = this.tx, ty = this.ty, covered = this.covered, inside = this.inside, out = this.rgba;
+    for (let i = 0, n = W * H; i < n; i++) covered[i] = raster[16 * i] !== zp ? 1 : 0;
+    if (m > 0) { erode(covered, this.rows, W, H, m, true); erode(this.rows, inside, W, H, m, false); }
     const [c0, c1, c2] = s.colour_scale, ls = s.logit_scale, lo = s.logit_offset, wmin = s.weight_min;
     const bg0 = background[0] / 255, bg1 = background[1] / 255, bg2 = background[2] / 255;
-    const rows = this.lineBuffers(h);
-    for (let y = 0; y < S; y++) {
+    const rows = this.lines;
+    const [H0, H1, H2, H3, F0, F1, F2, F3] = rows;
+    for (let y = 0; y < H; y++) {
       // The output row's vertical interpolation of the 8 half-resolution planes, once per row.
-      const r0 = a[y] * h, r1 = b[y] * h, fy = f[y], gy = 1 - fy;
+      const r0 = ty.a[y] * w, r1 = ty.b[y] * w, fy = ty.f[y], gy = 1 - fy;
       for (let k = 0; k < 4; k++) {
-        const H = rows[k], F = rows[4 + k], o = k * plane;
-        for (let x = 0; x < h; x++) {
-          H[x] = gy * head[o + r0 + x] + fy * head[o + r1 + x];
-          F[x] = gy * fill[o + r0 + x] + fy * fill[o + r1 + x];
+        const Hk = rows[k], Fk = rows[4 + k], o = k * plane;
+        for (let x = 0; x < w; x++) {
+          Hk[x] = gy * head[o + r0 + x] + fy * head[o + r1 + x];
+          Fk[x] = gy * fill[o + r0 + x] + fy * fill[o + r1 + x];
         }
       }
-      const [H0, H1, H2, H3, F0, F1, F2, F3] = rows;
-      for (let x = 0; x < S; x++) {
-        const i = y * S + x, xa = a[x], xb = b[x], fx = f[x], gx = 1 - fx;
+      for (let x = 0; x < W; x++) {
+        const i = y * W + x, xa = a[x], xb = b[x], fx = f[x], gx = 1 - fx;
         let mask = 1 / (1 + Math.exp(-((gx * H3[xa] + fx * H3[xb]) * ls + lo)));
         if (m > 0 && inside[i]) mask = 1;
         let R = bg0, G = bg1, B = bg2;
@@ -81,10 +79,10 @@ export class CpuTail {
           const p = 16 * i;
           let cr = (raster[p] - zp) * c0, cg = (raster[p + 1] - zp) * c1, cb = (raster[p + 2] - zp) * c2;
           if (!covered[i]) {
-            const w = Math.max(gx * F3[xa] + fx * F3[xb], wmin);
-            cr += (gx * F0[xa] + fx * F0[xb]) / w;
-            cg += (gx * F1[xa] + fx * F1[xb]) / w;
-            cb += (gx * F2[xa] + fx * F2[xb]) / w;
+            const wt = Math.max(gx * F3[xa] + fx * F3[xb], wmin);
+            cr += (gx * F0[xa] + fx * F0[xb]) / wt;
+            cg += (gx * F1[xa] + fx * F1[xb]) / wt;
+            cb += (gx * F2[xa] + fx * F2[xb]) / wt;
           }
           const inv = 1 - mask;
           R = (gx * H0[xa] + fx * H0[xb] + cr) * mask + inv * bg0;

@@ -8,7 +8,12 @@
 //   ?check=1           renders the frames of ./check.json ({frames: [{pose, camera, size}],
 //                      background}) and posts the images (RGBA, rows top first, base64)
 //   ?report=N          plays as a user sees it for N frames, then posts what was shown
+//   ?policy=[[fps, frames, ms], ...]  the adaptive size's decisions (adaptive.js) for those
+//                      measurements, starting at the largest size with the page's target
+import { OutputSize } from './adaptive.js';
+
 const STAGES = ['skinning', 'raster', 'readback', 'renderer', 'composite'];
+const PARTS = ['show'];  // parts of a stage: the canvas pass of "composite"
 
 export async function post(body) {
   await fetch('./result', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
@@ -39,15 +44,20 @@ function advance(app) {
 
 // n frames one after another: each stage waited for (timed), or not.
 async function timeFrames(app, n, timed) {
-  const sums = Object.fromEntries(STAGES.map((s) => [s, 0]));
+  const sums = Object.fromEntries([...STAGES, ...PARTS].map((s) => [s, 0]));
+  let area = 0;
   const start = performance.now();
   for (let i = 0; i < n; i++) {
     const { frame, camera, box } = advance(app);
     const t = await app.player.render(frame, camera, [255, 255, 255], { timed, canvasSize: app.size, box });
-    for (const s of STAGES) sums[s] += t[s];
+    for (const s of [...STAGES, ...PARTS]) sums[s] += t[s] || 0;
+    const c = app.player.window ? app.player.window : null;
+    area += c && c.w ? (c.w * c.h) / (app.size * app.size) : 1;
   }
   const ms = (performance.now() - start) / n;
-  return { ms_per_frame: ms, fps: 1000 / ms, stages_ms: Object.fromEntries(STAGES.map((s) => [s, sums[s] / n])) };
+  return { ms_per_frame: ms, fps: 1000 / ms, stages_ms: Object.fromEntries(STAGES.map((s) => [s, sums[s] / n])),
+           parts_ms: Object.fromEntries(PARTS.map((s) => [s, sums[s] / n])),
+           window_share: area / n };
 }
 
 // n frames as the page plays them: frame t's renderer overlapping frame t+1's GL work.
@@ -74,7 +84,8 @@ async function bench(app, params) {
   const total = STAGES.reduce((a, s) => a + staged.stages_ms[s], 0);
   const shares = Object.fromEntries(STAGES.map((s) => [s, staged.stages_ms[s] / total]));
   const result = { size: app.size, frames: n, ...played, sequential_fps: sequential.fps, staged_fps: staged.fps,
-                   stages_ms: staged.stages_ms, shares, fine, proxy: app.runtime.proxy };
+                   stages_ms: staged.stages_ms, parts_ms: staged.parts_ms, shares, fine, proxy: app.runtime.proxy,
+                   window: { margin: app.player.cropMargin, share: staged.window_share } };
   if (params.get('noadapt')) return result;
   // The adaptive size: what the page picks from the rate it measures while playing, then the rate there.
   const steps = [];
@@ -96,10 +107,11 @@ async function check(app) {
   const images = [];
   app.playing = false;
   app.player.keepOutputs = !!request.outputs;  // the graph's outputs too (debugging)
+  if (request.raster) app.player.cropMargin = -1;  // the whole frame's raster, as the Python player's
   for (const f of request.frames) {
     if (app.size !== f.size) app.setSize(f.size);
     await app.player.render(Float32Array.from(f.pose), f.camera, request.background, { canvasSize: f.size });
-    const item = { size: f.size, rgba: base64(app.player.compositor.readImage()) };
+    const item = { size: f.size, rgba: base64(app.player.compositor.readImage()), window: app.player.lastCrop };
     if (request.raster) {  // the renderer's input and the bone rows too
       item.raster = base64(app.player.raster.bytes);
       item.bones = Array.from(app.player.rows);
@@ -131,15 +143,26 @@ async function report(app, params) {
   });
   return {
     frames: shown, motion: app.motion.name, size: app.size, playing: app.playing, image, canvas,
+    window: app.player.lastCrop, adapted: app.adapted || null,
     status: document.getElementById('status').textContent, notice: document.getElementById('notice').textContent,
     fps_text: document.getElementById('fps').textContent, motions: app.doc.motions.map((m) => m.name),
   };
 }
 
+function policy(app, params) {
+  const output = new OutputSize(app.sizes, app.sizes[0], app.output.target);
+  const steps = JSON.parse(params.get('policy')).map(([fps, frames, now]) => {
+    const size = output.size;
+    return { size, step: output.observe(fps, frames, now) };
+  });
+  return { sizes: app.sizes, target: output.target, steps };
+}
+
 export async function runHarness(app, params, messages) {
   let result;
   try {
-    if (params.has('bench')) result = await bench(app, params);
+    if (params.has('policy')) result = policy(app, params);
+    else if (params.has('bench')) result = await bench(app, params);
     else if (params.has('check')) result = await check(app);
     else result = await report(app, params);
   } catch (e) {

@@ -1,12 +1,14 @@
 // The page: loads the folder's avatar and runtime, plays a motion with orbit and zoom, a motion
 // picker, play / pause, an fps readout, and a smaller output where the device cannot hold 30 fps.
-// Query parameters: size=N (fix the output side), adapt=0 (never shrink), motion=NAME, frame=K
+// Query parameters: size=N (fix the output side), start=N (start there, then adapt), adapt=0 (keep
+// the size), crop=off|N (the renderer on the whole frame, or N pixels around the person), motion=NAME, frame=K
 // and pause=1 (show one frame), threads=N, backend=wasm|webgpu, tail=js|webgl, proxy=1, target=FPS; bench=N, check=1, report=N run
 // the checks of harness.js (tests and `morf bench web`).
 import { loadRuntime } from './renderer.js';
 import { Player, loadAvatar, loadMotion } from './player.js';
 import { Orbit } from './camera.js';
 import { runHarness, post } from './harness.js';
+import { OutputSize } from './adaptive.js';
 
 export const messages = [];
 for (const level of ['warn', 'error']) {
@@ -19,6 +21,7 @@ window.addEventListener('unhandledrejection', (e) => messages.push(`unhandled: $
 const params = new URLSearchParams(location.search);
 export const BACKGROUND = [255, 255, 255];
 const TARGET_FPS = Number(params.get('target')) || 30;  // the rate the output size adapts to (target=N: tests)
+const HARNESS = ['bench', 'check', 'report', 'policy'];  // the checks of harness.js
 const SIZES = [640, 576, 512, 448, 384, 320, 256, 192, 128];
 const $ = (id) => document.getElementById(id);
 
@@ -31,9 +34,11 @@ class App {
     this.orbit = new Orbit(this.canvas, () => { this.dirty = true; });
     const mult = this.doc.size_multiple || 32;
     this.sizes = SIZES.map((s) => Math.floor(s / mult) * mult).filter((s, i, a) => s > 0 && a.indexOf(s) === i);
-    const asked = Number(params.get('size')) || 0;
+    const asked = Number(params.get('size')) || 0, start = Number(params.get('start')) || 0;
     this.fixed = asked > 0 || params.get('adapt') === '0';
-    this.setSize(asked > 0 ? Math.max(mult, Math.round(asked / mult) * mult) : this.sizes[0]);
+    const first = asked || start;
+    this.setSize(first > 0 ? Math.max(mult, Math.round(first / mult) * mult) : this.sizes[0]);
+    this.output = new OutputSize(this.sizes, this.size, TARGET_FPS);
     this.motions = new Map();
     this.playing = params.get('pause') !== '1';
     this.frameIndex = Number(params.get('frame')) || 0;
@@ -110,18 +115,23 @@ class App {
     return r.length < 6 ? null : (1000 * (r.length - 1)) / (r[r.length - 1] - r[0]);
   }
 
-  // Under 30 fps, a smaller output: the largest size whose pixel count the measured rate can hold.
+  // Under 30 fps a smaller output (the largest size whose pixel count the measured rate can hold);
+  // with room to spare a larger one again, one step at a time (adaptive.js keeps it from see-sawing).
   adapt(fps, later = false) {  // later: the new size is set once the frames in flight are shown
-    if (this.fixed || fps === null || this.sizeFrames < 20 || fps >= TARGET_FPS) return false;
-    const want = this.size * Math.sqrt(fps / TARGET_FPS);
-    const next = this.sizes.find((s) => s <= want && s < this.size) || this.sizes.filter((s) => s < this.size).pop();
-    if (!next) return false;
+    if (this.fixed) return false;
+    this.output.size = this.size;
+    const step = this.output.observe(fps, this.sizeFrames, performance.now());
+    if (!step) return false;
+    const { from, to } = step, full = this.sizes[0];
     $('notice').hidden = false;
-    $('notice').textContent = `Output ${next} × ${next} px: ${this.size} × ${this.size} ran at ${fps.toFixed(1)} fps on ` +
-      `this device, under ${TARGET_FPS}. (?size=${this.sizes[0]} in the address keeps ${this.sizes[0]}.)`;
-    this.adapted = { from: this.size, fps, to: next };
-    if (later) this.resizeTo = next;
-    else this.setSize(next);
+    $('notice').textContent = step.why === 'slow'
+      ? `Output ${to} × ${to} px: ${from} × ${from} ran at ${fps.toFixed(1)} fps on this device, under ${TARGET_FPS}. ` +
+        `(?size=${full} in the address keeps ${full}.)`
+      : `Output ${to} × ${to} px: ${from} × ${from} ran at ${fps.toFixed(1)} fps on this device, room for a larger ` +
+        `output at ${TARGET_FPS} fps.` + (to < full ? ` (?size=${full} in the address keeps ${full}.)` : '');
+    this.adapted = { from, fps, to, why: step.why };
+    if (later) this.resizeTo = to;
+    else this.setSize(to);
     return true;
   }
 
@@ -174,12 +184,12 @@ async function boot() {
   // The other motions too, now: once loaded, the page needs no network (the picker works offline).
   await Promise.all(avatar.doc.motions.filter((m) => !app.motions.has(m.name))
     .map(async (m) => app.motions.set(m.name, await loadMotion(m))));
-  if (params.has('bench') || params.has('check') || params.has('report')) return runHarness(app, params, messages);
+  if (HARNESS.some((k) => params.has(k))) return runHarness(app, params, messages);
   return app.loop();
 }
 
 boot().catch((e) => {
   $('status').textContent = `The player could not start: ${e && e.message ? e.message : e}`;
   console.error(e && e.stack ? e.stack : String(e));
-  if (params.has('bench') || params.has('check') || params.has('report')) post({ error: `${e && e.stack ? e.stack : e}`, messages });
+  if (HARNESS.some((k) => params.has(k))) post({ error: `${e && e.stack ? e.stack : e}`, messages });
 });

@@ -2,11 +2,17 @@
 // bone matrices (forward kinematics) -> skinning + neural rasterization (WebGL2, bytes into an
 // RGBA32UI attachment) -> read-back (the renderer's uint8 input) -> renderer (onnxruntime-web)
 // -> tail + composite over the background with the renderer's mask (WebGL) -> the canvas.
+// Everything from the raster on runs inside the person's window (bounds.js), not the whole frame.
 import { Skeleton } from './skeleton.js';
-import { NeuralRaster } from './raster.js';
+import { NeuralRaster, loadRasterShader } from './raster.js';
 import { Compositor } from './tail.js';
 import { Renderer } from './renderer.js';
 import { viewProjection } from './camera.js';
+import { BodyBox, CropWindow } from './bounds.js';
+
+// Pixels kept around the person's box: the renderer's layers see this much of the empty
+// surroundings (further off, the whole-frame and the window's images agree within 1 level).
+export const CROP_MARGIN = 64;
 
 async function fetchBytes(url) {
   const r = await fetch(url);
@@ -18,9 +24,10 @@ export async function loadAvatar(config) {
   const base = config.avatar.replace(/[^/]*$/, '');
   const doc = await (await fetch(config.avatar)).json();
   if (doc.format !== 'morf-web-avatar' || doc.version !== 1) throw new Error(`${config.avatar} is not a morf web avatar (version 1)`);
-  const [texture, mesh, graph] = await Promise.all([
-    fetchBytes(base + doc.texture.file), fetchBytes(base + doc.mesh.file), fetchBytes(base + doc.renderer.file)]);
-  return { doc, texture: new Uint8Array(texture), mesh, graph: new Uint8Array(graph) };
+  const [texture, mesh, graph, rasterShader] = await Promise.all([
+    fetchBytes(base + doc.texture.file), fetchBytes(base + doc.mesh.file), fetchBytes(base + doc.renderer.file),
+    loadRasterShader()]);
+  return { doc, texture: new Uint8Array(texture), mesh, graph: new Uint8Array(graph), rasterShader };
 }
 
 export async function loadMotion(entry) {
@@ -43,7 +50,19 @@ export class Player {
     this.compositor = new Compositor(gl, avatar.doc.renderer, this.tailOnCpu);
     this.renderer = new Renderer(runtime, avatar.graph, avatar.doc.renderer);
     this.rows = new Float32Array(this.skeleton.J * 12);
+    this.bodyBox = new BodyBox(avatar.doc, avatar.mesh);
+    const crop = new URLSearchParams(location.search).get('crop');  // crop=off: the whole frame; crop=N: N pixels' margin
+    this.cropMargin = crop === 'off' ? -1 : crop !== null && crop !== '' ? Number(crop) : CROP_MARGIN;
+    this.window = null;
     this.timings = {};
+  }
+
+  // The frame's window: the person's box and a margin, on the renderer's size multiple (or the whole frame).
+  crop(camera) {
+    if (!this.window || this.window.margin !== this.cropMargin) {
+      this.window = new CropWindow(this.avatar.doc.size_multiple || 32, this.cropMargin);
+    }
+    return this.window.choose(this.cropMargin < 0 ? null : this.bodyBox.box(this.rows, camera), this.size);
   }
 
   resize(size) {
@@ -58,20 +77,22 @@ export class Player {
     const t0 = performance.now();
     this.skeleton.boneRows(frame, this.rows);
     this.raster.uploadBones(this.rows);
+    const crop = this.crop(camera);
+    this.lastCrop = crop;
     const t1 = performance.now();
-    this.raster.draw(viewProjection(camera));
+    this.raster.draw(viewProjection(camera), crop);
     if (timed) this.raster.sync();
     const t2 = performance.now();
     const bytes = this.raster.read();
     const t3 = performance.now();
     this.timings = { skinning: t1 - t0, raster: t2 - t1, readback: t3 - t2 };
-    return { bytes, attachment: this.raster.attachment, size: this.size };
+    return { bytes, attachment: this.raster.attachment, size: this.size, crop };
   }
 
   // The renderer on a prepared frame (in onnxruntime-web's worker when it is proxied).
   async infer(prepared, background) {
     const t0 = performance.now();
-    const outputs = await this.renderer.run(prepared.bytes, prepared.size, background);
+    const outputs = await this.renderer.run(prepared.bytes, prepared.crop.h, prepared.crop.w, background);
     this.timings.renderer = performance.now() - t0;
     if (this.keepOutputs) this.lastOutputs = Object.fromEntries(Object.entries(outputs).map(([k, t]) => [k, { dims: t.dims, type: t.type, data: t.data.slice() }]));
     return outputs;
@@ -80,13 +101,19 @@ export class Player {
   // Tail + composite + canvas (canvasSize 0: the image only).
   finish(prepared, outputs, background, { timed = false, canvasSize = 0, box = [0, 0, 1, 1] } = {}) {
     const t0 = performance.now();
-    if (this.compositor.cpu) this.compositor.composeCpu(prepared.bytes, outputs, background);
-    else if (this.avatar.doc.renderer.mode === 'tail') this.compositor.composeTail(prepared.attachment, outputs, background);
-    else this.compositor.composeImage(outputs.image);
+    const crop = prepared.crop;
+    if (this.compositor.cpu) this.compositor.composeCpu(prepared.bytes, outputs, background, crop);
+    else if (this.avatar.doc.renderer.mode === 'tail') this.compositor.composeTail(prepared.attachment, outputs, background, crop);
+    else this.compositor.composeImage(outputs.image, background, crop);
     for (const t of Object.values(outputs)) if (t.dispose) t.dispose();
+    if (timed) this.compositor.sync(false);
+    const t1 = performance.now();
     if (canvasSize) this.compositor.show(canvasSize, box);
     if (timed) this.compositor.sync(!!canvasSize);
-    this.timings.composite = performance.now() - t0;
+    const t2 = performance.now();
+    // composite: the tail, the composite and the canvas; of it, "show" is the canvas alone
+    this.timings.composite = t2 - t0;
+    this.timings.show = t2 - t1;
   }
 
   // One frame onto the canvas, its stages one after the other. frame: the motion's row (J*3

@@ -3,7 +3,8 @@
 // 16-channel uint8 neural texture (four RGBA8 textures, bilinear, clamped) written as 16 bytes
 // per pixel into one RGBA32UI attachment cleared to the zero point (128). Channel 0 is never 128
 // on the body (129 instead): the coverage mark the renderer graph and the tail read. Read back,
-// the attachment is the renderer's (1, H, W, 16) uint8 input as it is.
+// the attachment is the renderer's (1, H, W, 16) uint8 input as it is; drawn and read inside a
+// window (the person's, bounds.js), the window's (1, h, w, 16) input.
 
 const VS = `#version 300 es
 precision highp float;
@@ -31,24 +32,17 @@ void main() {
   gl_Position = u_view_proj * vec4(w, 1.0);
 }`;
 
-const FS = `#version 300 es
-precision highp float;
-precision highp int;
-uniform sampler2D u_texture0;
-uniform sampler2D u_texture1;
-uniform sampler2D u_texture2;
-uniform sampler2D u_texture3;
-in vec2 v_texcoord;
-layout(location = 0) out uvec4 out_channels;
-uvec4 to_bytes(vec4 c) { return uvec4(round(clamp(c, 0.0, 1.0) * 255.0)); }
-uint pack_bytes(uvec4 b) { return b.x | (b.y << 8) | (b.z << 16) | (b.w << 24); }
-void main() {
-  uvec4 first = to_bytes(texture(u_texture0, v_texcoord));
-  first.x = first.x == 128u ? 129u : first.x;  // the coverage mark
-  out_channels = uvec4(pack_bytes(first), pack_bytes(to_bytes(texture(u_texture1, v_texcoord))),
-                       pack_bytes(to_bytes(texture(u_texture2, v_texcoord))),
-                       pack_bytes(to_bytes(texture(u_texture3, v_texcoord))));
-}`;
+// The fragment shader is the Python player's (resources/shaders/neural_raster_fs.glsl, copied into
+// the folder by morf web), its desktop #version line turned into GLSL ES's.
+export async function loadRasterShader(url = 'neural_raster_fs.glsl') {
+  const r = await fetch(url);
+  if (!r.ok) throw new Error(`${url}: HTTP ${r.status} (is the folder complete?)`);
+  return esShader(await r.text());
+}
+
+export function esShader(src) {
+  return src.replace(/^#version 330 core\s*\n/, '#version 300 es\nprecision highp float;\nprecision highp int;\n');
+}
 
 export function compile(gl, vs, fs) {
   const program = gl.createProgram();
@@ -65,12 +59,12 @@ export function compile(gl, vs, fs) {
 }
 
 export class NeuralRaster {
-  // avatar: {doc (avatar.json), texture (Uint8Array Ht*Wt*16), mesh (ArrayBuffer)}
+  // avatar: {doc (avatar.json), texture (Uint8Array Ht*Wt*16), mesh (ArrayBuffer), rasterShader (GLSL ES source)}
   constructor(gl, avatar) {
     this.gl = gl;
     const doc = avatar.doc, arrays = doc.mesh.arrays;
     this.J = doc.skeleton.parents.length;
-    this.program = compile(gl, VS, FS);
+    this.program = compile(gl, VS, avatar.rasterShader);
     this.vao = gl.createVertexArray();
     gl.bindVertexArray(this.vao);
     const buffer = (name, target = gl.ARRAY_BUFFER) => {
@@ -148,14 +142,14 @@ export class NeuralRaster {
       const status = gl.checkFramebufferStatus(gl.FRAMEBUFFER);
       if (status !== gl.FRAMEBUFFER_COMPLETE) throw new Error(`the RGBA32UI raster framebuffer is incomplete (${status})`);
       const pixels = new Uint32Array(size * size * 4);
-      return { fbo, attachment, depth, pixels, bytes: new Uint8Array(pixels.buffer) };  // bytes: the (1, H, W, 16) input
+      return { fbo, attachment, depth, pixels, bytes: new Uint8Array(pixels.buffer) };  // bytes: the (1, h, w, 16) input
     });
     this.turn = 0;
   }
 
   get current() { return this.targets[this.turn]; }
   get attachment() { return this.current.attachment; }
-  get bytes() { return this.current.bytes; }
+  get bytes() { return this.current.view || this.current.bytes; }  // the last read-back
 
   uploadBones(rows) {  // rows: Float32Array(J * 12)
     const gl = this.gl;
@@ -164,11 +158,16 @@ export class NeuralRaster {
     gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, 3, this.J, gl.RGBA, gl.FLOAT, rows);
   }
 
-  draw(viewProj) {
+  // crop: {x, y, w, h} the window drawn (rows top first; the attachment keeps image row 0 in its row
+  // 0), or the whole frame. Outside it the attachment keeps what it held: read() reads only the window.
+  draw(viewProj, crop = { x: 0, y: 0, w: this.size, h: this.size }) {
     const gl = this.gl;
     this.turn ^= 1;
+    this.current.crop = crop;
     gl.bindFramebuffer(gl.FRAMEBUFFER, this.current.fbo);
     gl.viewport(0, 0, this.size, this.size);
+    gl.enable(gl.SCISSOR_TEST);
+    gl.scissor(crop.x, crop.y, crop.w, crop.h);
     gl.useProgram(this.program);
     gl.uniformMatrix4fv(this.u.u_view_proj, false, viewProj);
     gl.activeTexture(gl.TEXTURE4);
@@ -195,6 +194,7 @@ export class NeuralRaster {
     gl.bindVertexArray(null);
     gl.disable(gl.CULL_FACE);
     gl.disable(gl.DEPTH_TEST);
+    gl.disable(gl.SCISSOR_TEST);
   }
 
   // Waits for the draw (one pixel read), for stage timings only.
@@ -204,10 +204,12 @@ export class NeuralRaster {
     gl.readPixels(0, 0, 1, 1, gl.RGBA_INTEGER, gl.UNSIGNED_INT, new Uint32Array(4));
   }
 
-  read() {  // the last draw's attachment -> its (1, H, W, 16) uint8 bytes
-    const gl = this.gl, t = this.current;
+  read() {  // the last draw's window -> its (1, h, w, 16) uint8 bytes (a view valid until the frame after next)
+    const gl = this.gl, t = this.current, c = t.crop, n = c.w * c.h * 4;
     gl.bindFramebuffer(gl.FRAMEBUFFER, t.fbo);
-    gl.readPixels(0, 0, this.size, this.size, gl.RGBA_INTEGER, gl.UNSIGNED_INT, t.pixels);
-    return t.bytes;
+    const pixels = t.pixels.subarray(0, n);
+    gl.readPixels(c.x, c.y, c.w, c.h, gl.RGBA_INTEGER, gl.UNSIGNED_INT, pixels);
+    t.view = t.bytes.subarray(0, 4 * n);
+    return t.view;
   }
 }

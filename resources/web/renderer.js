@@ -36,33 +36,45 @@ export async function loadRuntime(config, params) {
   return { ort, backend: pick.backend, threads: ort.env.wasm.numThreads, isolated, proxy: ort.env.wasm.proxy };
 }
 
+const KEPT_SESSIONS = 6;  // window shapes whose sessions stay open (each holds its own buffers)
+
 export class Renderer {
   constructor(runtime, graph, contract) {
     this.rt = runtime;
     this.graph = graph;
     this.contract = contract;
-    this.sessions = new Map();
+    this.sessions = new Map();  // "HxW" -> Promise<session>, the most recently used last
   }
 
-  session(size) {  // one creation per size, however many frames ask at once
-    if (!this.sessions.has(size)) {
+  session(h, w) {  // one creation per shape, however many frames ask at once
+    const key = `${h}x${w}`;
+    let s = this.sessions.get(key);
+    if (s) {
+      this.sessions.delete(key);  // to the end: the most recently used
+    } else {
       const { ort, backend } = this.rt;
       // The graph names its image dimensions "height" and "width"; fixed, the shape arithmetic folds away.
       // A copy of the graph: a proxied runtime takes over (transfers) the buffers it is given.
-      this.sessions.set(size, ort.InferenceSession.create(this.graph.slice(), {
+      s = ort.InferenceSession.create(this.graph.slice(), {
         executionProviders: [backend], graphOptimizationLevel: 'all', logSeverityLevel: 3,
-        freeDimensionOverrides: { height: size, width: size },
-      }));
+        freeDimensionOverrides: { height: h, width: w },
+      });
+      if (this.sessions.size >= KEPT_SESSIONS) {
+        const [oldest, old] = this.sessions.entries().next().value;
+        this.sessions.delete(oldest);
+        old.then((x) => x.release()).catch(() => {});
+      }
     }
-    return this.sessions.get(size);
+    this.sessions.set(key, s);
+    return s;
   }
 
-  // raster: Uint8Array of the (1, size, size, 16) input; background: [r, g, b] 0-255.
-  async run(raster, size, background) {
+  // raster: Uint8Array of the (1, h, w, 16) input; background: [r, g, b] 0-255.
+  async run(raster, h, w, background) {
     const { ort } = this.rt;
-    const session = await this.session(size);
+    const session = await this.session(h, w);
     const input = this.rt.proxy ? raster.slice() : raster;  // the tail still reads the raster after the run
-    const feeds = { [this.contract.input]: new ort.Tensor('uint8', input, [1, size, size, 16]) };
+    const feeds = { [this.contract.input]: new ort.Tensor('uint8', input, [1, h, w, 16]) };
     if (this.contract.mode === 'image') {
       feeds[this.contract.background] = new ort.Tensor('float32', Float32Array.from(background), [1, 3, 1, 1]);
     }

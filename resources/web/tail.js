@@ -9,7 +9,9 @@
 // HEAD is computed from the head stage's two tensors when the graph is cut before it (int8 graphs):
 //   HEAD = weight @ leaky_relu(up(low) + (skip - skip_zero_point) * skip_scale) + bias.
 // Every offscreen target keeps image row 0 in its row 0, like the rasterizer's read-back; the
-// display pass flips it onto the canvas (and enlarges a close-up's box).
+// display pass flips it onto the canvas (and enlarges a close-up's box). The tail runs inside the
+// frame's window (the person's, bounds.js; the renderer's outputs are the window's); the image
+// shows the background outside it.
 import { compile } from './raster.js';
 import { CpuTail } from './cpu_tail.js';
 
@@ -73,14 +75,15 @@ const ERODE = `#version 300 es
 precision highp float;
 precision highp int;
 uniform highp usampler2D u_raster;
-uniform int u_margin, u_size;
+uniform int u_margin;
+uniform ivec2 u_lo, u_hi;           // the window's first and last pixel
 uniform uint u_zero_point;
 out vec4 covered;
 void main() {   // the coverage's minimum over a row window (clipped to the image)
   ivec2 p = ivec2(gl_FragCoord.xy);
   float m = 1.0;
   for (int d = -u_margin; d <= u_margin; d++) {
-    int x = clamp(p.x + d, 0, u_size - 1);
+    int x = clamp(p.x + d, u_lo.x, u_hi.x);
     m = min(m, (texelFetch(u_raster, ivec2(x, p.y), 0).r & 255u) != u_zero_point ? 1.0 : 0.0);
   }
   covered = vec4(m);
@@ -92,7 +95,8 @@ precision highp int;
 uniform highp usampler2D u_raster;
 uniform highp sampler2D u_head, u_fill, u_eroded;
 uniform ivec2 u_half;
-uniform int u_margin, u_size;
+uniform int u_margin;
+uniform ivec2 u_lo, u_hi;           // the window's first and last pixel (HEAD and FILL cover it)
 uniform uint u_zero_point;
 uniform vec3 u_colour_scale, u_background;
 uniform float u_logit_scale, u_logit_offset, u_weight_min;
@@ -103,14 +107,14 @@ void main() {
   uint w = texelFetch(u_raster, p, 0).r;
   uvec3 bytes = uvec3(w & 255u, (w >> 8) & 255u, (w >> 16) & 255u);
   bool covered = bytes.x != u_zero_point;
-  vec4 hd = up4(u_head, p, u_half), fl = up4(u_fill, p, u_half);
+  vec4 hd = up4(u_head, p - u_lo, u_half), fl = up4(u_fill, p - u_lo, u_half);
   vec3 colour = (vec3(bytes) - float(u_zero_point)) * u_colour_scale;
   if (!covered) colour += fl.rgb / max(fl.a, u_weight_min);
   float mask = 1.0 / (1.0 + exp(-(hd.a * u_logit_scale + u_logit_offset)));
   if (u_margin > 0) {
     float inside = 1.0;
     for (int d = -u_margin; d <= u_margin; d++) {
-      inside = min(inside, texelFetch(u_eroded, ivec2(p.x, clamp(p.y + d, 0, u_size - 1)), 0).r);
+      inside = min(inside, texelFetch(u_eroded, ivec2(p.x, clamp(p.y + d, u_lo.y, u_hi.y)), 0).r);
     }
     mask = max(mask, inside);
   }
@@ -194,7 +198,7 @@ export class Compositor {
     this.image = texture2D(gl, gl.RGBA8, size, size, gl.LINEAR);
     this.imageFbo = target(gl, [this.image]);
     this.owned = [this.image, this.imageFbo];
-    if (this.cpu) this.cpu.resize(size);
+    this.placed = null;
     if (this.spec && !this.cpu) {
       const h = size / 2;
       this.headTex = texture2D(gl, gl.RGBA32F, h, h);
@@ -233,17 +237,31 @@ export class Compositor {
     gl.uniform1i(loc, unit);
   }
 
-  pass(fbo, w, h) {
+  pass(fbo, w, h, x = 0, y = 0) {
     const gl = this.gl;
     gl.bindFramebuffer(gl.FRAMEBUFFER, fbo);
-    gl.viewport(0, 0, w, h);
+    gl.viewport(x, y, w, h);
     gl.bindVertexArray(this.vao);
     gl.drawArrays(gl.TRIANGLES, 0, 3);
   }
 
-  // The tail over the rasterizer's attachment and the graph's outputs (name -> ort.Tensor).
-  composeTail(rasterTex, outputs, background) {
-    const gl = this.gl, s = this.spec, st = s.head_stage, size = this.size, half = size / 2;
+  // Outside the window `crop` the image shows the background: cleared when the last window
+  // drawn (or the background) is not inside this one.
+  place(crop, background) {
+    const p = this.placed, bg = background.join();
+    const inside = p && p.bg === bg && crop.x <= p.x && crop.y <= p.y && crop.x + crop.w >= p.x + p.w && crop.y + crop.h >= p.y + p.h;
+    this.placed = { ...crop, bg };
+    if (inside || (crop.w === this.size && crop.h === this.size)) return;
+    const gl = this.gl;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, this.imageFbo);
+    gl.clearBufferfv(gl.COLOR, 0, Float32Array.of(background[0] / 255, background[1] / 255, background[2] / 255, 1));
+  }
+
+  // The tail over the rasterizer's attachment and the graph's outputs (name -> ort.Tensor) for the
+  // window crop ({x, y, w, h}: the outputs' image area).
+  composeTail(rasterTex, outputs, background, crop) {
+    const gl = this.gl, s = this.spec, st = s.head_stage, hw = crop.w / 2, hh = crop.h / 2;
+    this.place(crop, background);
     const mark = this.fine ? (name) => { this.sync(); const t = performance.now(); this.fine[name] = (this.fine[name] || 0) + t - this.t; this.t = t; } : () => {};
     if (this.fine) this.t = performance.now();
     const fill = this.plane('fill', outputs[s.fill]);
@@ -254,7 +272,7 @@ export class Compositor {
     }
     gl.useProgram(this.halfProgram);
     const u = this.hu;
-    gl.uniform2i(u.u_half, half, half);
+    gl.uniform2i(u.u_half, hw, hh);
     this.bind(0, fill.tex, u.u_fill);
     if (st) {
       this.bind(1, this.plane('low', outputs[st.low]).tex, u.u_low);
@@ -270,15 +288,17 @@ export class Compositor {
       this.bind(1, this.plane('head', outputs[s.head]).tex, u.u_head);
     }
     mark('upload');
-    this.pass(this.halfFbo, half, half);
+    this.pass(this.halfFbo, hw, hh);
     mark('half');
+    const lo = [crop.x, crop.y], hi = [crop.x + crop.w - 1, crop.y + crop.h - 1];
     if (s.opaque_margin > 0) {
       gl.useProgram(this.erode);
       this.bind(0, rasterTex, this.eu.u_raster);
       gl.uniform1i(this.eu.u_margin, s.opaque_margin);
-      gl.uniform1i(this.eu.u_size, size);
+      gl.uniform2i(this.eu.u_lo, ...lo);
+      gl.uniform2i(this.eu.u_hi, ...hi);
       gl.uniform1ui(this.eu.u_zero_point, s.zero_point);
-      this.pass(this.erodedFbo, size, size);
+      this.pass(this.erodedFbo, crop.w, crop.h, crop.x, crop.y);
       mark('erode');
     }
     gl.useProgram(this.shade);
@@ -287,52 +307,61 @@ export class Compositor {
     this.bind(1, this.headTex, v.u_head);
     this.bind(2, this.fillTex, v.u_fill);
     this.bind(3, this.eroded, v.u_eroded);
-    gl.uniform2i(v.u_half, half, half);
+    gl.uniform2i(v.u_half, hw, hh);
     gl.uniform1i(v.u_margin, s.opaque_margin);
-    gl.uniform1i(v.u_size, size);
+    gl.uniform2i(v.u_lo, ...lo);
+    gl.uniform2i(v.u_hi, ...hi);
     gl.uniform1ui(v.u_zero_point, s.zero_point);
     gl.uniform3fv(v.u_colour_scale, s.colour_scale);
     gl.uniform3fv(v.u_background, background);
     gl.uniform1f(v.u_logit_scale, s.logit_scale);
     gl.uniform1f(v.u_logit_offset, s.logit_offset);
     gl.uniform1f(v.u_weight_min, s.weight_min);
-    this.pass(this.imageFbo, size, size);
+    this.pass(this.imageFbo, crop.w, crop.h, crop.x, crop.y);
     mark('shade');
   }
 
-  // The tail in JavaScript over the read-back raster (Uint8Array) and the graph's outputs.
-  composeCpu(raster, outputs, background) {
+  // The tail in JavaScript over the window's read-back raster (Uint8Array) and the graph's outputs.
+  composeCpu(raster, outputs, background, crop) {
     const s = this.spec;
     const t0 = this.fine ? performance.now() : 0;
+    this.cpu.resize(crop.w, crop.h);
     const rgba = this.cpu.run(raster, outputs[s.head].data, outputs[s.fill].data, background);
     if (this.fine) this.fine.js = (this.fine.js || 0) + performance.now() - t0;
-    this.upload(rgba);
+    this.upload(rgba, crop, background);
   }
 
-  upload(rgba) {
+  upload(rgba, crop, background) {
     const gl = this.gl;
+    this.place(crop, background);
     gl.activeTexture(gl.TEXTURE7);
     gl.bindTexture(gl.TEXTURE_2D, this.image);
     gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
-    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, this.size, this.size, gl.RGBA, gl.UNSIGNED_BYTE, rgba);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, crop.x, crop.y, crop.w, crop.h, gl.RGBA, gl.UNSIGNED_BYTE, rgba);
   }
 
-  // The whole graph's composited (1, H, W, 3) uint8 image, as it is.
-  composeImage(tensor) {
-    const gl = this.gl;
-    const rgb = tensor.data;
-    gl.activeTexture(gl.TEXTURE7);
-    if (!this.rgba || this.rgba.length !== this.size * this.size * 4) this.rgba = new Uint8Array(this.size * this.size * 4);
+  // The whole graph's composited (1, h, w, 3) uint8 image of the window, as it is.
+  composeImage(tensor, background, crop) {
+    const rgb = tensor.data, n = crop.w * crop.h * 4;
+    if (!this.rgba || this.rgba.length < n) this.rgba = new Uint8Array(this.size * this.size * 4);
+    const rgba = this.rgba.subarray(0, n);
     for (let i = 0, j = 0; i < rgb.length; i += 3, j += 4) {
-      this.rgba[j] = rgb[i]; this.rgba[j + 1] = rgb[i + 1]; this.rgba[j + 2] = rgb[i + 2]; this.rgba[j + 3] = 255;
+      rgba[j] = rgb[i]; rgba[j + 1] = rgb[i + 1]; rgba[j + 2] = rgb[i + 2]; rgba[j + 3] = 255;
     }
-    gl.bindTexture(gl.TEXTURE_2D, this.image);
-    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, this.size, this.size, gl.RGBA, gl.UNSIGNED_BYTE, this.rgba);
+    this.upload(rgba, crop, background);
   }
 
   // The image onto the canvas (its drawing buffer), box: the part shown (a close-up's enlargement).
   show(canvasSize, box = [0, 0, 1, 1]) {
     const gl = this.gl;
+    if (canvasSize === this.size && box[0] === 0 && box[1] === 0 && box[2] === 1 && box[3] === 1) {
+      // the image as it is, flipped upright: a copy, which software WebGL does faster than the sampling pass
+      gl.bindFramebuffer(gl.READ_FRAMEBUFFER, this.imageFbo);
+      gl.bindFramebuffer(gl.DRAW_FRAMEBUFFER, null);
+      gl.blitFramebuffer(0, 0, this.size, this.size, 0, this.size, this.size, 0, gl.COLOR_BUFFER_BIT, gl.NEAREST);
+      gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+      return;
+    }
     gl.useProgram(this.display);
     this.bind(0, this.image, this.du.u_image);
     gl.uniform4fv(this.du.u_box, box);

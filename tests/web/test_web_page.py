@@ -74,8 +74,30 @@ def test_frame_matches_the_python_player_whole_graph(tiny_web, tiny_avatar):
     page, info = page_frames(tiny_web.path, frames)
     want, person = _python_frames(tiny_avatar, frames, size, tiny_web.precision)
     assert info["messages"] == [] and info["renderer"]["mode"] == "image"
-    for a, b, m in zip(page, want, person):
+    for a, b, m, w in zip(page, want, person, info["windows"]):
         assert m.sum() > 2000
+        assert psnr(a, b, m) >= MIN_PERSON_PSNR_DB, psnr(a, b, m)
+        # the renderer ran on the person's window, not the whole frame, and the body lies inside it
+        assert w["w"] * w["h"] < size * size, w
+        ys, xs = np.nonzero(m)
+        assert w["x"] <= xs.min() and xs.max() < w["x"] + w["w"] and w["y"] <= ys.min() and ys.max() < w["y"] + w["h"], w
+
+
+def test_webgpu_frame_matches_the_python_player(tiny_avatar, tmp_path):
+    """The --webgpu folder in Chromium's WebGPU (SwiftShader's software adapter here): skipped where
+    that Chromium offers no WebGPU adapter (the page then falls back to WASM)."""
+    from morf.web.build import build_web_folder
+    from morf.web.check import page_frames, psnr
+
+    folder = build_web_folder(tiny_avatar, tmp_path / "gpu", webgpu=True)
+    size = 256
+    frames = _frames(104, size)
+    page, info = page_frames(folder.path, frames, query="backend=webgpu", webgpu=True, timeout=300)
+    if info["backend"] != "webgpu":
+        pytest.skip("this Chromium offers the page no WebGPU adapter")
+    want, person = _python_frames(tiny_avatar, frames, size, folder.precision)
+    assert info["messages"] == []
+    for a, b, m in zip(page, want, person):
         assert psnr(a, b, m) >= MIN_PERSON_PSNR_DB, psnr(a, b, m)
 
 
@@ -129,6 +151,44 @@ def test_output_size_adapts_and_says_so(tiny_web):
     assert "error" not in r and r["messages"] == []
     assert r["size"] < 640 and r["size"] % 8 == 0
     assert "under 1000" in r["notice"] and f"Output {r['size']} × {r['size']} px" in r["notice"], r["notice"]
+
+
+def test_output_size_grows_back_without_see_sawing(tiny_web):
+    """The adaptive size's decisions (adaptive.js) for scripted measurements: it shrinks under the
+    target, grows one step only with room to spare after a longer stretch, and a size it just
+    failed at is retried only after a wait that doubles with each failure there."""
+    import json
+
+    from morf.web.browser import run_page
+
+    script = [(10, 25, 0),        # 640 at 10 fps: down to 320 (the pixel count 10 fps holds at 30)
+              (45, 100, 1000),    # 320 at 45 fps: 384 would run 31 fps, too close to 30: stay
+              (60, 59, 2000),     # room, but not yet seen long enough
+              (60, 60, 2000),     # room: up to 384
+              (25, 20, 3000),     # 384 fails: back to 320, 384 not retried for 5 s
+              (60, 60, 4000),     # room, but 384 failed a second ago
+              (60, 60, 8000),     # 5 s later: 384 again
+              (25, 20, 9000),     # fails again: back to 320, now for 10 s
+              (60, 60, 15000),    # still waiting
+              (60, 60, 19000)]    # 10 s later: 384
+    r = run_page(tiny_web.path, "size=640&policy=" + json.dumps(script).replace(" ", ""), timeout=240)
+    assert "error" not in r and r["messages"] == [], r.get("error")
+    assert r["target"] == 30 and {640, 384, 320} <= set(r["sizes"]), r["sizes"]
+    moves = [(d["size"], d["step"]["to"] if d["step"] else None) for d in r["steps"]]
+    assert moves == [(640, 320), (320, None), (320, None), (320, 384), (384, 320), (320, None), (320, 384),
+                     (384, 320), (320, None), (320, 384)], moves
+    assert [d["step"]["why"] for d in r["steps"] if d["step"]] == ["slow", "headroom", "slow", "headroom", "slow", "headroom"]
+
+
+def test_output_size_grows_on_a_fast_device_and_says_so(tiny_web):
+    """Started small with a target any machine holds (target=1), the page grows its output and says why."""
+    from morf.web.browser import run_page
+
+    r = run_page(tiny_web.path, "report=75&start=128&target=1&motion=idle_sway", timeout=300)
+    assert "error" not in r and r["messages"] == [], r.get("error")
+    assert r["adapted"] and r["adapted"]["why"] == "headroom" and r["adapted"]["from"] == 128, r["adapted"]
+    to = r["adapted"]["to"]
+    assert to > 128 and f"Output {to} × {to} px" in r["notice"] and "room for a larger output" in r["notice"], r["notice"]
 
 
 def test_golden_render(tiny_web):

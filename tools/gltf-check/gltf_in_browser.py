@@ -32,10 +32,8 @@ import argparse
 import base64
 import io
 import json
-import os
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 from http.server import SimpleHTTPRequestHandler, ThreadingHTTPServer
@@ -43,9 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-# the Chromium finder and process-group ending the web player's driver uses (morf is installed in
-# the virtualenv this script runs with)
-from morf.web.browser import BROWSERS, end_group, find_chromium
+# the web player's Chromium driver (morf is installed in the virtualenv this script runs with)
+from morf.web.browser import BROWSERS, browse_until, find_chromium
 
 HERE = Path(__file__).resolve().parent
 THREE_MODULE = HERE / "node_modules" / "three" / "build" / "three.module.js"
@@ -106,30 +103,15 @@ class _Handler(SimpleHTTPRequestHandler):
 def run_page(glb: Path, out_dir: Path, times: str | None = None, pose: Path | None = None,
              panel: str = "240x400", chromium: str | None = None, timeout: float = 300.0) -> dict:
     """Open the page on ``glb`` in headless Chromium; returns what it posted (raises on a timeout)."""
-    browser = find_chromium(chromium)
     server = _Server(glb, pose)
     threading.Thread(target=server.serve_forever, daemon=True).start()
     query = f"panel={panel}" + (f"&times={times}" if times else "") + ("&pose=1" if pose else "")
     url = f"http://127.0.0.1:{server.server_address[1]}/check.html?{query}"
-    sandbox = ("--no-sandbox",) if os.geteuid() == 0 else ()  # Chromium refuses root with its sandbox on
-    with (tempfile.TemporaryDirectory(prefix="gltf-check-", ignore_cleanup_errors=True) as profile,
-          open(out_dir / "chromium.log", "wb") as log):
-        # A session of its own: Debian's /usr/bin/chromium* are shell scripts that do not exec, so
-        # the browser is ended as the process group we started, not by the wrapper's pid alone.
-        proc = subprocess.Popen([browser, *BROWSER_FLAGS, *sandbox, f"--user-data-dir={profile}", url],
-                                stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-        try:
-            deadline = time.monotonic() + timeout
-            while not server.done.wait(0.5):
-                if proc.poll() is not None:
-                    raise RuntimeError(f"Chromium exited ({proc.returncode}) before the page reported; "
-                                       f"see {out_dir / 'chromium.log'}")
-                if time.monotonic() > deadline:
-                    raise TimeoutError(f"the page did not report within {timeout:.0f} s")
-        finally:
-            end_group(proc)
-            server.shutdown()
-            server.server_close()
+    try:
+        browse_until(url, server.done, timeout, chromium, out_dir / "chromium.log", BROWSER_FLAGS)
+    finally:
+        server.shutdown()
+        server.server_close()
     return server.result
 
 
