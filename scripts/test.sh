@@ -10,6 +10,12 @@ if ! command -v chromium-headless-shell >/dev/null && ! command -v chromium >/de
   { $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
       chromium-headless-shell >/dev/null; } || echo "[test] no headless Chromium: the glTF browser check is skipped"
 fi
+# The studio's real-window tests (tests/studio/test_x_*.py) drive an X server with xdotool.
+if ! command -v Xvfb >/dev/null || ! command -v xdotool >/dev/null; then
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  { $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
+      xvfb xdotool >/dev/null; } || echo "[test] no Xvfb/xdotool: the studio's real-window tests are skipped"
+fi
 .venv/bin/python tools/gltf-check/fetch_three.py || echo "[test] no three.js: the glTF browser check is skipped"
 .venv/bin/python tools/web-player/fetch_ort.py || echo "[test] no onnxruntime-web: the web player tests are skipped"
 . .venv/bin/activate

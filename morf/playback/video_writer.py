@@ -37,7 +37,7 @@ class Codec:
 H264 = Codec("libx264", "H.264", {"crf": "18", "preset": "fast"})
 # constant quality (b:v 0), row threads; cpu-used 5 trades a little size for speed
 VP9 = Codec("libvpx-vp9", "VP9", {"crf": "30", "b:v": "0", "cpu-used": "5", "row-mt": "1"})
-MP4V = Codec("mp4v", "MPEG-4 Part 2 (mp4v)")
+MP4V = Codec("mp4v", "MPEG-4 Part 2 (mp4v; browsers play H.264: pip install av)")
 
 
 def pyav_encoder(name: str) -> bool:
