@@ -90,72 +90,47 @@ def _runs_text(vals: list) -> str:
     return " / ".join("diverged" if v is None else f"{v:.2f}" for v in vals)
 
 
-def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
-               project_path: str | dict | None = None, points: list[str] | None = None, seeds: int = 1) -> dict:
-    """Run the check on ``scenes``; returns the summary written to ``OUT/auto_check.json``.
-
-    ``project_path``: existing synthetic captures to use instead of making them
-    (see :func:`scene_projects`); ``points``: only these sweep points beside the automatic choice
-    (names as in ``--points``); ``seeds``: trainings per point, the verdict on their means.
-    """
-    from morf.bench.common import machine_info, markdown_table, write_results
+def _check_scene(out: Path, preset: str, sweep, scene: str, project_path: str | None, model, rule,
+                 points: list[str] | None, seeds: int) -> tuple[SceneVerdict, dict]:
+    """One scene: the automatic choice made from its capture, measured beside the sizing points
+    (:func:`morf.bench.pareto.run_sweep` in ``OUT/<scene>``), and judged; (its row, its details)."""
     from morf.bench.front import near_front, quality_gap
     from morf.bench.pareto import make_capture, run_sweep
-    from morf.errors import InputError
-    from morf.sizing.choose import SizingRule, choose_train_config
-    from morf.presets import preset as named_preset
+    from morf.sizing.choose import choose_train_config
     from morf.sizing.sweep import SweepPoint
 
-    unknown = [s for s in scenes if s not in SCENE_ORDER]
-    if unknown:
-        raise InputError(f"unknown scenes {unknown}; choose from {', '.join(SCENE_ORDER)}")
-    if seeds < 1:
-        raise InputError(f"seeds must be at least 1, got {seeds}")
-    projects = scene_projects(list(scenes), project_path)
+    project = make_capture(out / scene, sweep, scene, model, project_path)
+    name, overrides = sweep.train
+    cfg, reasons = choose_train_config(project, name, model=model, rule=rule, **overrides)
+    # Same training as an identical sweep point (the preset name is only a label).
+    cfg = cfg.replace(preset=sweep.train[0])
+    res = run_sweep(out / scene, preset, scene, axes=SIZING_AXES, model=model, extra=[(SweepPoint("auto", "auto"), cfg)],
+                    points=points, project=project, seeds=seeds)
+    rows_by_name = {r.name: r for r in res.points}
+    means = {n: [r.mean(QUALITY), r.mean("fps")] for n, r in rows_by_name.items()}
+    q_auto, fps_auto = means["auto"]
+    vals = [[float("nan") if v is None else v for v in m] for m in means.values()]
+    fps_margin = rule.fps_margin_frac * fps_auto if fps_auto is not None else 0.0
+    ok = near_front(vals, list(means).index("auto"), (rule.quality_margin_db, fps_margin))
+    best = max((q for q, _ in means.values() if q is not None), default=None)
+    runs = {n: r.seed_runs[QUALITY] if r.seed_runs is not None else [r.metric(QUALITY)]
+            for n, r in rows_by_name.items()}
+    gap, se, rival = quality_gap(runs, {n: f for n, (_, f) in means.items()}, "auto", fps_margin)
+    a = rows_by_name["auto"]
+    verdict = SceneVerdict(scene, cfg.texture_size, cfg.texture_channels, cfg.renderer.width,
+                           a.evaluation.params / 1e6, q_auto, best, fps_auto, ok, gap, se,
+                           None if se is None else abs(gap - rule.quality_margin_db) > 2 * se)
+    details = {"reasons": reasons, "config": a.config, "point": a.to_dict(), "near_front": ok, "rival": rival}
+    if seeds > 1:
+        details["means"] = {n: {QUALITY: q, "fps": f, QUALITY + "_runs": runs[n]} for n, (q, f) in means.items()}
+    print(f"{scene}: texture {cfg.texture_size}, channels {cfg.texture_channels}, renderer width "
+          f"{cfg.renderer.width}; near the front: {ok}")
+    return verdict, details
 
-    out = Path(out)
-    sweep = named_preset("sweep", preset)
-    rule = SizingRule()
-    if model is None:
-        from morf.body import load_body_model
 
-        model = load_body_model("anny")
-    rows, details = [], {}
-    for scene in scenes:
-        project = make_capture(out / scene, sweep, scene, model, projects[scene])
-        name, overrides = sweep.train
-        cfg, reasons = choose_train_config(project, name, model=model, rule=rule, **overrides)
-        # Same training as an identical sweep point (the preset name is only a label).
-        cfg = cfg.replace(preset=sweep.train[0])
-        auto = SweepPoint("auto", "auto")
-        res = run_sweep(out / scene, preset, scene, axes=SIZING_AXES, model=model, extra=[(auto, cfg)],
-                        points=points, project=project, seeds=seeds)
-        rows_by_name = {r.name: r for r in res.points}
-        means = {n: [r.mean(QUALITY), r.mean("fps")] for n, r in rows_by_name.items()}
-        q_auto, fps_auto = means["auto"]
-        vals = [[float("nan") if v is None else v for v in m] for m in means.values()]
-        fps_margin = rule.fps_margin_frac * fps_auto if fps_auto is not None else 0.0
-        ok = near_front(vals, list(means).index("auto"), (rule.quality_margin_db, fps_margin))
-        best = max((q for q, _ in means.values() if q is not None), default=None)
-        runs = {n: r.seed_runs[QUALITY] if r.seed_runs is not None else [r.metric(QUALITY)]
-                for n, r in rows_by_name.items()}
-        gap, se, rival = quality_gap(runs, {n: f for n, (_, f) in means.items()}, "auto", fps_margin)
-        a = rows_by_name["auto"]
-        rows.append(SceneVerdict(scene, cfg.texture_size, cfg.texture_channels, cfg.renderer.width,
-                                 a.evaluation.params / 1e6, q_auto, best, fps_auto, ok, gap, se,
-                                 None if se is None else abs(gap - rule.quality_margin_db) > 2 * se))
-        details[scene] = {"reasons": reasons, "config": a.config, "point": a.to_dict(), "near_front": ok,
-                          "rival": rival}
-        if seeds > 1:
-            details[scene]["means"] = {n: {QUALITY: q, "fps": f, QUALITY + "_runs": runs[n]}
-                                       for n, (q, f) in means.items()}
-        print(f"{scene}: texture {cfg.texture_size}, channels {cfg.texture_channels}, renderer width "
-              f"{cfg.renderer.width}; near the front: {ok}")
-    distinct = len({(r.texture_size, r.texture_channels, r.renderer_width) for r in rows})
-    table = [r.to_dict() for r in rows]
-    summary = {"benchmark": "auto_check", "preset": preset, "seeds": seeds, "margin_db": rule.quality_margin_db,
-               "rule": rule.__dict__, "scenes": details, "table": table, "distinct_choices": distinct,
-               "all_near_front": all(r.near_front for r in rows), "machine": machine_info()}
+def _markdown(rule, seeds: int, table: list[dict], details: dict) -> str:
+    from morf.bench.common import markdown_table
+
     over = f"; means over {seeds} seeds per point" if seeds > 1 else ""
     md = ("# Automatic size choice against the sweep\n\n"
           f"near_front: no sweep point is more than {rule.quality_margin_db} dB better at most "
@@ -169,5 +144,43 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
         md += f"\n## {scene}\n\n" + "\n".join(f"- {r}" for r in d["reasons"]) + "\n"
         if "means" in d:
             md += "\n" + "".join(f"- {n}: {_runs_text(m[QUALITY + '_runs'])} dB\n" for n, m in d["means"].items())
-    write_results(out, "auto_check", summary, md)
+    return md
+
+
+def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
+               project_path: str | dict | None = None, points: list[str] | None = None, seeds: int = 1) -> dict:
+    """Run the check on ``scenes``; returns the summary written to ``OUT/auto_check.json``.
+
+    ``project_path``: existing synthetic captures to use instead of making them
+    (see :func:`scene_projects`); ``points``: only these sweep points beside the automatic choice
+    (names as in ``--points``); ``seeds``: trainings per point, the verdict on their means.
+    """
+    from morf.bench.common import machine_info, write_results
+    from morf.errors import InputError
+    from morf.presets import preset as named_preset
+    from morf.sizing.choose import SizingRule
+
+    unknown = [s for s in scenes if s not in SCENE_ORDER]
+    if unknown:
+        raise InputError(f"unknown scenes {unknown}; choose from {', '.join(SCENE_ORDER)}")
+    if seeds < 1:
+        raise InputError(f"seeds must be at least 1, got {seeds}")
+    projects = scene_projects(list(scenes), project_path)
+    out = Path(out)
+    sweep = named_preset("sweep", preset)
+    rule = SizingRule()
+    if model is None:
+        from morf.body import load_body_model
+
+        model = load_body_model("anny")
+    rows, details = [], {}
+    for scene in scenes:
+        row, details[scene] = _check_scene(out, preset, sweep, scene, projects[scene], model, rule, points, seeds)
+        rows.append(row)
+    distinct = len({(r.texture_size, r.texture_channels, r.renderer_width) for r in rows})
+    table = [r.to_dict() for r in rows]
+    summary = {"benchmark": "auto_check", "preset": preset, "seeds": seeds, "margin_db": rule.quality_margin_db,
+               "rule": rule.__dict__, "scenes": details, "table": table, "distinct_choices": distinct,
+               "all_near_front": all(r.near_front for r in rows), "machine": machine_info()}
+    write_results(out, "auto_check", summary, _markdown(rule, seeds, table, details))
     return summary

@@ -16,6 +16,20 @@ def _pyplot():
     return plt
 
 
+def save_figure(fig, path: Path, title: str | None = None) -> Path:
+    """Write ``fig`` to ``path`` (its folder made) and close it, so a long benchmark holds no
+    figures; ``title``: a title over all panels, laid out before saving."""
+    plt = _pyplot()
+    if title is not None:
+        fig.suptitle(title, fontsize=10)
+        fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
 def front_chart(points: list[dict], x: str, y: str, front: np.ndarray, path: Path, *, title: str, xlabel: str,
                 ylabel: str, log_x: bool = False, target_x: float | None = None, target_label: str = "",
                 note: str = "", spread: tuple[float, float, float] | None = None,
@@ -68,11 +82,7 @@ def front_chart(points: list[dict], x: str, y: str, front: np.ndarray, path: Pat
     if note:
         fig.text(0.01, 0.01, note, fontsize=7, wrap=True, va="bottom")
         fig.subplots_adjust(bottom=0.2)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def series_chart(series: dict[str, dict], metric: str, path: Path, *, title: str, ylabel: str) -> Path:
@@ -112,13 +122,7 @@ def series_chart(series: dict[str, dict], metric: str, path: Path, *, title: str
     for ax in axes.ravel()[len(names):]:
         ax.axis("off")
     axes.ravel()[0].legend(fontsize=7)
-    fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, title)
 
 
 def _label_offsets(xs, ys, near: float = 0.06, step: float = 9.0) -> list[float]:

@@ -102,36 +102,45 @@ class ConfigRow:
         return {**self.measured(), "jitter_reduction": self.jitter_reduction}
 
 
-def add_arguments(p) -> None:
-    p.add_argument("--out", required=True, help="folder for fitting.json and fitting.md")
-    p.add_argument("--project", default=None, help="an existing synthetic capture (default: make one in OUT/capture)")
-    p.add_argument("--preset", default="default", help="synthetic capture preset when one is made: tiny | default")
-    p.add_argument("--frames", type=int, default=None, help="override the capture's frame count when one is made")
-    p.add_argument("--fit-preset", default="default", help="fit preset the ablation starts from")
-    p.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
-                   help="change a setting of the fit preset before the ablation (repeatable), as 'morf fit --set'")
-    p.add_argument("--configs", default=",".join(ABLATION), help="comma-separated subset of: " + ", ".join(ABLATION))
-    p.add_argument("--command-runs", type=int, default=0,
-                   help="also time the whole 'morf fit CAPTURE --restart' command this many times, each in a "
-                        "fresh process on a copy of the capture: start-up, evaluation and overlays counted")
+@dataclass(frozen=True)
+class FittingOptions:
+    """What ``morf bench fitting`` fits and times.
+
+    Fields:
+        out: folder for fitting.json and fitting.md; project: an existing synthetic capture (None:
+        make one in ``OUT/capture``); preset, frames: the synthetic capture preset and frame count
+        when one is made (frames None: the preset's); fit_preset: the fit preset the ablation
+        starts from; settings: FIELD=VALUE changes to it (as ``morf fit --set``); configs: the
+        configurations of :data:`ABLATION` to fit; command_runs: also time the whole ``morf fit``
+        command this many times.
+    """
+
+    out: str
+    project: str | None = None
+    preset: str = "default"
+    frames: int | None = None
+    fit_preset: str = "default"
+    settings: tuple[str, ...] = ()
+    configs: tuple[str, ...] = tuple(ABLATION)
+    command_runs: int = 0
 
 
-def _capture(args, model):
+def _capture(opts: FittingOptions, model):
     from morf.capture.project import CaptureProject
     from morf.errors import InputError
     from morf.synth.ground_truth import has_ground_truth
 
-    if args.project:
-        project = CaptureProject.open(args.project)
+    if opts.project:
+        project = CaptureProject.open(opts.project)
         if not has_ground_truth(project):
             raise InputError(f"{project.root} has no ground truth; 'morf bench fitting' needs a synthetic capture")
         return project
     from morf.synth import make_synthetic_capture, synth_config
 
-    root = Path(args.out) / "capture"
+    root = Path(opts.out) / "capture"
     if CaptureProject.is_project(root) and has_ground_truth(root):
         return CaptureProject.open(root)
-    cfg = synth_config(args.preset, frames=args.frames)
+    cfg = synth_config(opts.preset, frames=opts.frames)
     print(f"making a synthetic capture ({cfg.frames} frames, {cfg.size}x{cfg.size}) in {root}")
     return make_synthetic_capture(root, cfg, model=model, overwrite=True)
 
@@ -263,33 +272,25 @@ def head_hands_errors(model, fits, rejected: dict[int, str], gt) -> dict:
     return out
 
 
-def run(args) -> int:
+def _time_command(project, opts: FittingOptions) -> dict | None:
+    """``morf fit`` as a user runs it, timed before the ablation (None without ``command_runs``)."""
+    if opts.command_runs <= 0:
+        return None
+    print(f"timing 'morf fit' as a whole command, {opts.command_runs} runs")
+    seconds = time_fit_command(project, opts.command_runs, opts.fit_preset)
+    fps = [project.num_frames / t for t in seconds]
+    return {"command": f"morf fit CAPTURE --restart --preset {opts.fit_preset} (fresh processes)",
+            "seconds": seconds, "frames_per_second": fps, "median_frames_per_second": float(np.median(fps))}
+
+
+def _fit_configs(model, inputs, base, keys, gt, gt_verts, gt_roots) -> tuple[dict[str, ConfigRow], dict[str, dict]]:
+    """Fit each configuration of ``keys`` from scratch and score it against the ground truth
+    (``gt_verts``, ``gt_roots``: its posed vertices and root joints, :func:`_vertices`):
+    ({key: ConfigRow with its jitter reduction}, {key: head and hands errors})."""
     import torch
 
-    from morf.body import load_body_model
-    from morf.errors import InputError
-    from morf.fitting import finalize, fit_sequence, load_fit_inputs, preset
-    from morf.synth.ground_truth import load_ground_truth
+    from morf.fitting import finalize, fit_sequence
 
-    keys = [k.strip() for k in args.configs.split(",") if k.strip()]
-    unknown = [k for k in keys if k not in ABLATION]
-    if unknown:
-        raise InputError(f"unknown fitting configs: {', '.join(unknown)}; choose from {', '.join(ABLATION)}")
-    base = preset(args.fit_preset).with_settings(args.set).replace(shared_shape=False, frame_filter=False, temporal=False, silhouette=False,
-                                           overlays=False)
-    model = load_body_model("anny")
-    project = _capture(args, model)
-    command = None
-    if args.command_runs > 0:  # the command as a user runs it, timed before the ablation
-        print(f"timing 'morf fit' as a whole command, {args.command_runs} runs")
-        seconds = time_fit_command(project, args.command_runs, args.fit_preset)
-        fps = [project.num_frames / t for t in seconds]
-        command = {"command": f"morf fit CAPTURE --restart --preset {args.fit_preset} (fresh processes)",
-                   "seconds": seconds, "frames_per_second": fps, "median_frames_per_second": float(np.median(fps))}
-    gt = load_ground_truth(project, require=("keypoints_true", "corrupted"))
-    gt_verts, gt_roots = _vertices(model, gt.rotvecs, gt.transl, gt.shape)
-    camera = project.camera()
-    inputs = load_fit_inputs(project, camera, base.silhouette_resolution, base.iou_resolution)
     results: dict[str, ConfigRow] = {}
     head_hands: dict[str, dict] = {}
     for key in keys:
@@ -308,32 +309,63 @@ def run(args) -> int:
     base_jitter = results["baseline"].quality.jitter if "baseline" in results else None
     results = {k: replace(row, jitter_reduction=None if not base_jitter else 1.0 - row.quality.jitter / base_jitter)
                for k, row in results.items()}
-    summary = {
-        "capture": {"project": str(project.root), "frames": project.num_frames, "size": list(project.image_size),
-                    "corrupted_frames": int(gt.corrupted.sum()), "true_jitter": jitter_mm(gt_verts),
-                    "keypoints": project.manifest.get("source", {}).get("keypoints")},
-        "fit_preset": args.fit_preset,
-        "fit_settings": list(args.set),
-        "machine": machine_info(),
-        "configs": {k: row.to_dict() for k, row in results.items()},
-        "head_hands": head_hands,
-        "landmarks": inputs.landmarks is not None,
-    }
+    return results, head_hands
+
+
+def _markdown(summary: dict, project, results: dict[str, ConfigRow], head_hands: dict[str, dict]) -> str:
     rows = [{"config": k, **row.to_dict()} for k, row in results.items()]
     md = (f"# Mesh fitting ablation\n\nCapture: {project.num_frames} frames, "
           f"{project.image_size[0]}x{project.image_size[1]}, {summary['capture']['corrupted_frames']} corrupted; "
           f"true motion jitter {summary['capture']['true_jitter']:.2f} mm/frame^2.\n\n"
           + markdown_table(rows, COLUMNS)
           + "\n\nHead and wrists (world orientation against the truth, degrees; "
-          + ("landmarks: " + ("yes" if inputs.landmarks is not None else "none in the capture")) + "):\n\n"
+          + ("landmarks: " + ("yes" if summary["landmarks"] else "none in the capture")) + "):\n\n"
           + markdown_table([{"config": k, **{c: v for c, v in d.items() if c != "landmark_residual_px"}}
                             for k, d in head_hands.items()], ["config", "head_error_deg", "wrist_error_deg"]))
+    command = summary.get("command")
     if command is not None:
-        summary["command"] = command
         md += ("\n\n'morf fit' as a whole command (fresh process, start-up, evaluation and overlays counted): "
                + " / ".join(f"{t:.1f} s" for t in command["seconds"])
                + f", median {command['median_frames_per_second']:.2f} frames/s\n")
-    path = write_results(args.out, "fitting", summary, md)
+    return md
+
+
+def run_fitting(opts: FittingOptions) -> dict:
+    """Fit every configuration of ``opts.configs`` from scratch against the ground truth; writes
+    fitting.json and fitting.md; returns fitting.json's content."""
+    from morf.body import load_body_model
+    from morf.errors import InputError
+    from morf.fitting import load_fit_inputs, preset
+    from morf.synth.ground_truth import load_ground_truth
+
+    unknown = [k for k in opts.configs if k not in ABLATION]
+    if unknown:
+        raise InputError(f"unknown fitting configs: {', '.join(unknown)}; choose from {', '.join(ABLATION)}")
+    base = preset(opts.fit_preset).with_settings(list(opts.settings)).replace(
+        shared_shape=False, frame_filter=False, temporal=False, silhouette=False, overlays=False)
+    model = load_body_model("anny")
+    project = _capture(opts, model)
+    command = _time_command(project, opts)
+    gt = load_ground_truth(project, require=("keypoints_true", "corrupted"))
+    inputs = load_fit_inputs(project, project.camera(), base.silhouette_resolution, base.iou_resolution)
+    gt_verts, gt_roots = _vertices(model, gt.rotvecs, gt.transl, gt.shape)
+    results, head_hands = _fit_configs(model, inputs, base, list(opts.configs), gt, gt_verts, gt_roots)
+    summary = {
+        "capture": {"project": str(project.root), "frames": project.num_frames, "size": list(project.image_size),
+                    "corrupted_frames": int(gt.corrupted.sum()),
+                    "true_jitter": jitter_mm(gt_verts),
+                    "keypoints": project.manifest.get("source", {}).get("keypoints")},
+        "fit_preset": opts.fit_preset,
+        "fit_settings": list(opts.settings),
+        "machine": machine_info(),
+        "configs": {k: row.to_dict() for k, row in results.items()},
+        "head_hands": head_hands,
+        "landmarks": inputs.landmarks is not None,
+    }
+    if command is not None:
+        summary["command"] = command
+    md = _markdown(summary, project, results, head_hands)
+    path = write_results(opts.out, "fitting", summary, md)
     print(md)
     print(f"wrote {path}")
-    return 0
+    return summary

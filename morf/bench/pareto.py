@@ -16,7 +16,7 @@ Writes ``DIR/pareto.json`` ``{"points": [...], "front_fps": [...], "front_train"
 point's result is saved in ``DIR/points/<name>.json`` as it finishes and reused on a re-run (its
 training run also resumes); ``--points`` names what to measure, and points measured earlier in
 ``DIR`` on the same capture stay in the results. ``--auto-check`` runs the automatic size choice on three scenes
-instead (see :mod:`morf.bench.auto_check`).
+instead (see :mod:`morf.bench.auto_check`, which runs this sweep per scene).
 
 The trainings run as Ray tasks (:mod:`morf.scale`), each distinct training once (int8 and fp32 of
 one model share it): on a local Ray by default, on a cluster with ``--address``. Each holds
@@ -40,34 +40,6 @@ import numpy as np
 
 from morf.bench.pareto_results import PAPER_NOTE, QUALITY, FloorPoint, PointRow, SweepResult
 from morf.bench.train_eval import TrainEvaluation
-
-
-def add_arguments(p) -> None:
-    from morf.presets import default_preset, presets_of
-
-    p.add_argument("--out", required=True, help="folder for pareto.json, pareto.md, charts and per-point results")
-    p.add_argument("--preset", choices=tuple(presets_of("sweep")), default=default_preset("sweep"),
-                   help="sweep size: tiny (CI, seconds), quick (about an hour), default (many hours)")
-    p.add_argument("--project", default=None,
-                   help="an existing synthetic capture (default: make one in OUT); with --auto-check, "
-                        "scene=PATH[,scene=PATH...] names one per scene")
-    p.add_argument("--scene", choices=("print", "plain", "loose"), default="print",
-                   help="synthetic scene when a capture is made")
-    p.add_argument("--axes", default=None, help="comma-separated subset of the sweep's knobs (default: all)")
-    p.add_argument("--points", default=None,
-                   help="comma-separated points to measure (e.g. renderer-stem4_b32; default: all on --axes); "
-                        "points measured earlier in --out on the same capture are kept")
-    p.add_argument("--auto-check", action="store_true",
-                   help="check --preset auto on the plain, print and loose scenes instead of one sweep")
-    p.add_argument("--scenes", default="plain,print,loose",
-                   help="--auto-check: comma-separated scenes")
-    p.add_argument("--seeds", type=int, default=1,
-                   help="train every point with this many seeds (base seed, +1, ...) and chart the means; "
-                        "with --auto-check judge on the means (default 1)")
-    from morf.scale.ray_runtime import add_arguments as ray_arguments
-
-    ray_arguments(p, "cores each training holds (default: all of this machine's, one training at a time, as the "
-                     "training-minutes axis assumes; fewer train several at once)", default_cpus=None)
 
 
 def make_capture(out: Path, sweep, scene: str, model, project_path: str | None = None):
@@ -316,6 +288,73 @@ def saved_point(out: Path, sweep, point, project, cfg=None) -> PointRow | None:
     return PointRow.from_dict(old) if old.get("key") == key and scored_at == eval_res and same_capture else None
 
 
+def _mark_fronts(rows: list[PointRow]) -> tuple[list[PointRow], dict[str, np.ndarray], list[int]]:
+    """The rows with ``on_front_fps`` / ``on_front_train`` set, the fronts (:func:`fronts`, over
+    the sized points), and the indices of those sized points (the seed axis's stay off the fronts)."""
+    from morf.sizing.sweep import NOISE_AXES
+
+    sized = [i for i, r in enumerate(rows) if r.axis not in NOISE_AXES]
+    front = fronts([rows[i] for i in sized])
+    on = dict(zip(sized, zip(front["fps"], front["train"])))
+    marked = []
+    for i, r in enumerate(rows):
+        f1, f2 = on.get(i, (False, False))
+        marked.append(dataclasses.replace(r, on_front_fps=bool(f1), on_front_train=bool(f2)))
+    return marked, front, sized
+
+
+def _markdown(result: SweepResult, shown: list[dict], fps_size: int) -> str:
+    """pareto.md: the table of ``shown`` (the sized points with their seed means, then the seed
+    axis's points), what the numbers mean, the seed noise and the RGB floor."""
+    from morf.bench.common import markdown_table
+
+    seeds, noise, floor = result.seeds, result.seed_spread, result.floor
+    table = [{**r, "params_M": r["params"] / 1e6, "front": ("fps " if r["on_front_fps"] else "")
+              + ("train" if r["on_front_train"] else "")} for r in shown]
+    cols = ["name", "params_M", "psnr_person", "ssim_person", "psnr", "temporal", "fps", "renderer_ms",
+            "train_minutes", "front"]
+    if seeds > 1:
+        for t in table:
+            t[QUALITY + " runs"] = " / ".join("-" if v is None else f"{v:.2f}"
+                                              for v in t.get("seed_runs", {}).get(QUALITY, []))
+        cols.insert(3, QUALITY + " runs")
+    over = f", means over {seeds} seeds" if seeds > 1 else ""
+    return (f"# Speed against accuracy ({result.preset} sweep, {result.scene} scene{over})\n\n"
+            + markdown_table(table, cols)
+            + f"\nfps at {fps_size}x{fps_size} end to end (int8 unless the point is fp32); "
+              f"PSNR in dB on the hold-out sequence; temporal = flicker (lower is better)"
+            + (f"; quality, fps and training minutes are means over {seeds} trainings with seeds "
+               "base, base + 1, ... (the seed axis's points are single trainings)" if seeds > 1 else "") + ".\n\n"
+            + (f"The base point over {len(noise['points'])} seeds spans {noise['range_db']:.2f} dB of {QUALITY} "
+               f"(std {noise['std_db']:.2f} dB): differences smaller than that are within training noise; "
+               "the seed points stay off the fronts.\n\n" if noise else "")
+            + f"RGB floor (no learning, `{Path(floor.run).name}`): {floor.metric(QUALITY):.2f} dB {QUALITY} on the "
+              "same hold-out; its speed is not measured, so the charts draw it as a horizontal line.\n\n"
+            + f"{PAPER_NOTE}\n")
+
+
+def _measure_rows(project, sweep, todo, seeds: int, model, out: Path, ray, workers, cpus_per_task
+                  ) -> tuple[list[PointRow], list[str]]:
+    """Measure the (SweepPoint, TrainConfig) pairs ``todo`` and, with ``seeds`` > 1, their seed
+    repeats: (rows in ``todo``'s order, with their seed means; names of the points reused from
+    saved results)."""
+    from morf.sizing.sweep import NOISE_AXES
+
+    repeats = seed_repeats(todo, seeds) if seeds > 1 else {}
+    measured = measure_points(project, sweep, todo + [pc for pcs in repeats.values() for pc in pcs], model, out,
+                              ray, workers, cpus_per_task)
+    rows = [measured[p.name][0] for p, _ in todo]
+    reused = [p.name for p, _ in todo if measured[p.name][1]]
+    for i, row in enumerate(rows):
+        print(f"[{i + 1}/{len(rows)}] {row.name}: {QUALITY} {row.metric(QUALITY)}, fps {row.fps}, "
+              f"train {row.evaluation.train_minutes} min" + (" (saved result)" if row.name in reused else ""))
+    shutil.rmtree(out / "work", ignore_errors=True)  # exports made only to time playback
+    if seeds > 1:  # the seed points re-measure the base: they stay single trainings
+        rows = [r if r.axis in NOISE_AXES else with_seeds(r, [measured[p.name][0] for p, _ in repeats[r.name]])
+                for r in rows]
+    return rows, reused
+
+
 def run_sweep(out, preset: str = "default", scene: str = "print", project_path: str | None = None,
               axes: list[str] | None = None, model=None, extra: list | None = None,
               points: list[str] | None = None, project=None, seeds: int = 1, ray=None,
@@ -332,7 +371,7 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
     use the means. ``ray`` (RayOptions), ``workers``, ``cpus_per_task``: where and how the
     trainings run (:func:`train_all`).
     """
-    from morf.bench.common import machine_info, markdown_table, write_results
+    from morf.bench.common import machine_info, write_results
     from morf.errors import InputError
     from morf.scale.ray_runtime import RayOptions
     from morf.presets import preset as named_preset
@@ -340,7 +379,6 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
 
     if seeds < 1:
         raise InputError(f"seeds must be at least 1, got {seeds}")
-
     out = Path(out)
     sweep = named_preset("sweep", preset)
     if model is None:
@@ -352,24 +390,8 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
     named = select(sweep, axes, points)
     todo = [(p, None) for p in select(sweep, axes) if p in named or saved_point(out, sweep, p, project)]
     todo = [(p, cfg or resolve(sweep, p)) for p, cfg in todo + list(extra or [])]
-    repeats = seed_repeats(todo, seeds) if seeds > 1 else {}
-    measured = measure_points(project, sweep, todo + [pc for pcs in repeats.values() for pc in pcs], model, out,
-                              ray, workers, cpus_per_task)
-    rows = [measured[p.name][0] for p, _ in todo]
-    reused = [p.name for p, _ in todo if measured[p.name][1]]
-    for i, row in enumerate(rows):
-        print(f"[{i + 1}/{len(rows)}] {row.name}: {QUALITY} {row.metric(QUALITY)}, fps {row.fps}, "
-              f"train {row.evaluation.train_minutes} min" + (" (saved result)" if row.name in reused else ""))
-    shutil.rmtree(out / "work", ignore_errors=True)  # exports made only to time playback
-    if seeds > 1:  # the seed points re-measure the base: they stay single trainings
-        rows = [r if r.axis in NOISE_AXES else with_seeds(r, [measured[p.name][0] for p, _ in repeats[r.name]])
-                for r in rows]
-    sized = [i for i, r in enumerate(rows) if r.axis not in NOISE_AXES]
-    front = fronts([rows[i] for i in sized])
-    on = dict(zip(sized, zip(front["fps"], front["train"])))
-    for i, r in enumerate(rows):
-        f1, f2 = on.get(i, (False, False))
-        rows[i] = dataclasses.replace(r, on_front_fps=bool(f1), on_front_train=bool(f2))
+    rows, reused = _measure_rows(project, sweep, todo, seeds, model, out, ray, workers, cpus_per_task)
+    rows, front, sized = _mark_fronts(rows)
     view = [{**r.to_dict(), **(r.seed_means or {})} for r in (rows[i] for i in sized)]  # what charts and table show
     noise = seed_spread(rows)
     floor = floor_point(project, sweep, model)
@@ -379,50 +401,6 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
                          floor, {"address": (ray or RayOptions()).cluster_address or "local",
                                  "cpus_per_task": cpus_per_task or os.cpu_count()}, machine_info(), tuple(drawn))
     shown = view + [r.to_dict() for r in rows if r.axis in NOISE_AXES]
-    table = [{**r, "params_M": r["params"] / 1e6, "front": ("fps " if r["on_front_fps"] else "")
-              + ("train" if r["on_front_train"] else "")} for r in shown]
-    cols = ["name", "params_M", "psnr_person", "ssim_person", "psnr", "temporal", "fps", "renderer_ms",
-            "train_minutes", "front"]
-    if seeds > 1:
-        for t in table:
-            t[QUALITY + " runs"] = " / ".join("-" if v is None else f"{v:.2f}"
-                                              for v in t.get("seed_runs", {}).get(QUALITY, []))
-        cols.insert(3, QUALITY + " runs")
-    md = (f"# Speed against accuracy ({preset} sweep, {scene} scene{over})\n\n"
-          + markdown_table(table, cols)
-          + f"\nfps at {sweep.fps_size}x{sweep.fps_size} end to end (int8 unless the point is fp32); "
-            f"PSNR in dB on the hold-out sequence; temporal = flicker (lower is better)"
-          + (f"; quality, fps and training minutes are means over {seeds} trainings with seeds "
-             "base, base + 1, ... (the seed axis's points are single trainings)" if seeds > 1 else "") + ".\n\n"
-          + (f"The base point over {len(noise['points'])} seeds spans {noise['range_db']:.2f} dB of {QUALITY} "
-             f"(std {noise['std_db']:.2f} dB): differences smaller than that are within training noise; "
-             "the seed points stay off the fronts.\n\n" if noise else "")
-          + f"RGB floor (no learning, `{Path(floor.run).name}`): {floor.metric(QUALITY):.2f} dB {QUALITY} on the same "
-            "hold-out; its speed is not measured, so the charts draw it as a horizontal line.\n\n"
-          + f"{PAPER_NOTE}\n")
-    path = write_results(out, "pareto", result.to_dict(), md)
+    path = write_results(out, "pareto", result.to_dict(), _markdown(result, shown, sweep.fps_size))
     print(f"wrote {path}")
     return result
-
-
-def run(args) -> int:
-    from morf.errors import InputError
-    from morf.scale.ray_runtime import connect, options_from_args
-
-    split = lambda s: [a.strip() for a in s.split(",") if a.strip()] if s else None  # noqa: E731
-    points = split(args.points)
-    ray = options_from_args(args)
-    if args.auto_check:
-        from morf.bench.auto_check import auto_check
-
-        if args.workers is not None or args.cpus_per_task is not None:
-            raise InputError("--workers and --cpus-per-task do not apply to --auto-check (its sweeps train with "
-                             "the defaults); --address does")
-        connect(ray)  # the scenes' sweeps use this connection
-        auto_check(Path(args.out), args.preset, scenes=split(args.scenes), project_path=args.project, points=points,
-                   seeds=args.seeds)
-        return 0
-    axes = split(args.axes)
-    run_sweep(Path(args.out), args.preset, args.scene, args.project, axes, points=points, seeds=args.seeds, ray=ray,
-              workers=args.workers, cpus_per_task=args.cpus_per_task)
-    return 0

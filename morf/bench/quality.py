@@ -32,32 +32,6 @@ METHODS = ("morf", "stylepeople", "anr")  # the learned methods
 DEFAULT_METHODS = "morf,stylepeople,rgb"
 
 
-def add_arguments(p):
-    from morf.presets import presets_of
-
-    p.add_argument("--out", required=True, help="output folder for quality.json / quality.md and the images")
-    p.add_argument("--preset", choices=tuple(presets_of("train")), default="cpu", help="training preset (tiny: CI)")
-    p.add_argument("--project", default=None,
-                   help="an existing synthetic capture project (default: make and fit one in OUT/capture)")
-    p.add_argument("--methods", default=DEFAULT_METHODS,
-                   help=f"comma-separated methods from {', '.join(METHODS)}; the rgb floor is always included "
-                        f"(default {DEFAULT_METHODS})")
-    p.add_argument("--seeds", type=int, default=1, help="trainings per learned method, seeds 0..N-1 (default 1)")
-    p.add_argument("--holdout", type=int, default=5,
-                   help="keep every K-th usable capture frame out of training and score on it (default 5; 0: none)")
-    p.add_argument("--steps", type=int, default=None, help="override the preset's training steps")
-    p.add_argument("--fits", choices=("fits", "ground-truth", "auto"), default="fits",
-                   help="body fits to train on (default: fitted bodies; the capture is fitted when it has none)")
-    p.add_argument("--vgg", default=None, help="VGG-16 weights for the perceptual loss (else feature matching) "
-                                               "and for LPIPS")
-    p.add_argument("--lpips", default=None, metavar="PATH",
-                   help="LPIPS v0.1 linear layers (the lpips package's weights/v0.1/vgg.pth; default "
-                        "$MORF_LPIPS_WEIGHTS) to score LPIPS with; needs the VGG-16 weights too (else null)")
-    p.add_argument("--refine-poses", action="store_true",
-                   help="score with each frame's pose refined against the frame, every run alike (morf eval "
-                        "--refine-poses; docs/evaluation.md)")
-
-
 def parse_methods(text: str) -> list[str]:
     """The learned methods named in ``text`` (the floor, always run, may be named too)."""
     from morf.bench.quality_runs import FLOOR
@@ -70,20 +44,16 @@ def parse_methods(text: str) -> list[str]:
     return [m for m in names if m != FLOOR]
 
 
-def run(args) -> int:
+def _check_counts(seeds: int, holdout: int, steps: int | None) -> None:
+    """Refuse counts that make no benchmark, before anything is made or loaded."""
     from morf.errors import InputError
 
-    methods = parse_methods(args.methods)
-    if args.seeds < 1:
-        raise InputError(f"--seeds must be at least 1, got {args.seeds}")
-    if args.holdout < 0 or args.holdout == 1:
-        raise InputError(f"--holdout must be 0 (none) or at least 2 (every K-th frame), got {args.holdout}")
-    if args.steps is not None and args.steps < 1:
-        raise InputError(f"--steps must be at least 1, got {args.steps}")
-    run_quality(Path(args.out), args.preset, methods, seeds=args.seeds, holdout=args.holdout, steps=args.steps,
-                fits=args.fits, vgg=args.vgg, lpips=args.lpips, project_path=args.project,
-                refine_poses=args.refine_poses)
-    return 0
+    if seeds < 1:
+        raise InputError(f"--seeds must be at least 1, got {seeds}")
+    if holdout < 0 or holdout == 1:
+        raise InputError(f"--holdout must be 0 (none) or at least 2 (every K-th frame), got {holdout}")
+    if steps is not None and steps < 1:
+        raise InputError(f"--steps must be at least 1, got {steps}")
 
 
 def run_quality(out: Path, preset: str, methods: list[str], *, seeds: int = 1, holdout: int = 5,
@@ -101,6 +71,7 @@ def run_quality(out: Path, preset: str, methods: list[str], *, seeds: int = 1, h
     from morf.evaluate.project_eval import EvalConfig, evaluate_project, format_table
     from morf.train.data import load_body_fits
 
+    _check_counts(seeds, holdout, steps)
     find_lpips(lpips, vgg)  # bad LPIPS or VGG-16 files fail now, not after the trainings
     if model is None:
         from morf.body import load_body_model

@@ -18,28 +18,39 @@ import subprocess
 import sys
 import tempfile
 import time
-from morf.bench.render_results import (TABLE_COLUMNS, GraphProfile, MeasuredAvatar, OpTime, PlaybackMeasurement,
-                                       RenderResult)
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from morf.bench.render_results import (TABLE_COLUMNS, GraphProfile, MeasuredAvatar, OpTime, PlaybackMeasurement,
+                                       RenderResult)
 
 VARIANT_NAMES = ("plain_b16", "stem2_b16", "stem4_b16", "stem4_b24", "stem4_b32")  # see morf.sizing.sweep.RENDERERS
 DEFAULT_VARIANT = "stem4_b16"  # the "cpu" training preset's renderer
 THREADS = 2  # onnxruntime intra-op threads of the measured player
 
 
-def add_arguments(p) -> None:
-    p.add_argument("--out", required=True, help="folder for render.json and render.md")
-    p.add_argument("--avatar", default=None, help="an exported avatar folder (default: synthetic avatars)")
-    p.add_argument("--size", type=int, default=640)
-    p.add_argument("--frames", type=int, default=60, help="timed frames per measurement")
-    p.add_argument("--no-variants", action="store_true", help="only the default renderer (no size variants)")
-    p.add_argument("--raster", choices=("auto", "gl", "cpu"), default="auto",
-                   help="the players' rasterization: GL, the CPU loops (numba), or auto (the CPU loops under "
-                        "software GL, GL on a GPU; MORF_RASTER sets it too)")
-    p.add_argument("--no-amx", action="store_true",
-                   help="refuse AMX to the measurement (Linux x86-64): what this CPU gets without it")
+@dataclass(frozen=True)
+class RenderOptions:
+    """What ``morf bench render`` measures.
+
+    Fields:
+        out: folder for render.json and render.md; avatar: an exported avatar folder (None:
+        synthetic avatars); size: output side in pixels; frames: timed frames a measurement;
+        variants: also the other renderer sizes (synthetic avatars only); raster: auto | gl | cpu,
+        the players' rasterization; no_amx: refuse AMX to the measurement; command: the command
+        line recorded in render.json.
+    """
+
+    out: str
+    avatar: str | None = None
+    size: int = 640
+    frames: int = 60
+    variants: bool = True
+    raster: str = "auto"
+    no_amx: bool = False
+    command: str = "morf bench render"
 
 
 # ---- measurement (child process, torch-free) ------------------------------------------------------
@@ -327,34 +338,60 @@ def _build(tmp: Path, names: list[str], size: int) -> dict[str, Path]:
     return built
 
 
-def run(args) -> int:
-    from morf.bench.common import machine_info, markdown_table, write_results
+def _measure_all(opts: RenderOptions) -> tuple[str, str, dict[str, MeasuredAvatar]]:
+    """(main key, the avatar described, {key: MeasuredAvatar}): the given avatar, or synthetic
+    avatars built for the occasion, each measured in a torch-free child."""
+    with tempfile.TemporaryDirectory() as tmpd:
+        if opts.avatar:
+            avatars = {"given": Path(opts.avatar)}
+            described = str(Path(opts.avatar).resolve())
+        else:
+            names = list(VARIANT_NAMES) if opts.variants else [DEFAULT_VARIANT]
+            avatars = _build(Path(tmpd), names, opts.size)
+            described = f"synthetic: spectral texture 256x256x16 + random-init renderer '{DEFAULT_VARIANT}' (cpu preset)"
+        per: dict[str, MeasuredAvatar] = {}
+        for key, path in avatars.items():
+            print(f"measuring {key}", file=sys.stderr)
+            m = PlaybackMeasurement.from_dict(measure_in_child(path, opts.size, opts.frames))
+            per[key] = MeasuredAvatar.from_manifest(m, json.loads((path / "manifest.json").read_text()))
+    return ("given" if opts.avatar else DEFAULT_VARIANT), described, per
+
+
+def _markdown(result: RenderResult, cpu_line: str, kernels: str) -> str:
+    from morf.bench.common import markdown_table
+
+    main_key, size = result.main, result.size
+    main = result.avatars[main_key]
+    breakdown = main.measurement.breakdown_ms
+    md = [f"# Playback speed at {size}x{size} (int8, onnxruntime {THREADS} threads)\n",
+          f"Avatar: {result.avatar}. Machine: {cpu_line}.\n",
+          markdown_table([a.table_row(key) for key, a in result.avatars.items()], TABLE_COLUMNS),
+          "\nBreakdown of one frame (median ms, sequential, " + main_key + "):\n",
+          markdown_table([breakdown], list(breakdown)),
+          f"\nThe renderer's {tail_words(main.measurement.tail)}; {raster_words(main.measurement.raster)}.\n",
+          f"\n{int8_line(main, size)}\n",
+          f"\nWhat onnxruntime ran for the renderer graph ({main_key}; share of its kernel time):\n",
+          "```\n" + kernels + "\n```\n"]
+    if result.compute_limit:
+        md.append(limit_line(result.compute_limit, main_key) + "\n")
+    return "\n".join(md)
+
+
+def run_render(opts: RenderOptions) -> RenderResult:
+    """Measure playback speed end to end and write render.json and render.md."""
+    from morf.bench.common import machine_info, write_results
 
     t0 = time.time()
-    if getattr(args, "no_amx", False):
+    if opts.no_amx:
         from morf.machine.amx_permission import refuse_amx
 
         refuse_amx()  # before onnxruntime loads here or in the measuring children (they inherit it)
     from morf.machine.features import cpu_summary
 
-    if getattr(args, "raster", "auto") != "auto":
-        os.environ["MORF_RASTER"] = args.raster  # the measuring children's players read it
+    if opts.raster != "auto":
+        os.environ["MORF_RASTER"] = opts.raster  # the measuring children's players read it
     machine, features = machine_info(), cpu_summary()
-    command = "morf " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] else "morf bench render"
-    with tempfile.TemporaryDirectory() as tmpd:
-        if args.avatar:
-            avatars = {"given": Path(args.avatar)}
-            described = str(Path(args.avatar).resolve())
-        else:
-            names = [DEFAULT_VARIANT] if args.no_variants else list(VARIANT_NAMES)
-            avatars = _build(Path(tmpd), names, args.size)
-            described = f"synthetic: spectral texture 256x256x16 + random-init renderer '{DEFAULT_VARIANT}' (cpu preset)"
-        per: dict[str, MeasuredAvatar] = {}
-        for key, path in avatars.items():
-            print(f"measuring {key}", file=sys.stderr)
-            m = PlaybackMeasurement.from_dict(measure_in_child(path, args.size, args.frames))
-            per[key] = MeasuredAvatar.from_manifest(m, json.loads((path / "manifest.json").read_text()))
-    main_key = "given" if args.avatar else DEFAULT_VARIANT
+    main_key, described, per = _measure_all(opts)
     main = per[main_key]
     seconds = round(time.time() - t0, 1)
     limit = None
@@ -362,33 +399,21 @@ def run(args) -> int:
         from morf.bench.compute_limit import compute_limit
 
         print("timing int8 matrix multiplies (the CPU's limit)", file=sys.stderr)
-        limit = compute_limit(main.renderer_config, args.size, main.measurement.renderer_only_ms, THREADS)
-    result = RenderResult(size=args.size, threads=THREADS, frames=args.frames, machine=machine, cpu_features=features,
-                          command=command, avatar=described, main=main_key, avatars=per, seconds=seconds,
+        limit = compute_limit(main.renderer_config, opts.size, main.measurement.renderer_only_ms, THREADS)
+    result = RenderResult(size=opts.size, threads=THREADS, frames=opts.frames, machine=machine, cpu_features=features,
+                          command=opts.command, avatar=described, main=main_key, avatars=per, seconds=seconds,
                           compute_limit=limit)
     cpu_line = cpu_report(machine["cpu"], machine["cores"], features)
     kernels = kernel_summary(main.measurement.kernels)
-    breakdown = main.measurement.breakdown_ms
-    md = [f"# Playback speed at {args.size}x{args.size} (int8, onnxruntime {THREADS} threads)\n",
-          f"Avatar: {result.avatar}. Machine: {cpu_line}.\n",
-          markdown_table([a.table_row(key) for key, a in per.items()], TABLE_COLUMNS),
-          "\nBreakdown of one frame (median ms, sequential, " + main_key + "):\n",
-          markdown_table([breakdown], list(breakdown)),
-          f"\nThe renderer's {tail_words(main.measurement.tail)}; {raster_words(main.measurement.raster)}.\n",
-          f"\n{int8_line(main, args.size)}\n",
-          f"\nWhat onnxruntime ran for the renderer graph ({main_key}; share of its kernel time):\n",
-          "```\n" + kernels + "\n```\n"]
-    if limit:
-        md.append(limit_line(limit, main_key) + "\n")
-    path = write_results(args.out, "render", result.to_dict(), "\n".join(md))
+    path = write_results(opts.out, "render", result.to_dict(), _markdown(result, cpu_line, kernels))
     print(f"CPU: {cpu_line}")
     print(f"renderer graph kernels ({main_key}; share of its kernel time, op types with node count and ms a run):")
     print(kernels)
     if limit:
         print(limit_line(limit, main_key))
-    print(int8_line(main, args.size))
+    print(int8_line(main, opts.size))
     tail = tail_words(main.measurement.tail)
     print(f"{main_key}: {main.measurement.fps_end_to_end:.1f} fps end to end, "
           f"{main.measurement.fps_pipelined:.1f} fps pipelined ({tail}; {raster_words(main.measurement.raster)}); "
           f"wrote {path}")
-    return 0
+    return result

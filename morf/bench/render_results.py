@@ -4,11 +4,13 @@ and ``render.json``."""
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
+
+from morf.bench.records import FlatRecord
 
 
 @dataclass(frozen=True)
-class OpTime:
+class OpTime(FlatRecord):
     """One onnxruntime op type of the renderer graph's profile.
 
     Fields:
@@ -18,13 +20,6 @@ class OpTime:
     kind: str
     nodes: int
     ms: float
-
-    def to_dict(self) -> dict:
-        return asdict(self)
-
-    @staticmethod
-    def from_dict(d: dict) -> OpTime:
-        return OpTime(d["kind"], d["nodes"], d["ms"])
 
 
 @dataclass(frozen=True)

@@ -269,76 +269,109 @@ def _last_line(log: str) -> str:
     return lines[-1][:200] if lines else ""
 
 
-def add_arguments(p):
-    p.add_argument("--out", required=True, help="output folder for resume.json / resume.md (and the work files)")
-    p.add_argument("--kills", type=int, default=20, help="kills, spread over the uninterrupted run's duration")
-    p.add_argument("--seed", type=int, default=0, help="seed of the kill times (stratified random)")
-    p.add_argument("--preset", default="tiny", help="synth and 'morf run' preset (default tiny)")
-    p.add_argument("--tolerance", type=float, default=1e-5, help="largest absolute difference allowed in any array")
-    p.add_argument("--keep", action="store_true", help="keep every kill's project copy (default: only failed ones)")
+@dataclass(frozen=True)
+class ResumeOptions:
+    """What ``morf bench resume`` does.
+
+    Fields:
+        out: folder for resume.json / resume.md and the work files; kills: kills spread over the
+        uninterrupted run's duration; seed: seed of the kill times; preset: the ``morf synth`` and
+        ``morf run`` preset; tolerance: largest absolute difference allowed in any array; keep: keep
+        every kill's project copy (else only failed ones).
+    """
+
+    out: str
+    kills: int = 20
+    seed: int = 0
+    preset: str = "tiny"
+    tolerance: float = 1e-5
+    keep: bool = False
 
 
-def run(args) -> int:
-    from morf.bench.common import machine_info, markdown_table, write_results
-    from morf.errors import InputError, ProjectError
+def _reference_run(opts: ResumeOptions, work: Path) -> tuple[Path, float, list[float]]:
+    """Make the capture (``WORK/capture``) and run ``morf run`` on a copy of it to the end:
+    (capture, duration in seconds, times of its status lines)."""
+    from morf.errors import ProjectError
 
-    if args.kills < 1:
-        raise InputError(f"--kills must be at least 1, got {args.kills}")
-    if not args.tolerance >= 0:
-        raise InputError(f"--tolerance must be >= 0, got {args.tolerance}")
-    out = Path(args.out)
-    work = out / "work"
     capture = work / "capture"
     if capture.exists():
         shutil.rmtree(capture)
     capture.parent.mkdir(parents=True, exist_ok=True)
-    rc, _, _ = run_to_end(morf_argv("synth", str(capture), "--preset", args.preset), work / "synth.log")
+    rc, _, _ = run_to_end(morf_argv("synth", str(capture), "--preset", opts.preset), work / "synth.log")
     if rc != 0:
         raise ProjectError(f"morf synth failed (exit {rc}); see {work / 'synth.log'}")
-
-    def argv_for(project: Path) -> list[str]:
-        return morf_argv("run", str(project), "--preset", args.preset)
-
     ref = work / "reference"
     if ref.exists():
         shutil.rmtree(ref)
     ref.mkdir()
     shutil.copytree(capture, ref / "P")
-    rc, duration, marks = run_to_end(argv_for(ref / "P"), ref / "run.log")
+    rc, duration, marks = run_to_end(morf_argv("run", str(ref / "P"), "--preset", opts.preset), ref / "run.log")
     if rc != 0:
         raise ProjectError(f"the uninterrupted morf run failed (exit {rc}); see {ref / 'run.log'}")
-    reference = ref / "P" / "avatar"
-    ref_log = (ref / "run.log").read_text(errors="replace")
-    print(f"reference: morf run in {duration:.1f} s (status lines at "
-          f"{', '.join(f'{m:.1f}' for m in marks)} s); {args.kills} kills over it", flush=True)
+    return capture, duration, marks
+
+
+def _kill_rows(opts: ResumeOptions, work: Path, capture: Path, duration: float, marks: list[float]) -> list[KillRow]:
+    """Every kill of :func:`kill_times`, each anchored to the reference's status lines."""
+    reference = work / "reference" / "P" / "avatar"
+    ref_log = (work / "reference" / "run.log").read_text(errors="replace")
+
+    def argv_for(project: Path) -> list[str]:
+        return morf_argv("run", str(project), "--preset", opts.preset)
+
     rows = []
-    for i, at in enumerate(kill_times(duration, args.kills, args.seed)):
+    for i, at in enumerate(kill_times(duration, opts.kills, opts.seed)):
         kill_dir = work / f"kill-{i:02d}"
         k, offset = anchor(at, marks)
         after = None if k == 0 else (
             lambda project, k=k: len(stage_lines((project.parent / "killed.log").read_text(errors="replace"))) >= k)
-        row = replace(kill_once(capture, kill_dir, argv_for, offset, reference, i, args.tolerance, after=after,
+        row = replace(kill_once(capture, kill_dir, argv_for, offset, reference, i, opts.tolerance, after=after,
                                 anchor_text=anchor_words(k, offset, ref_log)), at_s=at)  # the reference's clock
         rows.append(row)
         print(f"kill {i:2d} at {at:6.2f} s in {row.stage_killed:<13} second run {row.second_run:<28} "
               f"{'pass' if row.passed else 'FAIL'} max diff {row.diff.max_abs_diff if row.diff else 'n/a'}", flush=True)
-        if row.passed and not args.keep:
+        if row.passed and not opts.keep:
             shutil.rmtree(kill_dir / "P", ignore_errors=True)
+    return rows
+
+
+def _markdown(opts: ResumeOptions, duration: float, rows: list[KillRow], cpu: str) -> str:
+    from morf.bench.common import markdown_table
+
     passed = sum(r.passed for r in rows)
-    result = {"benchmark": "resume", "preset": args.preset, "kills": args.kills, "seed": args.seed,
-              "tolerance": args.tolerance, "reference_seconds": round(duration, 2), "passed": passed,
-              "rows": [r.to_dict() for r in rows], "machine": machine_info(),
-              "command": f"morf bench resume --out {args.out} --kills {args.kills} --seed {args.seed}"}
     table = [{**r.to_dict(), "passed": "pass" if r.passed else "FAIL",
               "max_abs_diff": "n/a" if r.diff is None else f"{r.diff.max_abs_diff:.3g}",
               "worst": (r.diff.worst if r.diff else "") or "-", "note": r.note or "-"} for r in rows]
-    md = (f"# morf bench resume\n\n`morf run P --preset {args.preset}` on a `morf synth --preset {args.preset}` capture: "
-          f"uninterrupted in {duration:.1f} s; then {args.kills} runs sent SIGKILL (the whole process group) at a "
-          f"stratified random time of that run (seed {args.seed}; counted from the status line the anchor names, "
-          f"as the killed run printed it), each followed by `morf run` to the end, and the exported "
-          f"avatar compared with the uninterrupted run's (same files, arrays within {args.tolerance:g}). "
-          f"**{passed} of {len(rows)} passed.**\n\nCPU: {result['machine']['cpu']}\n\n"
-          + markdown_table(table, COLUMNS))
-    path = write_results(out, "resume", result, md)
+    return (f"# morf bench resume\n\n`morf run P --preset {opts.preset}` on a `morf synth --preset {opts.preset}` "
+            f"capture: uninterrupted in {duration:.1f} s; then {opts.kills} runs sent SIGKILL (the whole process "
+            f"group) at a stratified random time of that run (seed {opts.seed}; counted from the status line the "
+            f"anchor names, as the killed run printed it), each followed by `morf run` to the end, and the exported "
+            f"avatar compared with the uninterrupted run's (same files, arrays within {opts.tolerance:g}). "
+            f"**{passed} of {len(rows)} passed.**\n\nCPU: {cpu}\n\n"
+            + markdown_table(table, COLUMNS))
+
+
+def run_resume(opts: ResumeOptions) -> dict:
+    """Kill ``morf run`` at ``opts.kills`` moments, run it again each time and compare the avatars;
+    writes resume.json and resume.md; returns resume.json's content ("passed" of "rows")."""
+    from morf.bench.common import machine_info, write_results
+    from morf.errors import InputError
+
+    if opts.kills < 1:
+        raise InputError(f"--kills must be at least 1, got {opts.kills}")
+    if not opts.tolerance >= 0:
+        raise InputError(f"--tolerance must be >= 0, got {opts.tolerance}")
+    out = Path(opts.out)
+    work = out / "work"
+    capture, duration, marks = _reference_run(opts, work)
+    print(f"reference: morf run in {duration:.1f} s (status lines at "
+          f"{', '.join(f'{m:.1f}' for m in marks)} s); {opts.kills} kills over it", flush=True)
+    rows = _kill_rows(opts, work, capture, duration, marks)
+    passed = sum(r.passed for r in rows)
+    result = {"benchmark": "resume", "preset": opts.preset, "kills": opts.kills, "seed": opts.seed,
+              "tolerance": opts.tolerance, "reference_seconds": round(duration, 2), "passed": passed,
+              "rows": [r.to_dict() for r in rows], "machine": machine_info(),
+              "command": f"morf bench resume --out {opts.out} --kills {opts.kills} --seed {opts.seed}"}
+    path = write_results(out, "resume", result, _markdown(opts, duration, rows, result["machine"]["cpu"]))
     print(f"{passed} of {len(rows)} kills ended with the reference avatar; wrote {path}")
-    return 0 if passed == len(rows) else 1
+    return result

@@ -59,22 +59,6 @@ BREAKDOWN_DB = 1.0  # about the run-to-run noise of one training (docs/avatar.md
 CLEAN = {"slide": 0.0, "loose": 0.0, "kp_noise": 0.0, "corrupt": 0.0}
 
 
-def add_arguments(p) -> None:
-    from morf.presets import default_preset, presets_of
-
-    p.add_argument("--out", required=True, help="folder for stability.json, stability.md, charts, captures")
-    p.add_argument("--preset", choices=tuple(presets_of("stability")), default=default_preset("stability"),
-                   help="tiny: CI (seconds per point)")
-    p.add_argument("--series", default=",".join(SERIES + FIT_SERIES),
-                   help="comma-separated subset of: " + ", ".join(SERIES + FIT_SERIES))
-    p.add_argument("--methods", default=",".join(METHODS), help="comma-separated subset of: " + ", ".join(METHODS))
-    p.add_argument("--repeats", type=int, default=1,
-                   help="trainings per point with seeds 0..N-1 (means, spread, and a noise-aware breakdown)")
-    from morf.scale.ray_runtime import add_arguments as ray_arguments
-
-    ray_arguments(p, "cores each training holds (default 1: as many trainings at once as there are cores)")
-
-
 # ---- captures and training inputs per (series, level) ---------------------------------------
 def _capture(out: Path, name: str, sp: StabilityPreset, model, **changes):
     from morf.capture.project import CaptureProject
@@ -305,14 +289,82 @@ def _train_missing(out: Path, sp: StabilityPreset, series, methods, repeats: int
         raise TasksFailed("trainings", failed)
 
 
+def _series_results(out: Path, sp: StabilityPreset, series: list[str], methods: list[str],
+                    repeats: int) -> tuple[dict, list[dict]]:
+    """The saved points as stability.json's "series" (levels, rows per method, breakdown
+    thresholds and levels) and the Markdown table's rows."""
+    result_series, md_rows = {}, []
+    for s in series:
+        levels = sp.levels[s]
+        per_method = {m: [] for m in methods}
+        for i, level in enumerate(levels):
+            for m in methods:
+                runs = [StabilityPoint.from_dict(json.loads(_point_path(out, s, i, m, r).read_text()))
+                        for r in range(repeats)]
+                row = combine_repeats(runs) if repeats > 1 else runs[0]
+                per_method[m].append(row)
+                md_rows.append({"series": s, "level": level, "method": m, **row.to_dict()})
+        thresholds = {m: breakdown_threshold(per_method[m]) for m in methods}
+        result_series[s] = {"label": LABELS[s], "levels": levels,
+                            "methods": {m: [r.to_dict() for r in rows] for m, rows in per_method.items()},
+                            "threshold_db": thresholds,
+                            "breaks_down_at": {m: breaks_down_at(levels, per_method[m], thresholds[m])
+                                               for m in methods}}
+    return result_series, md_rows
+
+
+def _breakdown_rule(repeats: int) -> str:
+    if repeats > 1:
+        return (f"mean person-PSNR over {repeats} seeds more than max({BREAKDOWN_DB} dB, twice the pooled "
+                "run-to-run standard deviation) below the method's level-0 mean, or a training diverged")
+    return (f"person-PSNR more than {BREAKDOWN_DB} dB below the method's level-0 value, "
+            "or training diverged (TrainingDiverged / NaN)")
+
+
+def _charts(result_series: dict, out: Path, preset: str) -> list[str]:
+    from morf.bench.charts import series_chart
+
+    if not result_series:
+        return []
+    return [str(series_chart(result_series, "psnr_person", out / "stability_psnr.png",
+                             title=f"Hold-out PSNR on the person as nuisances grow ({preset})",
+                             ylabel="PSNR person (dB)")),
+            str(series_chart(result_series, "temporal", out / "stability_temporal.png",
+                             title=f"Temporal flicker as nuisances grow ({preset}; lower is better)",
+                             ylabel="flicker"))]
+
+
+def _markdown(result: dict, md_rows: list[dict], views: dict | None) -> str:
+    from morf.bench.common import markdown_table
+
+    methods, repeats = result["methods"], result["repeats"]
+    brk = [{"series": s, **{m: v["breaks_down_at"][m] for m in methods},
+            **{f"{m} threshold dB": v["threshold_db"][m] for m in methods}} for s, v in result["series"].items()]
+    cols = ["series", "level", "method", "psnr_person", "ssim_person", "psnr", "temporal", "diverged", "train_minutes"]
+    if repeats > 1:
+        cols[4:4] = ["psnr_person_min", "psnr_person_max", "psnr_person_std"]
+        cols.insert(-1, "diverged_runs")
+    md = (f"# Stability under nuisances ({result['preset']})\n\nBreaks down = {result['breakdown_rule']}; "
+          "n/a = never within the levels tried.\n\n"
+          + markdown_table(brk, ["series", *methods] + ([f"{m} threshold dB" for m in methods] if repeats > 1 else []))
+          + "\n" + markdown_table(md_rows, cols))
+    if views is not None:
+        from morf.bench.stability_views import COLUMNS, views_table_rows
+
+        md += (f"\n\n## Fit only: the turn in a few views (fit preset {views['fit_preset']})\n\n"
+               "Root error and vertex error against the true poses; twist: the fitted body's worst "
+               "pelvis-shoulder twist; twisted_caught: twisted frames the frame filter rejected.\n\n"
+               + markdown_table(views_table_rows(views), COLUMNS))
+    return md
+
+
 def run_stability(out, preset: str = "default", series: list[str] | None = None, methods: list[str] | None = None,
                   model=None, repeats: int = 1, ray=None, workers: int | None = None,
                   cpus_per_task: int | None = None) -> dict:
     """Run (or resume) the stress series; writes JSON, Markdown and charts; returns the result.
     ``ray`` (RayOptions), ``workers``, ``cpus_per_task`` (default 1): where and how the trainings
     run (:func:`morf.bench.pareto.train_all`)."""
-    from morf.bench.charts import series_chart
-    from morf.bench.common import machine_info, markdown_table, write_results
+    from morf.bench.common import machine_info, write_results
     from morf.errors import InputError
     from morf.presets import preset as named_preset
     from morf.scale.ray_runtime import RayOptions
@@ -333,58 +385,16 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
     views = _views_series(out, sp, model, preset) if "views" in series else None
     series = [s for s in series if s in SERIES]
     _train_missing(out, sp, series, methods, repeats, model, ray, workers, cpus_per_task)
-    result_series, md_rows = {}, []
-    for s in series:
-        levels = sp.levels[s]
-        per_method = {m: [] for m in methods}
-        for i, level in enumerate(levels):
-            for m in methods:
-                runs = [StabilityPoint.from_dict(json.loads(_point_path(out, s, i, m, r).read_text()))
-                        for r in range(repeats)]
-                row = combine_repeats(runs) if repeats > 1 else runs[0]
-                per_method[m].append(row)
-                md_rows.append({"series": s, "level": level, "method": m, **row.to_dict()})
-        thresholds = {m: breakdown_threshold(per_method[m]) for m in methods}
-        result_series[s] = {"label": LABELS[s], "levels": levels,
-                            "methods": {m: [r.to_dict() for r in rows] for m, rows in per_method.items()},
-                            "threshold_db": thresholds,
-                            "breaks_down_at": {m: breaks_down_at(levels, per_method[m], thresholds[m])
-                                               for m in methods}}
-    rule = (f"person-PSNR more than {BREAKDOWN_DB} dB below the method's level-0 value, "
-            "or training diverged (TrainingDiverged / NaN)")
-    if repeats > 1:
-        rule = (f"mean person-PSNR over {repeats} seeds more than max({BREAKDOWN_DB} dB, twice the pooled "
-                "run-to-run standard deviation) below the method's level-0 mean, or a training diverged")
+    result_series, md_rows = _series_results(out, sp, series, methods, repeats)
     result = {"benchmark": "stability", "preset": preset, "methods": methods, "repeats": repeats,
-              "series": result_series, "breakdown_rule": rule,
+              "series": result_series, "breakdown_rule": _breakdown_rule(repeats),
               "train": {"preset": sp.train[0], **sp.train[1]}, "machine": machine_info(),
               "ray": {"address": (ray or RayOptions()).cluster_address or "local", "cpus_per_task": cpus_per_task or 1}}
-    result["charts"] = [
-        str(series_chart(result_series, "psnr_person", out / "stability_psnr.png",
-                         title=f"Hold-out PSNR on the person as nuisances grow ({preset})", ylabel="PSNR person (dB)")),
-        str(series_chart(result_series, "temporal", out / "stability_temporal.png",
-                         title=f"Temporal flicker as nuisances grow ({preset}; lower is better)", ylabel="flicker"))
-    ] if result_series else []
-    brk = [{"series": s, **{m: v["breaks_down_at"][m] for m in methods},
-            **{f"{m} threshold dB": v["threshold_db"][m] for m in methods}} for s, v in result_series.items()]
-    cols = ["series", "level", "method", "psnr_person", "ssim_person", "psnr", "temporal", "diverged", "train_minutes"]
-    if repeats > 1:
-        cols[4:4] = ["psnr_person_min", "psnr_person_max", "psnr_person_std"]
-        cols.insert(-1, "diverged_runs")
-    md = (f"# Stability under nuisances ({preset})\n\nBreaks down = {result['breakdown_rule']}; "
-          "n/a = never within the levels tried.\n\n"
-          + markdown_table(brk, ["series", *methods] + ([f"{m} threshold dB" for m in methods] if repeats > 1 else []))
-          + "\n" + markdown_table(md_rows, cols))
+    result["charts"] = _charts(result_series, out, preset)
     if views is not None:
-        from morf.bench.stability_views import COLUMNS, views_table_rows
-
         result["fit_series"] = {"views": views}
         result["charts"].append(views["chart"])
-        md += (f"\n\n## Fit only: the turn in a few views (fit preset {views['fit_preset']})\n\n"
-               "Root error and vertex error against the true poses; twist: the fitted body's worst "
-               "pelvis-shoulder twist; twisted_caught: twisted frames the frame filter rejected.\n\n"
-               + markdown_table(views_table_rows(views), COLUMNS))
-    path = write_results(out, "stability", result, md)
+    path = write_results(out, "stability", result, _markdown(result, md_rows, views))
     print(f"wrote {path}")
     return result
 
@@ -399,12 +409,3 @@ def _views_series(out: Path, sp: StabilityPreset, model, preset: str) -> dict | 
     views["chart"] = str(views_chart(views, out / "stability_views.png",
                                      f"A turn in a few views: fit against the truth ({preset})"))
     return views
-
-
-def run(args) -> int:
-    from morf.scale.ray_runtime import options_from_args
-
-    split = lambda s: [x.strip() for x in s.split(",") if x.strip()]  # noqa: E731
-    run_stability(Path(args.out), args.preset, split(args.series), split(args.methods), repeats=args.repeats,
-                  ray=options_from_args(args), workers=args.workers, cpus_per_task=args.cpus_per_task)
-    return 0

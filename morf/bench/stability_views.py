@@ -98,7 +98,7 @@ PANELS = (("root_error_deg", "root error (deg)"), ("twist_max_deg", "worst pelvi
 def views_chart(result: dict, path: Path, title: str) -> Path:
     """Three panels (root error, worst twist, vertex error) against the views kept, one line per
     keypoint kind; the dense capture's value as a dashed line of the same colour."""
-    from morf.bench.charts import _pyplot
+    from morf.bench.charts import _pyplot, save_figure
 
     plt = _pyplot()
     fig, axes = plt.subplots(1, len(PANELS), figsize=(4.2 * len(PANELS), 3.3), dpi=100, squeeze=False)
@@ -116,13 +116,7 @@ def views_chart(result: dict, path: Path, title: str) -> Path:
         ax.grid(alpha=0.3)
         ax.tick_params(labelsize=7)
     axes[0][0].legend(fontsize=7)
-    fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, title)
 
 
 def views_table_rows(result: dict) -> list[dict]:

@@ -1,7 +1,7 @@
 """``morf bench step --out DIR``: seconds per training step, with bfloat16 autocast on and off.
 
 Whether bf16 pays depends on the CPU: native (AMX-BF16, AVX512-BF16) it is faster, emulated it was
-1.8x slower. The trainer decides by itself (``morf/cpu_features.py``); this benchmark measures both
+1.8x slower. The trainer decides by itself (:mod:`morf.machine.features`); this benchmark measures both
 ways on the machine it runs on, forcing each, and records the CPU's flags beside the times.
 
 Uses ``--project`` (its fits, else a synthetic capture's ground truth) or builds the default
@@ -11,14 +11,16 @@ synthetic capture in ``OUT/capture``. Writes ``DIR/step.json`` and ``DIR/step.md
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
+
+from morf.bench.records import FlatRecord
 
 COLUMNS = ["bf16", "s_per_step", "chosen_by_trainer"]
 
 
 @dataclass(frozen=True)
-class StepTime:
+class StepTime(FlatRecord):
     """One setting of ``morf bench step``.
 
     Fields:
@@ -29,13 +31,6 @@ class StepTime:
     bf16: bool
     s_per_step: float
     chosen_by_trainer: bool
-
-    def to_dict(self) -> dict:
-        return asdict(self)
-
-    @staticmethod
-    def from_dict(d: dict) -> StepTime:
-        return StepTime(d["bf16"], d["s_per_step"], d["chosen_by_trainer"])
 
 
 @dataclass(frozen=True)
@@ -67,29 +62,36 @@ class StepResult:
                           tuple(StepTime.from_dict(r) for r in d["rows"]), d["machine"])
 
 
-def add_arguments(p):
-    from morf.presets import presets_of
+@dataclass(frozen=True)
+class StepOptions:
+    """What ``morf bench step`` times.
 
-    p.add_argument("--out", required=True, help="output folder for step.json / step.md")
-    p.add_argument("--project", default=None, help="a capture project (default: build the default synthetic one)")
-    p.add_argument("--preset", choices=tuple(presets_of("train")), default="cpu", help="training preset to time")
-    p.add_argument("--method", choices=("morf", "stylepeople", "anr"), default="morf")
-    p.add_argument("--steps", type=int, default=40, help="timed steps per setting")
-    p.add_argument("--warmup", type=int, default=6, help="untimed steps first")
+    Fields:
+        out: folder for step.json / step.md; project: a capture project (None: the default
+        synthetic one, made in ``OUT/capture``); preset, method: the training configuration timed;
+        steps: timed steps a setting; warmup: untimed steps first.
+    """
+
+    out: str
+    project: str | None = None
+    preset: str = "cpu"
+    method: str = "morf"
+    steps: int = 40
+    warmup: int = 6
 
 
-def _project(args, out: Path):
+def _project(opts: StepOptions, out: Path):
     from morf.capture.project import CaptureProject
 
-    if args.project:
-        return CaptureProject.open(args.project)
+    if opts.project:
+        return CaptureProject.open(opts.project)
     root = out / "capture"
     if CaptureProject.is_project(root):
         return CaptureProject.open(root)
     from morf.synth.capture import make_synthetic_capture
     from morf.synth.config import synth_config
 
-    name = "tiny" if args.preset == "tiny" else "default"
+    name = "tiny" if opts.preset == "tiny" else "default"
     return make_synthetic_capture(root, synth_config(name, detector="none"), overwrite=True)
 
 
@@ -103,7 +105,8 @@ def time_steps(trainer, steps: int, warmup: int) -> float:
     return (time.perf_counter() - t0) / max(steps, 1)
 
 
-def run(args) -> int:
+def run_step(opts: StepOptions) -> StepResult:
+    """Time training steps with bfloat16 autocast forced on, then off; writes step.json and step.md."""
     import torch
 
     from morf.bench.common import machine_info, markdown_table, write_results
@@ -113,12 +116,12 @@ def run(args) -> int:
     from morf.train.data import build_frames
     from morf.train.trainer import Trainer
 
-    if args.steps < 1 or args.warmup < 0:
+    if opts.steps < 1 or opts.warmup < 0:
         raise InputError("--steps must be at least 1 and --warmup at least 0")
-    out = Path(args.out)
+    out = Path(opts.out)
     model = load_body_model("anny")
-    project = _project(args, out)
-    cfg = preset(args.preset, args.method, device="cpu")
+    project = _project(opts, out)
+    cfg = preset(opts.preset, opts.method, device="cpu")
     frames = build_frames(project, model, cfg.resolution).frames
     zoom = build_frames(project, model, cfg.zoom_resolution).frames if cfg.zoom_resolution else None
     texture = torch.rand(cfg.texture_channels, cfg.texture_size, cfg.texture_size)
@@ -127,16 +130,16 @@ def run(args) -> int:
         trainer = Trainer(cfg, frames, texture, device="cpu", zoom_frames=zoom)
         chosen, note = trainer.bf16, trainer.bf16_note  # what a training here gets, and why
         trainer.bf16 = bf16  # forced either way: the point is to see what each costs here
-        s = time_steps(trainer, args.steps, args.warmup)
+        s = time_steps(trainer, opts.steps, opts.warmup)
         rows.append(StepTime(bf16, s, bf16 == chosen))
         print(f"bf16 autocast {'on ' if bf16 else 'off'}: {s:.3f} s/step")
     machine = machine_info()
-    result = StepResult(args.preset, args.method, str(project.root), frames.num_frames, args.steps, tuple(rows),
+    result = StepResult(opts.preset, opts.method, str(project.root), frames.num_frames, opts.steps, tuple(rows),
                         machine)
-    md = (f"# Training step time ({args.preset} preset, {args.method})\n\n"
+    md = (f"# Training step time ({opts.preset} preset, {opts.method})\n\n"
           f"CPU: {machine['cpu']}; flags: {', '.join(machine['cpu_features']['flags']) or 'none read'}; "
           f"native bf16: {machine['cpu_features']['native_bf16']}; a training here: bfloat16 autocast {note}\n\n"
           + markdown_table([r.to_dict() for r in rows], COLUMNS, "{:.3f}"))
     path = write_results(out, "step", result.to_dict(), md)
     print(f"wrote {path}")
-    return 0
+    return result

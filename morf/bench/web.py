@@ -19,22 +19,32 @@ from __future__ import annotations
 import os
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 STAGES = ("skinning", "raster", "readback", "renderer", "composite")
 
 
-def add_arguments(p) -> None:
-    p.add_argument("avatar", help="an exported avatar folder (morf export) or a web folder (morf web)")
-    p.add_argument("--out", required=True, help="folder for web.json and web.md")
-    p.add_argument("--size", type=int, default=640, help="output side in pixels (default 640)")
-    p.add_argument("--frames", type=int, default=60, help="timed frames per measurement")
-    p.add_argument("--no-isolation", action="store_true",
-                   help="serve without the COOP/COEP headers, as a plain static host does (one WASM thread)")
-    p.add_argument("--threads", type=int, default=0, help="onnxruntime-web threads (0: the page's choice)")
-    p.add_argument("--tail", choices=("auto", "js", "webgl"), default="auto",
-                   help="where the renderer's tail runs: JavaScript, WebGL passes, or the page's choice")
-    p.add_argument("--timeout", type=float, default=900.0, help="seconds to wait for the page")
+@dataclass(frozen=True)
+class WebOptions:
+    """What ``morf bench web`` measures.
+
+    Fields:
+        avatar: an avatar folder (``morf export``) or a web folder (``morf web``); out: folder for
+        web.json and web.md; size: output side in pixels; frames: timed frames a measurement;
+        isolation: serve with the COOP/COEP headers (False: as a plain static host, one WASM
+        thread); threads: onnxruntime-web threads (0: the page's choice); tail: auto | js | webgl,
+        where the renderer's tail runs; timeout: seconds to wait for the page.
+    """
+
+    avatar: str
+    out: str
+    size: int = 640
+    frames: int = 60
+    isolation: bool = True
+    threads: int = 0
+    tail: str = "auto"
+    timeout: float = 900.0
 
 
 def _web_folder(avatar: Path, tmp: Path) -> Path:
@@ -68,7 +78,8 @@ def _markdown(r: dict) -> str:
             f"(steps: {steps})\n\nWeb folder: {r['folder_mb']:.2f} MB ({r['folder']})\n")
 
 
-def run(args) -> int:
+def run_web(opts: WebOptions) -> dict:
+    """Play the avatar in headless Chromium and write web.json and web.md; returns web.json's content."""
     from morf.bench.common import machine_info, write_results
     from morf.errors import InputError
     from morf.web.browser import missing_browser, run_page
@@ -77,29 +88,29 @@ def run(args) -> int:
     why = missing_browser()
     if why:
         raise InputError(why)
-    if not 32 <= args.size <= 4096 or args.frames < 1:
-        raise InputError(f"--size must be 32-4096 and --frames positive, got {args.size} and {args.frames}")
-    avatar = Path(args.avatar)
+    if not 32 <= opts.size <= 4096 or opts.frames < 1:
+        raise InputError(f"--size must be 32-4096 and --frames positive, got {opts.size} and {opts.frames}")
+    avatar = Path(opts.avatar)
     if not avatar.is_dir():
         raise InputError(f"avatar folder not found: {avatar}")
     with tempfile.TemporaryDirectory(prefix="morf-bench-web-") as tmp:
         folder = _web_folder(avatar, Path(tmp))
-        query = f"bench={args.frames}&size={args.size}" + (f"&threads={args.threads}" if args.threads else "") \
-            + ("" if args.tail == "auto" else f"&tail={args.tail}")
+        query = f"bench={opts.frames}&size={opts.size}" + (f"&threads={opts.threads}" if opts.threads else "") \
+            + ("" if opts.tail == "auto" else f"&tail={opts.tail}")
         load_before = os.getloadavg()
         t0 = time.monotonic()
-        page = run_page(folder, query, isolation=not args.no_isolation, timeout=args.timeout)
+        page = run_page(folder, query, isolation=opts.isolation, timeout=opts.timeout)
         seconds = time.monotonic() - t0
         load_after = os.getloadavg()
         size = folder_bytes(folder)
     if "error" in page:
         raise InputError(f"the page failed: {page['error'].splitlines()[0]}")
     page.pop("requests", None)
-    result = {"avatar": str(avatar), "folder": str(folder), "folder_mb": size / 1e6, "frames": args.frames,
+    result = {"avatar": str(avatar), "folder": str(folder), "folder_mb": size / 1e6, "frames": opts.frames,
               "page": page, "machine": machine_info(), "load_before": load_before, "load_after": load_after,
               "seconds": round(seconds, 1)}
     md = _markdown(result)
-    path = write_results(args.out, "web", result, md)
+    path = write_results(opts.out, "web", result, md)
     print(md)
     print(f"wrote {path}")
-    return 0
+    return result

@@ -10,9 +10,10 @@ from morf.errors import InputError
 
 
 @pytest.mark.gl
-def test_tiny_auto_check(tmp_path, body_model, gl):
+def test_tiny_auto_check(tmp_path, sweep_dir, print_capture, body_model, gl):
     out = tmp_path / "auto"
-    res = auto_check(out, "tiny", body_model, scenes=("plain", "print"))
+    # the print scene on the tiny sweep's shared capture (its trainings are reused), plain on its own
+    res = auto_check(out, "tiny", body_model, scenes=("plain", "print"), project_path={"print": str(print_capture.root)})
     data = json.loads((out / "auto_check.json").read_text())
     assert [r["scene"] for r in data["table"]] == ["plain", "print"] == [r["scene"] for r in res["table"]]
     for row in data["table"]:
@@ -21,23 +22,27 @@ def test_tiny_auto_check(tmp_path, body_model, gl):
         assert row["gap_se_db"] is None and row["beyond_noise"] is None  # one training per point: no noise estimate
     for scene in ("plain", "print"):
         names = [p["name"] for p in json.loads((out / scene / "pareto.json").read_text())["points"]]
-        assert names[0] == "base" and names[-1] == "auto" and "texture-32" in names
+        assert names == ["base", "renderer-tiny_b16", "texture-32", "auto"]  # the sizing points, then the choice
         assert data["scenes"][scene]["reasons"]
+    assert (out / "plain" / "capture-plain").is_dir() and not (out / "print" / "capture-print").exists()
     assert "## plain" in (out / "auto_check.md").read_text()
 
     # one scene on an existing capture, a subset of the points: the same auto choice, reused results
-    again = auto_check(tmp_path / "auto2", "tiny", body_model, scenes=("print",),
-                       project_path=str(out / "print" / "capture-print"), points=["texture-32"])
-    names = [p["name"] for p in json.loads((tmp_path / "auto2" / "print" / "pareto.json").read_text())["points"]]
+    again = auto_check(sweep_dir / "auto-print", "tiny", body_model, scenes=("print",),
+                       project_path=str(print_capture.root), points=["texture-32"])
+    names = [p["name"] for p in json.loads((sweep_dir / "auto-print" / "print" / "pareto.json").read_text())["points"]]
     assert names == ["base", "texture-32", "auto"]
     assert again["table"][0]["texture_size"] == data["table"][1]["texture_size"]
     assert again["scenes"]["print"]["point"]["run"] == data["scenes"]["print"]["point"]["run"]
 
 
 @pytest.mark.gl
-def test_auto_check_with_seeds_judges_means(tmp_path, body_model, gl):
-    out = tmp_path / "auto"
-    res = auto_check(out, "tiny", body_model, scenes=("print",), points=["texture-32"], seeds=2)
+def test_auto_check_with_seeds_judges_means(sweep_dir, print_capture, body_model, gl):
+    # the folder of the single-scene check above: its base, texture-32 and auto points are reused,
+    # the seed repeats measured beside them
+    out = sweep_dir / "auto-print"
+    res = auto_check(out, "tiny", body_model, scenes=("print",), project_path=str(print_capture.root),
+                     points=["texture-32"], seeds=2)
     means = res["scenes"]["print"]["means"]
     assert list(means) == ["base", "texture-32", "auto"]
     saved = {p.stem for p in (out / "print" / "points").glob("*.json")}

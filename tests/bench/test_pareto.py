@@ -2,6 +2,7 @@
 
 import hashlib
 import json
+import shutil
 
 import pytest
 
@@ -12,13 +13,24 @@ POINT_KEYS = {"name", "axis", "method", "precision", "config", "params", "psnr",
               "diverged", "on_front_fps", "on_front_train"}
 
 
+AXES = ["texture_size", "precision"]
+
+
+@pytest.fixture(scope="module")
+def tiny_sweep(sweep_dir, print_capture, body_model):
+    """(OUT, result, pareto.json as written) of the tiny sweep's texture and precision points, in
+    the shared folder whose capture the other sweep tests measure their points on."""
+    out = sweep_dir / "pareto"
+    res = run_sweep(out, "tiny", axes=AXES, model=body_model)
+    return out, res, json.loads((out / "pareto.json").read_text())
+
+
 @pytest.mark.gl
-def test_tiny_sweep_writes_results_and_resumes(tmp_path, body_model, gl):
-    out = tmp_path / "pareto"
-    res = run_sweep(out, "tiny", axes=["texture_size", "precision"], model=body_model)
-    data = json.loads((out / "pareto.json").read_text())
+def test_tiny_sweep_writes_results_and_resumes(tiny_sweep, print_capture, body_model, tmp_path):
+    out, res, data = tiny_sweep
     assert {"points", "front_fps", "front_train", "quality_metric", "fps_size", "paper_reference", "charts",
             "machine"} <= set(data)
+    assert data["project"] == str(print_capture.root)  # the capture the sweep made in OUT
     names = [p["name"] for p in data["points"]]
     assert names == ["base", "texture-32", "fp32"]
     for p in data["points"]:
@@ -40,22 +52,26 @@ def test_tiny_sweep_writes_results_and_resumes(tmp_path, body_model, gl):
     assert res.to_dict() == data
 
     stamps = {p.name: p.stat().st_mtime_ns for p in (out / "points").iterdir()}
-    again = run_sweep(out, "tiny", axes=["texture_size", "precision"], model=body_model)
+    again = run_sweep(out, "tiny", axes=AXES, model=body_model)
     assert list(again.reused) == names
     assert {p.name: p.stat().st_mtime_ns for p in (out / "points").iterdir()} == stamps
 
-    # naming one point keeps the others measured on this capture, and only those
-    grown = run_sweep(out, "tiny", axes=["texture_size", "precision"], points=["fp32"], model=body_model)
+    # naming one point keeps the others measured on this capture, and only those (in a copy of
+    # OUT's results: the shared folder keeps its points for the other tests)
+    grown = run_sweep(out, "tiny", axes=AXES, points=["fp32"], model=body_model)
     assert [p.name for p in grown.points] == names and list(grown.reused) == names
-    moved = json.loads((out / "points" / "texture-32.json").read_text())
+    copy = tmp_path / "pareto"
+    shutil.copytree(out / "points", copy / "points")
+    moved = json.loads((copy / "points" / "texture-32.json").read_text())
     moved["run"] = str(tmp_path / "another-capture" / "runs" / "x")
-    (out / "points" / "texture-32.json").write_text(json.dumps(moved))
-    alone = run_sweep(out, "tiny", axes=["texture_size", "precision"], points=["fp32"], model=body_model)
-    assert [p.name for p in alone.points] == ["base", "fp32"]
+    (copy / "points" / "texture-32.json").write_text(json.dumps(moved))
+    alone = run_sweep(copy, "tiny", project_path=str(print_capture.root), axes=AXES, points=["fp32"],
+                      model=body_model)
+    assert [p.name for p in alone.points] == ["base", "fp32"] and list(alone.reused) == ["base", "fp32"]
 
 
 @pytest.mark.gl
-def test_a_resolution_point_is_scored_at_the_base_resolution(tmp_path, body_model, gl):
+def test_a_resolution_point_is_scored_at_the_base_resolution(tiny_sweep, body_model):
     from morf.bench.train_eval import holdout_quality
     from morf.capture.project import CaptureProject
     from morf.presets.sweep import PRESETS
@@ -63,9 +79,10 @@ def test_a_resolution_point_is_scored_at_the_base_resolution(tmp_path, body_mode
 
     sweep = PRESETS["tiny"]
     point = SweepPoint("resolution-32", "resolution", {"resolution": 32})
-    out = tmp_path / "pareto"
+    out = tiny_sweep[0]
     data = run_sweep(out, "tiny", axes=["resolution"], model=body_model, extra=[(point, resolve(sweep, point))])
     rows = {p.name: p for p in data.points}
+    assert list(rows) == ["base", "resolution-32"]
     base_res = resolve(sweep, SweepPoint("base", "base")).resolution
     assert rows["resolution-32"].config["resolution"] == 32 != base_res
     assert rows["resolution-32"].evaluation.eval_resolution == rows["base"].evaluation.eval_resolution == base_res
@@ -86,8 +103,8 @@ def test_crowded_chart_labels_move_apart():
 
 
 @pytest.mark.gl
-def test_seed_points_measure_the_noise_and_stay_off_the_fronts(tmp_path, body_model, gl):
-    out = tmp_path / "pareto"
+def test_seed_points_measure_the_noise_and_stay_off_the_fronts(tiny_sweep, body_model):
+    out = tiny_sweep[0]
     data = run_sweep(out, "tiny", axes=["seed"], model=body_model).to_dict()
     rows = {p["name"]: p for p in data["points"]}
     assert list(rows) == ["base", "seed-1"]
@@ -177,12 +194,13 @@ def test_schedule_points_and_run_names_of_constant_rate_configs():
 
 
 @pytest.mark.gl
-def test_sweep_with_seeds_charts_the_means(tmp_path, body_model, gl):
-    out = tmp_path / "pareto"
+def test_sweep_with_seeds_charts_the_means(tiny_sweep, body_model):
+    out = tiny_sweep[0]
     res = run_sweep(out, "tiny", axes=["texture_size"], model=body_model, seeds=2).to_dict()
     assert res["seeds"] == 2 and [p["name"] for p in res["points"]] == ["base", "texture-32"]
     saved = {p.stem for p in (out / "points").glob("*.json")}
-    assert saved == {"base", "texture-32", "base-seed1", "texture-32-seed1"}
+    assert {"base", "texture-32", "base-seed1", "texture-32-seed1"} <= saved
+    assert not {n for n in saved if n.endswith("-seed2")}  # two seeds: one repeat a point
     again = json.loads((out / "points" / "base-seed1.json").read_text())
     assert again["run"] != res["points"][0]["run"]  # a second training, not the first one read again
     for p in res["points"]:

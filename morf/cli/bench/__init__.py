@@ -1,7 +1,8 @@
 """``morf bench NAME --out DIR``: the benchmarks behind every number in docs/.
 
-Each benchmark is a module ``morf/bench/<name>.py`` with ``add_arguments(parser)`` and
-``run(args) -> int``; it writes ``DIR/<name>.json`` plus a Markdown table.
+Each benchmark's command line is a module ``morf/cli/bench/<name>.py`` with
+``add_arguments(parser)`` and ``run(args) -> int``: it turns the parsed options into a call of the
+library's benchmark in ``morf/bench/``, which writes ``DIR/<name>.json`` plus a Markdown table.
 """
 
 from __future__ import annotations
@@ -41,12 +42,7 @@ def add_parser(sub):
                         "native bf16); docs/playback.md")
     bsub = p.add_subparsers(dest="bench", metavar="NAME")
     for name, help_text in BENCHMARKS.items():
-        try:
-            module = importlib.import_module(f"morf.bench.{name}")
-        except ModuleNotFoundError as e:
-            if e.name == f"morf.bench.{name}":
-                continue
-            raise
+        module = importlib.import_module(f"morf.cli.bench.{name}")
         bp = bsub.add_parser(name, help=help_text)
         module.add_arguments(bp)
         bp.set_defaults(_bench_run=module.run)

@@ -1,0 +1,24 @@
+"""``morf bench web AVATAR --out DIR``: the command line of :mod:`morf.bench.web`."""
+
+from __future__ import annotations
+
+
+def add_arguments(p) -> None:
+    p.add_argument("avatar", help="an exported avatar folder (morf export) or a web folder (morf web)")
+    p.add_argument("--out", required=True, help="folder for web.json and web.md")
+    p.add_argument("--size", type=int, default=640, help="output side in pixels (default 640)")
+    p.add_argument("--frames", type=int, default=60, help="timed frames per measurement")
+    p.add_argument("--no-isolation", action="store_true",
+                   help="serve without the COOP/COEP headers, as a plain static host does (one WASM thread)")
+    p.add_argument("--threads", type=int, default=0, help="onnxruntime-web threads (0: the page's choice)")
+    p.add_argument("--tail", choices=("auto", "js", "webgl"), default="auto",
+                   help="where the renderer's tail runs: JavaScript, WebGL passes, or the page's choice")
+    p.add_argument("--timeout", type=float, default=900.0, help="seconds to wait for the page")
+
+
+def run(args) -> int:
+    from morf.bench.web import WebOptions, run_web
+
+    run_web(WebOptions(args.avatar, args.out, args.size, args.frames, isolation=not args.no_isolation,
+                       threads=args.threads, tail=args.tail, timeout=args.timeout))
+    return 0
