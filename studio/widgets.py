@@ -1,4 +1,5 @@
-"""Small drawing helpers shared by the panels (image fitting, overlays, messages)."""
+"""Small drawing helpers shared by the panels (image fitting, overlays, messages, the buttons
+several panels show)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import numpy as np
 from imgui_bundle import ImVec2, ImVec4, imgui
 
 from morf.capture.keypoint_layout import KEYPOINT_NAMES, SKELETON
+from studio.commands import Pause, Resume, Stop
 
 GREY = ImVec4(0.62, 0.62, 0.66, 1.0)
 RED = ImVec4(1.0, 0.42, 0.38, 1.0)
@@ -90,3 +92,30 @@ def remember_item(rects: dict, name: str) -> None:
     """
     lo, hi = imgui.get_item_rect_min(), imgui.get_item_rect_max()
     rects[name] = (lo.x, lo.y, hi.x, hi.y)
+
+
+def run_buttons(ui) -> None:
+    """Pause (Resume while paused) and Stop for the worker's running stage, on one line.
+
+    The start screen's progress line and the training panel's stage row draw the same pair, so a
+    stage is paused and stopped alike wherever it was started from. ``ui``: the frame's
+    :class:`studio.context.UiContext` (its snapshot and its command queue).
+    """
+    if ui.snapshot.state == "paused":
+        if imgui.button("Resume"):
+            ui.send(Resume())
+    elif imgui.button("Pause"):
+        ui.send(Pause())
+    imgui.same_line()
+    if imgui.button("Stop"):
+        ui.send(Stop())
+
+
+def frame_buttons(ui) -> None:
+    """Drop (D) and Restore (R) for the current frame, the same actions as the keys, in the
+    frames panel and the filtered-frames panel alike."""
+    if imgui.button("Drop (D)"):
+        ui.actions["drop_frame"]()
+    imgui.same_line()
+    if imgui.button("Restore (R)"):
+        ui.actions["restore_frame"]()

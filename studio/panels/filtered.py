@@ -7,7 +7,7 @@ from imgui_bundle import ImVec2, imgui
 from studio.commands import RestoreFrame
 from studio.context import UiContext
 from studio.state import AppState
-from studio.widgets import GREEN, GREY, ORANGE, RED, empty_state, tex_ref
+from studio.widgets import GREEN, GREY, ORANGE, RED, empty_state, frame_buttons, tex_ref
 
 ROW_THUMB_H = 40
 
@@ -27,11 +27,7 @@ def draw(state: AppState, ui: UiContext) -> None:
     else:
         imgui.text_colored(RED if d.reason == "dropped by user" else ORANGE, f"not used ({d.reason})")
     imgui.same_line()
-    if imgui.button("Drop (D)"):
-        ui.actions["drop_frame"]()
-    imgui.same_line()
-    if imgui.button("Restore (R)"):
-        ui.actions["restore_frame"]()
+    frame_buttons(ui)
     imgui.text_colored(GREY, f"{len(unused)} of {view.num_frames} frames are not used: {by_user} dropped by you, "
                              f"{len(unused) - by_user} by the automatic filter. N jumps to the next one.")
     imgui.separator()

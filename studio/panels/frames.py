@@ -7,8 +7,8 @@ from imgui_bundle import ImVec2, imgui, implot
 
 from studio.context import UiContext
 from studio.state import AppState
-from studio.widgets import (GREEN, GREY, ORANGE, RED, col32, draw_skeleton, empty_state, fit_size, image_fitted,
-                             tex_ref)
+from studio.widgets import (GREEN, GREY, ORANGE, RED, col32, draw_skeleton, empty_state, fit_size, frame_buttons,
+                             image_fitted, tex_ref)
 
 THUMB_H = 72
 STRIP_H = THUMB_H + 52  # thumbnails, their numbers and the horizontal scrollbar
@@ -94,11 +94,7 @@ def _draw_sidebar(state: AppState, ui: UiContext) -> None:
     else:
         imgui.text_colored(GREY, "fitted body: no fit yet")
     imgui.separator()
-    if imgui.button("Drop (D)"):
-        ui.actions["drop_frame"]()
-    imgui.same_line()
-    if imgui.button("Restore (R)"):
-        ui.actions["restore_frame"]()
+    frame_buttons(ui)
     imgui.same_line()
     if imgui.button("Pause (Space)" if state.playing else "Play (Space)"):
         ui.actions["play_pause"]()

@@ -9,11 +9,10 @@ from __future__ import annotations
 
 from imgui_bundle import ImVec2, imgui
 
-from studio.commands import Pause, Resume, Stop
 from studio.context import UiContext
 from studio.pipeline_run import PipelineRequest
 from studio.state import AppState
-from studio.widgets import GREY, RED, remember_item
+from studio.widgets import GREY, RED, remember_item, run_buttons
 
 WIDTH = 640
 LABEL_W = 110  # the form's labels
@@ -112,14 +111,7 @@ def _progress(ui: UiContext, x0: float) -> None:
     imgui.progress_bar(min(max(frac, 0.0), 1.0), ImVec2(WIDTH - 150, 0), label)
     if snap.busy:
         imgui.same_line()
-        if snap.state == "paused":
-            if imgui.button("Resume"):
-                ui.send(Resume())
-        elif imgui.button("Pause"):
-            ui.send(Pause())
-        imgui.same_line()
-        if imgui.button("Stop"):
-            ui.send(Stop())
+        run_buttons(ui)
     if snap.error:
         imgui.push_text_wrap_pos(x0 + WIDTH)
         imgui.text_colored(RED, snap.error)

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from imgui_bundle import ImVec2, imgui, implot
 
-from studio.commands import Pause, Resume, StartStage, Stop
+from studio.commands import StartStage
 from studio.context import UiContext
 from studio.pipeline_run import PipelineRequest
 from studio.snapshot import STATE_WORDS
 from studio.state import AppState
-from studio.widgets import GREY, RED, fit_size, hms, remember_item, tex_ref
+from studio.widgets import GREY, RED, fit_size, hms, remember_item, run_buttons, tex_ref
 
 PREVIEW_H = 150
 PRESET_W = 80  # width of a stage's preset picker
@@ -130,14 +130,7 @@ def _stage_buttons(state: AppState, ui: UiContext) -> None:
     _make_avatar_button(state, ui)
     imgui.same_line(spacing=30)
     imgui.begin_disabled(not snap.busy)
-    if snap.state == "paused":
-        if imgui.button("Resume"):
-            ui.send(Resume())
-    elif imgui.button("Pause"):
-        ui.send(Pause())
-    imgui.same_line()
-    if imgui.button("Stop"):
-        ui.send(Stop())
+    run_buttons(ui)
     remember_item(state.item_rects, "stop")
     imgui.end_disabled()
     for name, why in ui.stages.items():
