@@ -6,6 +6,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from morf.cli.options import add_force_option
+
 
 def _common(p) -> None:
     p.add_argument("src", type=Path, metavar="SRC_DIR", help="the dataset folder (see docs/datasets.md)")
@@ -16,7 +18,7 @@ def _common(p) -> None:
                    help="skip MediaPipe; frames get no 2D keypoints (marked undetected)")
     p.add_argument("--frame-format", choices=("auto", "png", "jpg"), default="auto",
                    help="frame image format (auto: PNG up to 300 frames, JPEG beyond)")
-    p.add_argument("--force", action="store_true", help="replace a project that already has fits, runs or an avatar")
+    add_force_option(p, "replace a project that already has fits, runs or an avatar")
 
 
 def add_parser(sub):

@@ -7,6 +7,8 @@ environment variables). See :mod:`morf.evaluate.project_eval`.
 
 from __future__ import annotations
 
+from morf.cli.options import add_force_option, add_weights_option
+
 
 def add_parser(sub):
     p = sub.add_parser("eval", help="score trained avatars on held-out frames beside the RGB floor")
@@ -14,19 +16,17 @@ def add_parser(sub):
     p.add_argument("--run", action="append", default=[], metavar="NAME",
                    help="a run under PROJECT/runs to score (repeatable; default: every finished run)")
     p.add_argument("--out", default=None, help="output folder (default: PROJECT/eval)")
-    p.add_argument("--force", action="store_true",
-                   help="write into an existing non-empty --out folder, replacing only the files morf eval writes")
+    add_force_option(p, "write into an existing non-empty --out folder, replacing only the files morf eval writes")
     p.add_argument("--floor", action="store_true", default=True,
                    help="include the RGB floor of each hold-out setting, built in seconds when missing (default)")
     p.add_argument("--no-floor", dest="floor", action="store_false", help="leave the RGB floor out")
     p.add_argument("--resolution", default=None, metavar="R",
                    help="evaluation side in pixels (a multiple of the renderer's), or 'native' for the crop's size "
                         "in the capture (default: each run's training resolution)")
-    p.add_argument("--lpips", default=None, metavar="PATH",
-                   help="LPIPS v0.1 linear layers, the lpips package's weights/v0.1/vgg.pth (default: "
-                        "$MORF_LPIPS_WEIGHTS; neither: LPIPS is null). Needs the VGG-16 weights too")
-    p.add_argument("--vgg", default=None, metavar="PATH",
-                   help="torchvision's VGG-16 weights (vgg16-397923af.pth) for LPIPS (default: $MORF_VGG16_WEIGHTS)")
+    add_weights_option(p, "--lpips", "LPIPS v0.1 linear layers, the lpips package's weights/v0.1/vgg.pth (default: "
+                                     "$MORF_LPIPS_WEIGHTS; neither: LPIPS is null). Needs the VGG-16 weights too")
+    add_weights_option(p, "--vgg", "torchvision's VGG-16 weights (vgg16-397923af.pth) for LPIPS (default: "
+                                   "$MORF_VGG16_WEIGHTS)")
     p.add_argument("--refine-poses", action="store_true",
                    help="refine each frame's body pose against the real frame with each run's avatar frozen before "
                         "scoring (every run alike, the floor included): scores the appearance without the fit's "

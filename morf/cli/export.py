@@ -14,6 +14,8 @@ import signal
 import sys
 from pathlib import Path
 
+from morf.cli.options import add_fits_option, add_force_option, add_motion_fps_option
+
 
 def add_parser(sub):
     p = sub.add_parser("export", help="export a trained avatar for real-time playback (int8 ONNX + GL data)")
@@ -23,14 +25,12 @@ def add_parser(sub):
     p.add_argument("--layout", choices=("nhwc", "nchw", "planes"), default="nhwc",
                    help="renderer input layout (nhwc: the GL read-back as it is, the fastest)")
     p.add_argument("--calibration-views", type=int, default=32, help="training views used to calibrate int8")
-    p.add_argument("--fits", choices=("auto", "fits", "ground-truth"), default="auto",
-                   help="body fits that pose the calibration views (as for 'morf train')")
+    add_fits_option(p, "body fits that pose the calibration views (as for 'morf train')")
     p.add_argument("--gltf", default=None, metavar="FILE.glb",
                    help="also write a rigged glTF 2.0 binary (mesh, skeleton, skin weights, colour texture baked "
                         "from the renderer); the avatar folder goes beside it (FILE/) unless --out is given")
-    p.add_argument("--force", action="store_true",
-                   help="write into an existing non-empty --out folder (or over an existing .glb), replacing only the "
-                        "files morf export writes; other files there are kept")
+    add_force_option(p, "write into an existing non-empty --out folder (or over an existing .glb), replacing only "
+                        "the files morf export writes; other files there are kept")
     p.add_argument("--motion", default=None, metavar="FILE",
                    help="with --gltf: add this motion (BVH, AMASS or clip .npz) to the .glb as an animation; with "
                         "--web: add it to the web folder's motions")
@@ -41,9 +41,8 @@ def add_parser(sub):
     p.add_argument("--mesh", default=None, metavar="FILE.ply|FILE.obj",
                    help="also write the fitted body (rest pose, the project's fitted shape, texture coordinates; metres, "
                         "Z up) as a PLY or OBJ mesh for other tools")
-    p.add_argument("--motion-fps", type=float, default=None,
-                   help="with --motion: the frame rate of a motion file that stores none (split SMPL, AIST++ / SMPL "
-                        ".npz); a rate stored in the file wins")
+    add_motion_fps_option(p, "with --motion: the frame rate of a motion file that stores none (split SMPL, "
+                             "AIST++ / SMPL .npz); a rate stored in the file wins")
     return p
 
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import signal
 
+from morf.cli.options import add_config_options, read_config_option
+
 
 def add_parser(sub):
     from morf.presets import PRESETS, default_preset
@@ -21,26 +23,19 @@ def add_parser(sub):
         p.add_argument(f"--no-{name}", dest=name.replace("-", "_"), action="store_false", default=None,
                        help=f"switch off the {text}")
     p.add_argument("--no-overlays", dest="overlays", action="store_false", default=None, help="skip overlay images")
-    p.add_argument("--config", default=None, metavar="JSON",
-                   help="start from a config file (a fit's fits/fit_config.json) instead of a preset")
-    p.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
-                   help="set any config field, e.g. --set temporal_weight=100 --set stages.2.iterations=30 "
-                        "--set filter.iou_drop=0.1 (repeatable; applied last)")
+    add_config_options(p, "a fit's fits/fit_config.json",
+                       ("temporal_weight=100", "stages.2.iterations=30", "filter.iou_drop=0.1"))
     return p
 
 
 def resolve_config(args):
     """The fit's FitConfig: the --config file or the --preset, the --no-* switches, then --set."""
-    from morf.errors import InputError
     from morf.fitting.config import FitConfig
     from morf.presets import default_preset, preset
 
-    if getattr(args, "config", None):
-        from morf.config_checks import read_config_file
-
-        if args.preset:
-            raise InputError("--config gives the whole config; use --set to change fields, not --preset")
-        cfg = FitConfig.from_dict(read_config_file(args.config, "fit config"))
+    given = read_config_option(args, "fit config")
+    if given is not None:
+        cfg = FitConfig.from_dict(given)
     else:
         cfg = preset("fit", args.preset or default_preset("fit"))
     changes = {k: getattr(args, k) for k in ("shared_shape", "silhouette", "temporal", "frame_filter", "overlays")

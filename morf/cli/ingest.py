@@ -6,6 +6,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from morf.cli.options import add_force_option
+
 
 def add_parser(sub):
     p = sub.add_parser("ingest", help="video or images -> capture project (frames, keypoints, masks)",
@@ -29,7 +31,7 @@ def add_parser(sub):
                    help="focal length in source pixels (default: EXIF when present, else 1.2 x the longest side)")
     p.add_argument("--frame-format", choices=("auto", "png", "jpg"), default="auto",
                    help="frame image format (auto: PNG up to 300 frames, JPEG beyond)")
-    p.add_argument("--force", action="store_true", help="replace a project that already has fits, runs or an avatar")
+    add_force_option(p, "replace a project that already has fits, runs or an avatar")
     p.add_argument("--no-mirror-average", dest="mirror_average", action="store_false",
                    help="detect MediaPipe's keypoints on each frame once; by default they are detected on the "
                         "mirrored frame too and the two averaged where they agree (twice the detection time for "

@@ -18,7 +18,7 @@ from morf.errors import MorfError
 
 # Order here is the order in --help: the pipeline, then tools.
 COMMANDS = ("run", "batch", "synth", "ingest", "dataset", "fit", "train", "eval", "export", "animate", "play", "motion",
-            "web", "bench", "info", "demo")  # "web" registers "serve" too
+            "web", "serve", "bench", "info", "demo")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -4,6 +4,8 @@ Anny's skeleton (the project's fitted body shape with ``--project``, else Anny's
 
 from __future__ import annotations
 
+from morf.cli.options import add_force_option, add_motion_fps_option
+
 
 def add_parser(sub):
     p = sub.add_parser("motion", help="motion files: convert to BVH on Anny's skeleton")
@@ -12,13 +14,13 @@ def add_parser(sub):
     e.add_argument("motion", help="motion file (BVH, AMASS / AIST++ / SMPL .npz, fits/fits.npz, MoRF clip); "
                                   "see docs/formats.md")
     e.add_argument("--out", required=True, help="output .bvh file")
-    e.add_argument("--force", action="store_true", help="replace an existing --out file")
+    add_force_option(e, "replace an existing --out file")
     e.add_argument("--project", default=None,
                    help="capture project whose fitted body shape sets the skeleton (default: Anny's default body)")
     e.add_argument("--fps", type=float, default=30.0, help="output frame rate (the motion is resampled)")
-    e.add_argument("--motion-fps", type=float, default=None,
-                   help="frame rate of a motion file that stores none (AIST++ / SMPL .npz, fits.npz outside its "
-                        "project); default 60 for AIST++ (smpl_poses), else 30; a rate stored in the file wins")
+    add_motion_fps_option(e, "frame rate of a motion file that stores none (AIST++ / SMPL .npz, fits.npz outside "
+                             "its project); default 60 for AIST++ (smpl_poses), else 30; a rate stored in the file "
+                             "wins")
     e.add_argument("--rotation-order", default="ZYX", type=str.upper,
                    choices=("ZYX", "ZXY", "YXZ", "YZX", "XYZ", "XZY"),
                    help="Euler channel order of every joint (ZYX: Zrotation Yrotation Xrotation)")

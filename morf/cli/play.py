@@ -8,6 +8,8 @@ import time
 
 import numpy as np
 
+from morf.cli.options import add_force_option, add_motion_fps_option, check_frame_rate
+
 # Below this PSNR (int8 against fp32 on held-out views, measured at export) int8 output is visibly
 # wrong, so playback falls back to the fp32 renderer and says so.
 INT8_MIN_PSNR_DB = 30.0
@@ -41,18 +43,16 @@ def add_playback_options(p) -> None:
                    help="output video (.mp4: H.264 with PyAV installed, else mp4v; .webm: VP9, needs PyAV) or a "
                         "folder for PNG frames")
     p.add_argument("--fps", type=float, default=30.0, help="output frame rate (the motion is resampled)")
-    p.add_argument("--motion-fps", type=float, default=None,
-                   help="frame rate of a motion file that stores none (AIST++ / SMPL .npz, fits.npz outside its "
-                        "project, Anny poses without fps); default 60 for AIST++ (smpl_poses), else 30; a rate "
-                        "stored in the file wins")
+    add_motion_fps_option(p, "frame rate of a motion file that stores none (AIST++ / SMPL .npz, fits.npz outside "
+                             "its project, Anny poses without fps); default 60 for AIST++ (smpl_poses), else 30; a "
+                             "rate stored in the file wins")
     p.add_argument("--camera", choices=("follow", "orbit", "front"), default="follow")
     p.add_argument("--size", type=int, default=640, help="square output size in pixels")
     p.add_argument("--precision", choices=("int8", "fp32"), default="int8")
     p.add_argument("--background", default="255,255,255", help="R,G,B background colour")
     p.add_argument("--max-frames", type=int, default=0, help="stop after this many frames (0: all)")
-    p.add_argument("--force", action="store_true",
-                   help="replace an existing video, or write into a folder that holds files, replacing only the "
-                        "frames this command writes (other files there are kept)")
+    add_force_option(p, "replace an existing video, or write into a folder that holds files, replacing only the "
+                           "frames this command writes (other files there are kept)")
     p.add_argument("--force-int8", action="store_true",
                    help="play int8 even when the export measured it far from fp32")
 
@@ -78,12 +78,8 @@ def check_args(args):
 
 def check_rates(args) -> None:
     """``--fps`` and ``--motion-fps`` (when given): positive frame rates of at most 1000 (nan refused too)."""
-    from morf.errors import InputError
-
-    if not 0 < args.fps <= 1000:
-        raise InputError(f"--fps must be positive (a frame rate of at most 1000), got {args.fps}")
-    if args.motion_fps is not None and not 0 < args.motion_fps <= 1000:
-        raise InputError(f"--motion-fps must be positive (a frame rate of at most 1000), got {args.motion_fps}")
+    check_frame_rate("--fps", args.fps)
+    check_frame_rate("--motion-fps", args.motion_fps)
 
 
 def command_name(args) -> str:

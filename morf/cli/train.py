@@ -10,6 +10,7 @@ from __future__ import annotations
 import signal
 import sys
 
+from morf.cli.options import add_config_options, add_fits_option, add_weights_option, read_config_option
 from morf.io.names import check_name
 from morf.presets import PRESETS
 from morf.train.config import METHODS
@@ -39,20 +40,15 @@ def add_parser(sub):
                         "(default: the preset's; cpu 0.998, gpu 0 = the last step's weights)")
     p.add_argument("--holdout", type=int, default=None, metavar="K",
                    help="keep every K-th usable frame out of training (K >= 2) for 'morf eval' (default 0: none)")
-    p.add_argument("--fits", choices=("auto", "fits", "ground-truth"), default="auto",
-                   help="body fits to train on: fits/fits.npz, or a synthetic capture's ground truth")
-    p.add_argument("--vgg", default=None, metavar="PATH",
-                   help="VGG-16 weights (torchvision state dict) for the perceptual loss; else $MORF_VGG16_WEIGHTS; "
-                        "without them the SSIM term carries the structure (train.log says which term a run used)")
+    add_fits_option(p, "body fits to train on: fits/fits.npz, or a synthetic capture's ground truth")
+    add_weights_option(p, "--vgg", "VGG-16 weights (torchvision state dict) for the perceptual loss; else "
+                                   "$MORF_VGG16_WEIGHTS; without them the SSIM term carries the structure (train.log "
+                                   "says which term a run used)")
     p.add_argument("--renderer", default=None, metavar="NAME",
                    help="renderer size instead of the preset's: stem2_b8, stem2_b16, stem2_b24, stem4_b8, stem4_b16 (cpu), "
                         "stem4_b24, stem4_b32, stem4_b48, plain_b16 (see docs/benchmarks.md for speed against quality)")
     p.add_argument("--device", default="auto", help="auto (CUDA when present), cpu or cuda")
-    p.add_argument("--config", default=None, metavar="JSON",
-                   help="start from a config file (a run's config.json) instead of a preset")
-    p.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
-                   help="set any config field, e.g. --set texture_size=512 --set renderer.width=24 (repeatable; "
-                        "applied last)")
+    add_config_options(p, "a run's config.json", ("texture_size=512", "renderer.width=24"))
     p.add_argument("--restart", action="store_true", help="delete what an existing run of that name wrote and start over")
     return p
 
@@ -74,20 +70,10 @@ def _base_config(args, project=None):
                                    ("lr_decay_start", getattr(args, "lr_decay_start", None)),
                                    ("ema_decay", getattr(args, "ema", None)),
                                    ("holdout", getattr(args, "holdout", None))) if v is not None}
-    if getattr(args, "config", None):
-        import json
-
-        from morf.errors import InputError
+    d = read_config_option(args, "training config", instead_of=("preset", "renderer"))
+    if d is not None:
         from morf.train.config import TrainConfig
 
-        if args.preset or getattr(args, "renderer", None):
-            raise InputError("--config gives the whole config; use --set to change fields, not --preset/--renderer")
-        try:
-            d = json.loads(open(args.config, encoding="utf-8").read())
-        except (OSError, json.JSONDecodeError) as e:
-            raise InputError(f"cannot read config {args.config}: {e}") from None
-        if not isinstance(d, dict):
-            raise InputError(f"{args.config} is not a training config (a JSON object)")
         d.update(method=args.method if args.method != "morf" else d.get("method", "morf"), device=args.device, **overrides)
         return TrainConfig.from_dict(d), []
     if getattr(args, "renderer", None):
