@@ -11,6 +11,7 @@ from a declared distribution or one that a declared distribution requires.
 from __future__ import annotations
 
 import ast
+import functools
 import importlib.metadata as md
 import re
 import sys
@@ -83,6 +84,25 @@ def _called_with_a_name(node: ast.AST, functions: tuple[str, ...]) -> str | None
     return node.args[0].value if getattr(f, "attr", getattr(f, "id", None)) in functions else None
 
 
+@functools.cache
+def parsed(path: Path) -> ast.Module:
+    """A source file's syntax tree, read once per test run: the checks below read the same files."""
+    return ast.parse(path.read_text(), str(path))
+
+
+@functools.cache
+def all_nodes(path: Path) -> tuple[ast.AST, ...]:
+    """Every node of :func:`parsed` ``path`` (``ast.walk`` order), listed once per test run."""
+    return tuple(ast.walk(parsed(path)))
+
+
+@functools.cache
+def module_distributions() -> dict[str, list[str]]:
+    """``importlib.metadata.packages_distributions()``, once per test run: it reads every installed
+    distribution's file list, which takes seconds."""
+    return md.packages_distributions()
+
+
 def imported_modules(roots: list[Path], calls: tuple[str, ...] = ("import_module",)) -> dict[str, set[str]]:
     """Top-level module -> files importing it, for every absolute import under ``roots``, and every
     call of one of ``calls`` with a literal module name (the tests import missing names on purpose
@@ -90,8 +110,7 @@ def imported_modules(roots: list[Path], calls: tuple[str, ...] = ("import_module
     found: dict[str, set[str]] = {}
     for root in roots:
         for path in sorted(root.rglob("*.py")):
-            tree = ast.parse(path.read_text(), str(path))
-            for node in ast.walk(tree):
+            for node in all_nodes(path):
                 names = []
                 if isinstance(node, ast.Import):
                     names = [a.name for a in node.names]
@@ -110,7 +129,7 @@ def third_party(modules: dict[str, set[str]], local: set[str]) -> dict[str, set[
 
 def distributions_of(modules: dict[str, set[str]]) -> tuple[dict[str, set[str]], list[str]]:
     """(distribution -> modules, modules no installed distribution provides)."""
-    table = md.packages_distributions()
+    table = module_distributions()
     out: dict[str, set[str]] = {}
     missing = []
     for m in modules:
@@ -202,7 +221,7 @@ def test_every_test_extra_is_used_by_the_tests():
     tests = REPO / "tests"
     modules = imported_modules([tests], calls=("import_module", "require", "importorskip"))
     wanted = declared(only="test") - set(TEST_PLUGINS)
-    table = md.packages_distributions()
+    table = module_distributions()
     provided = {canonical(d) for m in modules for d in table.get(m, ())}
     absent = sorted(d for d in wanted if not _installed(d))
     if absent:
@@ -256,7 +275,7 @@ def test_optional_imports_wait_until_they_are_needed():
     without them (and the ones that do say what to install)."""
     offenders = [f"{path.relative_to(REPO)}:{line}: import {name}"
                  for source in SOURCES for path in sorted((REPO / source).rglob("*.py"))
-                 for line, name in _module_level_imports(ast.parse(path.read_text(), str(path)))
+                 for line, name in _module_level_imports(parsed(path))
                  if name in GUARDED]
     assert not offenders, "imported at module level although optional:\n" + "\n".join(offenders)
 

@@ -8,12 +8,11 @@ pytestmark = [pytest.mark.slow, pytest.mark.gl]
 
 
 @pytest.fixture(scope="module")
-def tiny_capture(tmp_path_factory, body_model, gl):
-    from morf.synth.capture import make_synthetic_capture
-    from morf.synth.config import synth_config
+def tiny_capture(tmp_path_factory, tiny_capture_source, gl):
+    """A copy of the session's tiny capture (12 frames, 4 of them held out): the test writes a run into it."""
+    from tests.conftest import copy_capture
 
-    cfg = synth_config("tiny", frames=6, holdout_frames=3, size=96, texture_size=256)
-    return make_synthetic_capture(tmp_path_factory.mktemp("cap") / "p", cfg, model=body_model)
+    return copy_capture(tiny_capture_source, tmp_path_factory.mktemp("cap") / "p")
 
 
 def test_train_project_end_to_end(tiny_capture, body_model, tmp_path, monkeypatch):
@@ -37,6 +36,6 @@ def test_train_project_end_to_end(tiny_capture, body_model, tmp_path, monkeypatc
     assert av.camera is not None and av.shape.shape == (1, 6)
     hold = build_holdout_frames(tiny_capture, body_model, av.camera, av.shape.numpy())
     m = evaluate_frames(av, hold)
-    assert m.frames == 3 and np.isfinite(m.psnr) and 0 <= m.ssim <= 1 and np.isfinite(m.temporal)
+    assert m.frames == 4 and np.isfinite(m.psnr) and 0 <= m.ssim <= 1 and np.isfinite(m.temporal)
     assert list(m.to_dict()) == ["psnr", "ssim", "psnr_person", "ssim_person", "temporal", "background", "frames"]
     assert m.to_dict()["background"] == list(m.background) and len(m.background) == 3
