@@ -8,6 +8,8 @@
 //   ?check=1           renders the frames of ./check.json ({frames: [{pose, camera, size}],
 //                      background}) and posts the images (RGBA, rows top first, base64)
 //   ?report=N          plays as a user sees it for N frames, then posts what was shown
+//   ?bench=N&compare=crop  N frames, each stage waited for, the person's window and the whole frame
+//                      in turn frame by frame (the same load falls on both): per-stage times of each
 //   ?policy=[[fps, frames, ms], ...]  the adaptive size's decisions (adaptive.js) for those
 //                      measurements, starting at the largest size with the page's target
 import { OutputSize } from './adaptive.js';
@@ -69,9 +71,26 @@ async function timePlayed(app, n) {
   return { ms_per_frame: ms, fps: 1000 / ms };
 }
 
+// The person's window against the whole frame, alternating frame by frame.
+async function compareCrop(app, n) {
+  const margin = app.player.cropMargin, runs = { window: [], whole: [] };
+  for (let i = 0; i < 2 * n + 4; i++) {
+    const kind = i % 2 ? 'whole' : 'window';
+    app.player.cropMargin = kind === 'whole' ? -1 : margin;
+    const { frame, camera, box } = advance(app);
+    const t = await app.player.render(frame, camera, [255, 255, 255], { timed: true, canvasSize: app.size, box });
+    if (i >= 4) runs[kind].push({ ...t, total: STAGES.reduce((a, s) => a + t[s], 0) });
+  }
+  app.player.cropMargin = margin;
+  const median = (xs) => { const v = [...xs].sort((a, b) => a - b); return v[v.length >> 1]; };
+  const summary = (rs) => Object.fromEntries([...STAGES, 'show', 'total'].map((s) => [s, { median: median(rs.map((r) => r[s])), best: Math.min(...rs.map((r) => r[s])) }]));
+  return { size: app.size, frames: n, margin, window: summary(runs.window), whole: summary(runs.whole) };
+}
+
 async function bench(app, params) {
   const n = Number(params.get('bench')) || 60;
   app.playing = false;
+  if (params.get('compare') === 'crop') return { compare: await compareCrop(app, n) };
   await timeFrames(app, 5, false);  // warm-up: sessions, shader compilation
   await timePlayed(app, 5);
   if (params.get('fine')) app.player.compositor.fine = {};
