@@ -3,13 +3,13 @@
 import pytest
 import torch
 
-from morf.body import load_body_model
 from morf.body.model import BodyPose
 
 
 @pytest.fixture(scope="module")
-def model():
-    return load_body_model("anny")
+def model(body_model):
+    """The session's Anny (loaded once for all test files), read only here."""
+    return body_model
 
 
 @pytest.mark.parametrize("shared_rest", [True, False])

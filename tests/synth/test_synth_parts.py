@@ -107,7 +107,7 @@ def test_cli_synth_and_bad_arguments(tmp_path, capsys, gl):
     assert "not empty" in capsys.readouterr().err
 
 
-def test_plain_clothing_has_less_detail_and_same_scene(tmp_path):
+def test_plain_clothing_has_less_detail_and_same_scene(tmp_path, body_model):
     import numpy as np
 
     from morf.io import read_image
@@ -117,8 +117,10 @@ def test_plain_clothing_has_less_detail_and_same_scene(tmp_path):
         tex = read_image(p.ground_truth_dir / "texture.png").astype(np.float32)
         return np.abs(np.diff(tex, axis=1)).mean()
 
-    printed = make_synthetic_capture(tmp_path / "print", synth_config("tiny", frames=2, holdout_frames=0))
-    plain = make_synthetic_capture(tmp_path / "plain", synth_config("tiny", frames=2, holdout_frames=0, clothing="plain"))
+    printed = make_synthetic_capture(tmp_path / "print", synth_config("tiny", frames=2, holdout_frames=0),
+                                     model=body_model)
+    plain = make_synthetic_capture(tmp_path / "plain", synth_config("tiny", frames=2, holdout_frames=0, clothing="plain"),
+                                   model=body_model)
     assert detail(plain) < 0.7 * detail(printed)
     a = np.load(printed.ground_truth_path)
     b = np.load(plain.ground_truth_path)

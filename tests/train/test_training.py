@@ -467,9 +467,10 @@ if sys.argv[3] == "kill":
     RunDir.save_checkpoint = save_then_die
 cfg = preset("tiny", "morf", resolution=32, steps=10, batch_size=2, texture_size=32, inpaint_steps=0,
              checkpoint_minutes=0.0, ema_decay=0.9, loss_background="random", device="cpu")
-g = torch.Generator().manual_seed(0)
-tex = torch.randn(cfg.texture_channels, 32, 32, generator=g) * 0.5
-train_avatar(synthetic_frames(), sys.argv[2], cfg, tex)
+for run in [sys.argv[2], *sys.argv[4:]]:  # "resume RUN STRAIGHT": the killed run, then an uninterrupted one
+    g = torch.Generator().manual_seed(0)
+    tex = torch.randn(cfg.texture_channels, 32, 32, generator=g) * 0.5
+    train_avatar(synthetic_frames(), run, cfg, tex)
 """
 
 
@@ -482,17 +483,20 @@ def test_kill_9_after_a_checkpoint_then_resume_equals_an_uninterrupted_run(tmp_p
 
     here = str(Path(__file__).parent)
 
-    def train(run, mode):
-        return subprocess.run([sys.executable, "-c", KILL_AT_SECOND_CHECKPOINT, here, str(run), mode],
+    def train(run, mode, *more):
+        return subprocess.run([sys.executable, "-c", KILL_AT_SECOND_CHECKPOINT, here, str(run), mode, *map(str, more)],
                               capture_output=True, timeout=300, env=dict(os.environ, MORF_QUIET="1"))
 
     killed = train(tmp_path / "run", "kill")
     assert killed.returncode == -signal.SIGKILL, killed.stderr.decode()[-2000:]
     run = RunDir(tmp_path / "run")
     assert run.load_checkpoint()["step"] == 2 and not run.is_done
-    for mode, where in (("resume", tmp_path / "run"), ("straight", tmp_path / "straight")):
-        done = train(where, mode)
-        assert done.returncode == 0, done.stderr.decode()[-2000:]
+    # a second process resumes the killed run, then trains the same run uninterrupted in a new
+    # folder (one interpreter start less than a third process)
+    done = train(tmp_path / "run", "resume", tmp_path / "straight")
+    assert done.returncode == 0, done.stderr.decode()[-2000:]
+    assert "resumed at step 2" in run.log_path.read_text()
+    assert "resumed" not in RunDir(tmp_path / "straight").log_path.read_text()
     a, b = load_trained_avatar(tmp_path / "run"), load_trained_avatar(tmp_path / "straight")
     assert torch.equal(a.texture, b.texture)
     for name, w in a.renderer.state_dict().items():
