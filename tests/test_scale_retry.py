@@ -26,18 +26,19 @@ def worker_pid(task_name: str) -> int | None:
 
 
 @pytest.mark.slow
-def test_a_killed_training_resumes_from_its_checkpoint(tmp_path, body_model, local_ray):
+def test_a_killed_training_resumes_from_its_checkpoint(tmp_path, tiny_capture_source, local_ray):
     import torch
 
     from morf.bench.pareto import Training, train_all
-    from morf.synth import make_synthetic_capture, synth_config
     from morf.train.config import preset
     from morf.train.run_dir import RunDir
     from morf.train.trained_avatar import load_trained_avatar
+    from tests.conftest import copy_capture
 
-    project = make_synthetic_capture(tmp_path / "cap", synth_config("tiny", frames=8, holdout_frames=3),
-                                     model=body_model)
-    cfg = preset("tiny", "morf", steps=60, checkpoint_minutes=0.0, inpaint_steps=2)  # a checkpoint every step
+    project = copy_capture(tiny_capture_source, tmp_path / "cap")
+    # A checkpoint and a metrics line every step: the kill lands a quarter of the way, after step 6
+    # has been checkpointed, and the resume has 18 steps left to match the straight run.
+    cfg = preset("tiny", "morf", steps=24, checkpoint_minutes=0.0, log_every=1, inpaint_steps=2)
     killed_run = RunDir(project.runs_dir / "killed")
     kill: dict = {}
 
@@ -46,7 +47,7 @@ def test_a_killed_training_resumes_from_its_checkpoint(tmp_path, body_model, loc
         while time.monotonic() < deadline:
             pid = worker_pid("cap/killed")
             logged = killed_run.read_metrics()
-            if pid is not None and logged and logged[-1]["step"] >= 10:  # a third of the way, checkpointed
+            if pid is not None and logged and logged[-1]["step"] >= 6:  # a quarter of the way, checkpointed
                 os.kill(pid, signal.SIGKILL)
                 kill.update(pid=pid, step=killed_run.load_checkpoint()["step"], done=killed_run.is_done)
                 return
