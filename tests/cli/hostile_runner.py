@@ -1,5 +1,16 @@
-"""Runs one hostile-input case as a user would: a fresh folder, the real ``morf`` command in a
-subprocess, and a record of every file under that folder before and after.
+"""Runs one hostile-input case as a user would: a fresh folder, the real ``morf`` command, and a
+record of every file under that folder before and after.
+
+The command runs either in a fresh Python process (:func:`run_command`, as typed in a shell) or
+in this one through the same entry point, ``morf.cli.main.main(argv)`` (:func:`run_in_process`),
+with what a fresh process would differ in put back: its working directory, its environment, its
+stdout and stderr taken at the file descriptors (so C libraries' output is caught too), Python's
+default warning filters with every warning written to stderr as a fresh process would, an
+uncaught exception printed as a traceback with exit code 1, and ``SystemExit`` turned into the
+exit code. That saves the seconds of interpreter start and imports per case. Filters a library
+module sets when it is first imported are not replayed (this process imported it long before):
+the in-process run may report a warning such a filter would hide, never miss one a fresh process
+shows.
 
 A case's folder holds everything the command is given (a private copy of the capture project as
 ``P``, or of its avatar as ``A``, the user's other folders and files), and it is the working
@@ -10,15 +21,21 @@ say who holds the project, so every writer rewrites them).
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
+import resource
 import shlex
 import shutil
 import signal
 import stat
 import subprocess
 import sys
+import tempfile
 import threading
 import time
+import traceback
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -150,6 +167,93 @@ def run_command(argv: list[str], cwd: Path) -> tuple[int | None, str, str, float
     return rc, text[0], text[1], usage.ru_utime + usage.ru_stime
 
 
+# Python's warning filters in a fresh process without -W or -X dev (``warnings.filters`` at start-up):
+# these categories are not shown; everything else is shown once per place.
+_HIDDEN_BY_DEFAULT = (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning)
+
+
+@contextlib.contextmanager
+def _captured_output():
+    """File descriptors 1 and 2 into two files, with ``sys.stdout`` / ``sys.stderr`` writing
+    through to them, as a child's pipes take both Python's and C libraries' output. Yields
+    ``read() -> (stdout, stderr)``, valid once the block has ended."""
+    files = [tempfile.TemporaryFile(), tempfile.TemporaryFile()]
+    streams = sys.stdout, sys.stderr
+    for stream in streams:
+        stream.flush()
+    saved = [os.dup(1), os.dup(2)]
+    texts: list[str] = []
+    try:
+        os.dup2(files[0].fileno(), 1)
+        os.dup2(files[1].fileno(), 2)
+        sys.stdout, sys.stderr = (io.TextIOWrapper(open(os.dup(fd), "wb", buffering=0), encoding="utf-8",
+                                                   errors="replace", write_through=True) for fd in (1, 2))
+        yield lambda: (texts[0], texts[1])
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            stream.close()
+        sys.stdout, sys.stderr = streams
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in saved:
+            os.close(fd)
+        for f in files:
+            f.seek(0)
+            texts.append(f.read().decode(errors="replace"))
+            f.close()
+
+
+@contextlib.contextmanager
+def _as_a_fresh_process(cwd: Path):
+    """The working directory and the environment of :func:`run_command`'s child, restored after.
+    Variables are set and removed one by one: a thread starting a child meanwhile never sees an
+    empty environment."""
+    before, here = dict(os.environ), os.getcwd()
+    _set_environment(command_env())
+    os.chdir(cwd)
+    try:
+        yield
+    finally:
+        os.chdir(here)
+        _set_environment(before)
+
+
+def _set_environment(wanted: dict) -> None:
+    for key in [k for k in os.environ if k not in wanted]:
+        del os.environ[key]
+    for key, value in wanted.items():
+        if os.environ.get(key) != value:
+            os.environ[key] = value
+
+
+def run_in_process(argv: list[str], cwd: Path) -> tuple[int | None, str, str, float]:
+    """(exit code, stdout, stderr, CPU seconds) of ``morf ARGV`` run in this process in ``cwd``:
+    what :func:`run_command` gives, without starting Python. Main thread only (the commands set a
+    SIGINT handler), one at a time (it changes the working directory)."""
+    from morf.cli.main import main
+
+    usage0 = resource.getrusage(resource.RUSAGE_SELF)
+    with _captured_output() as read, _as_a_fresh_process(cwd), warnings.catch_warnings(record=True) as shown:
+        warnings.resetwarnings()  # also forgets which warnings earlier cases have shown
+        warnings.simplefilter("default")
+        for category in _HIDDEN_BY_DEFAULT:
+            warnings.simplefilter("ignore", category)
+        try:
+            rc = main(argv)
+        except SystemExit as e:  # argparse's usage errors, as `python -m morf.cli.main` ends on them
+            rc = e.code if isinstance(e.code, int) else 0 if e.code is None else 1
+            if isinstance(e.code, str):
+                print(e.code, file=sys.stderr)
+        except BaseException:  # what the interpreter prints for an uncaught exception, and its exit code
+            traceback.print_exc(file=sys.stderr)
+            rc = 1
+        for w in shown:
+            sys.stderr.write(warnings.formatwarning(w.message, w.category, w.filename, w.lineno, w.line))
+    usage1 = resource.getrusage(resource.RUSAGE_SELF)
+    stdout, stderr = read()
+    return rc, stdout, stderr, usage1.ru_utime + usage1.ru_stime - usage0.ru_utime - usage0.ru_stime
+
+
 def _writable(root: Path) -> bool:
     """Whether a new file can be made in ``root`` (tried, not asked: root ignores permissions)."""
     probe = root / ".hostile-probe"
@@ -226,8 +330,9 @@ def leave_stale_lock(project: Path, stage: str) -> None:
     p.wait()
 
 
-def run_case(case, fixture: Fixture, folder: Path) -> Outcome:
-    """Lay out ``case`` in ``folder``, run its command there, record what changed."""
+def run_case(case, fixture: Fixture, folder: Path, in_process: bool = False) -> Outcome:
+    """Lay out ``case`` in ``folder``, run its command there (in a fresh process, or in this one
+    with :func:`run_in_process`), record what changed."""
     folder.mkdir(parents=True)
     if case.needs == "project":
         shutil.copytree(fixture.project, folder / "P", symlinks=True)
@@ -250,7 +355,10 @@ def run_case(case, fixture: Fixture, folder: Path) -> Outcome:
         try:
             out.holder_pid = holder.pid if holder else None
             t0 = time.perf_counter()
-            out.rc, out.stdout, out.stderr, out.cpu_seconds = run_command(morf_command() + argv, folder)
+            if in_process:
+                out.rc, out.stdout, out.stderr, out.cpu_seconds = run_in_process(argv, folder)
+            else:
+                out.rc, out.stdout, out.stderr, out.cpu_seconds = run_command(morf_command() + argv, folder)
             out.seconds = time.perf_counter() - t0
         finally:
             if holder is not None:
