@@ -10,10 +10,12 @@ from morf.errors import InputError
 
 
 @pytest.mark.gl
-def test_tiny_auto_check(tmp_path, sweep_dir, print_capture, body_model, gl):
-    out = tmp_path / "auto"
-    # the print scene on the tiny sweep's shared capture (its trainings are reused), plain on its own
-    res = auto_check(out, "tiny", body_model, scenes=("plain", "print"), project_path={"print": str(print_capture.root)})
+def test_tiny_auto_check(sweep_dir, print_capture, body_model, gl):
+    out = sweep_dir / "auto"
+    # the print scene on the tiny sweep's shared capture (its trainings are reused), plain on its own;
+    # one sizing point beside the base and the choice
+    res = auto_check(out, "tiny", body_model, scenes=("plain", "print"), project_path={"print": str(print_capture.root)},
+                     points=["texture-32"])
     data = json.loads((out / "auto_check.json").read_text())
     assert [r["scene"] for r in data["table"]] == ["plain", "print"] == [r["scene"] for r in res["table"]]
     for row in data["table"]:
@@ -22,25 +24,26 @@ def test_tiny_auto_check(tmp_path, sweep_dir, print_capture, body_model, gl):
         assert row["gap_se_db"] is None and row["beyond_noise"] is None  # one training per point: no noise estimate
     for scene in ("plain", "print"):
         names = [p["name"] for p in json.loads((out / scene / "pareto.json").read_text())["points"]]
-        assert names == ["base", "renderer-tiny_b16", "texture-32", "auto"]  # the sizing points, then the choice
+        assert names == ["base", "texture-32", "auto"]  # the points named, then the choice
         assert data["scenes"][scene]["reasons"]
     assert (out / "plain" / "capture-plain").is_dir() and not (out / "print" / "capture-print").exists()
     assert "## plain" in (out / "auto_check.md").read_text()
 
-    # one scene on an existing capture, a subset of the points: the same auto choice, reused results
-    again = auto_check(sweep_dir / "auto-print", "tiny", body_model, scenes=("print",),
-                       project_path=str(print_capture.root), points=["texture-32"])
-    names = [p["name"] for p in json.loads((sweep_dir / "auto-print" / "print" / "pareto.json").read_text())["points"]]
-    assert names == ["base", "texture-32", "auto"]
+    # one scene on an existing capture (the path form): the same auto choice, its results reused
+    again = auto_check(out, "tiny", body_model, scenes=("print",), project_path=str(print_capture.root),
+                       points=["texture-32"])
+    sweep = json.loads((out / "print" / "pareto.json").read_text())
+    assert [p["name"] for p in sweep["points"]] == ["base", "texture-32", "auto"]
+    assert sweep["reused"] == ["base", "texture-32", "auto"]
     assert again["table"][0]["texture_size"] == data["table"][1]["texture_size"]
     assert again["scenes"]["print"]["point"]["run"] == data["scenes"]["print"]["point"]["run"]
 
 
 @pytest.mark.gl
 def test_auto_check_with_seeds_judges_means(sweep_dir, print_capture, body_model, gl):
-    # the folder of the single-scene check above: its base, texture-32 and auto points are reused,
-    # the seed repeats measured beside them
-    out = sweep_dir / "auto-print"
+    # the folder of the check above: its base, texture-32 and auto points are reused, the seed
+    # repeats measured beside them
+    out = sweep_dir / "auto"
     res = auto_check(out, "tiny", body_model, scenes=("print",), project_path=str(print_capture.root),
                      points=["texture-32"], seeds=2)
     means = res["scenes"]["print"]["means"]
