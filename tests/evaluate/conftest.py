@@ -18,17 +18,18 @@ def _one_torch_thread():
 
 
 @pytest.fixture(scope="module")
-def evaluated(tmp_path_factory, gl, body_model):
-    """``morf train --holdout 3 --preset tiny`` (2 steps) then ``morf eval`` on a tiny synthetic capture.
+def evaluated(tmp_path_factory, gl, tiny_capture_source):
+    """``morf train --holdout 3 --preset tiny`` (2 steps) then ``morf eval`` on a copy of the
+    session's tiny synthetic capture (``synth_config("tiny")``, rendered once for all test files).
 
     Returns a dict: project (CaptureProject), run (its run name), eval (eval.json), out (the eval
     folder), stdout (what ``morf eval`` printed).
     """
     from morf.cli.main import main
-    from morf.synth import make_synthetic_capture, synth_config
+    from tests.conftest import copy_capture
 
     root = tmp_path_factory.mktemp("eval") / "cap"
-    project = make_synthetic_capture(root, synth_config("tiny"), model=body_model)
+    project = copy_capture(tiny_capture_source, root)
     assert main(["train", str(root), "--preset", "tiny", "--steps", "2", "--holdout", "3", "--device", "cpu"]) == 0
     import contextlib
     import io
