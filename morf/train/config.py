@@ -48,6 +48,10 @@ class TrainConfig:
     texture_channels: int = 16  # C of the neural texture
     texture_size: int = 256  # Ht = Wt of the neural texture
     texture_dilate: int = 4  # texels the spectral init is grown past the UV islands
+    # Rasterize the body dressed by the fit's clothing offsets (morf.fitting.offsets), so loose
+    # clothes the naked body lacks get texels; the export and morf eval then draw it dressed too.
+    # false: the naked body, to compare. Fits without offsets (or the ground truth) are naked anyway.
+    dressed: bool = True
     renderer: RendererConfig = field(default_factory=RendererConfig)  # U-Net size
     warp: WarpConfig = field(default_factory=WarpConfig)  # warp network sizes (method morf only)
     lr_texture: float = 2e-3  # small, so the spectral init is not washed out

@@ -63,12 +63,16 @@ def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fi
                          "options, or pass --restart or another --name")
     control.report(Progress("train", 0, cfg.steps, "loading body model"))
     model = model or load_body_model("anny")
-    pf = build_frames(project, model, cfg.resolution, fits_source, control, holdout=cfg.holdout)
+    pf = build_frames(project, model, cfg.resolution, fits_source, control, holdout=cfg.holdout, dressed=cfg.dressed)
     zoom, zoom_pf, centres = None, None, None
     if cfg.zoom_resolution:
-        zoom_pf = build_frames(project, model, cfg.zoom_resolution, fits_source, control, holdout=cfg.holdout)
+        zoom_pf = build_frames(project, model, cfg.zoom_resolution, fits_source, control, holdout=cfg.holdout,
+                               dressed=cfg.dressed)
         zoom = zoom_pf.frames
     notes = [f"fits: {pf.fits.source}; frames cache: {pf.cache_path}"]
+    if pf.offsets is not None:
+        notes.append(f"body dressed by the fit's clothing offsets (mean {1000 * float(pf.offsets.mean()):.1f} mm, "
+                     f"max {1000 * float(pf.offsets.max()):.1f} mm)")
     if zoom is not None:
         notes.append(f"every other step: {cfg.crop or cfg.resolution} px crops of the frames at {cfg.zoom_resolution} px")
     if cfg.detail_every:
@@ -105,7 +109,8 @@ def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fi
     centre = pf.fits.transl[fs.frame_ids].mean(0)
 
     def views():
-        return make_pseudo_views(model, pf.fits.shape, pf.camera, fs.rotvecs[mid], centre, cfg.inpaint_views)
+        return make_pseudo_views(model, pf.fits.shape, pf.camera, fs.rotvecs[mid], centre, cfg.inpaint_views,
+                                 pf.offsets)
 
     return train_avatar(fs, run.root, cfg, tex, control, perceptual, InpaintViews(atlas.covered, views),
                         shape=torch.from_numpy(pf.fits.shape), camera=pf.camera, notes=notes, zoom_frames=zoom,

@@ -59,16 +59,19 @@ def extreme_poses(model, base_rotvecs: np.ndarray, camera: PinholeCamera, n: int
 
 
 def make_pseudo_views(model, shape: np.ndarray, camera: PinholeCamera, base_rotvecs: np.ndarray,
-                      centre_transl: np.ndarray, n: int) -> tuple[torch.Tensor, torch.Tensor]:
-    """Rasterize ``n`` extreme views. Returns uv (n, H, W, 2) float32 and uv_mask (n, H, W) bool tensors."""
+                      centre_transl: np.ndarray, n: int, offsets: np.ndarray | None = None
+                      ) -> tuple[torch.Tensor, torch.Tensor]:
+    """Rasterize ``n`` extreme views of the body (dressed by clothing ``offsets`` (V,) when given).
+    Returns uv (n, H, W, 2) float32 and uv_mask (n, H, W) bool tensors."""
     from morf.body.render_mesh import render_mesh_for
     from morf.raster import rasterize_uv_batch
     from morf.train.data import posed_render_vertices
 
     rot = extreme_poses(model, base_rotvecs, camera, n)
     tr = np.repeat(centre_transl.reshape(1, 3), n, 0).astype(np.float32)
-    ref = posed_render_vertices(model, base_rotvecs[None], centre_transl.reshape(1, 3).astype(np.float32), shape)[0]
-    verts = posed_render_vertices(model, rot, tr, shape)
+    ref = posed_render_vertices(model, base_rotvecs[None], centre_transl.reshape(1, 3).astype(np.float32), shape,
+                                offsets)[0]
+    verts = posed_render_vertices(model, rot, tr, shape, offsets)
     centre = 0.5 * (ref.min(0) + ref.max(0))
     verts = verts - (0.5 * (verts.min(1) + verts.max(1)) - centre)[:, None]
     r = rasterize_uv_batch(verts, render_mesh_for(model), camera)
