@@ -162,9 +162,46 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
     qtex = quantize_texture(tex)
     mesh = skinned_mesh_from_body_model(body_model, shape, offsets)
     skeleton = skeleton_from_body_model(body_model, shape)
+    step = lambda i, msg: control.report(Progress("export", i, 5, msg))  # noqa: E731
+    views = _rasterize_export_views(ctx, mesh, qtex, skeleton, calibration, heldout, cfg, step)
+    calib, held = views.calibration, views.heldout
+    control.check()
+    with staged_folder(out_dir) as tmp:
+        renderer = renderer.eval().float().cpu()
+        H, W = calib[0].shape[2:]
+        step(1, "writing texture, mesh and skeleton")
+        write_arrays(tmp, qtex, mesh, skeleton)
+        specs, quality = _export_renderers(tmp, renderer, qtex, views, cfg, step, control)
+        rcfg = getattr(renderer, "cfg", None)
+        fields = _manifest_fields(qtex, skeleton, mesh, rcfg, (H, W), shape, cfg, quality,
+                                  len(calib) + len(views.close_calibration), time.time() - t0)
+        fields["body"]["clothing"] = clothing_entry(offsets)
+        tails = native_tails(tmp, specs, cfg.input_layout, held or calib[:4])
+        if tails:
+            fields["renderer"]["native_tail"] = tails
+        manifest = write_manifest(tmp, fields)
+        place_avatar_folder(tmp, out_dir, claim)
+    step(5, "done")
+    return manifest
+
+
+@dataclass(frozen=True)
+class ExportViews:
+    """The rasterized views an export calibrates int8 on and checks it against: the capture's
+    views, and (``playback_zoom`` > 0) the same views drawn as close as the player draws them."""
+
+    calibration: list
+    heldout: list
+    close_calibration: list
+    close_heldout: list
+
+
+def _rasterize_export_views(ctx, mesh: SkinnedMesh, qtex: QuantizedTexture, skeleton: SkinningSkeleton,
+                            calibration: Sequence[View], heldout: Sequence[View], cfg: ExportConfig,
+                            step) -> ExportViews:
+    """Rasterize the calibration and held-out views (``ctx``: a GL context, or None for one of its own)."""
     own_ctx = ctx is None
     ctx = ctx or create_headless_context()
-    step = lambda i, msg: control.report(Progress("export", i, 5, msg))  # noqa: E731
     try:
         step(0, "rasterizing calibration views")
         calib_views, held_views = list(calibration)[:cfg.max_calibration_views], list(heldout)[:cfg.max_heldout_views]
@@ -180,40 +217,33 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
     finally:
         if own_ctx:
             ctx.release()
+    return ExportViews(calib, held, close_calib, close_held)
+
+
+def _export_renderers(tmp: Path, renderer, qtex: QuantizedTexture, views: ExportViews, cfg: ExportConfig,
+                      step, control: StageControl) -> tuple[dict, dict]:
+    """Write the fp32 and int8 renderers into ``tmp``; returns their native tail specs and the
+    int8-against-fp32 quality report (on held-out views, else on calibration views, and on views
+    at playback scale)."""
+    calib, held, close_calib = views.calibration, views.heldout, views.close_calibration
+    step(2, "exporting the fp32 renderer")
+    specs = {"fp32": export_fp32(renderer, qtex.scales, tmp / RENDERERS["fp32"], cfg.input_layout)}
     control.check()
-    with staged_folder(out_dir) as tmp:
-        renderer = renderer.eval().float().cpu()
-        H, W = calib[0].shape[2:]
-        step(1, "writing texture, mesh and skeleton")
-        write_arrays(tmp, qtex, mesh, skeleton)
-        step(2, "exporting the fp32 renderer")
-        specs = {"fp32": export_fp32(renderer, qtex.scales, tmp / RENDERERS["fp32"], cfg.input_layout)}
-        control.check()
-        step(3, "quantising the renderer to int8")
-        chosen = export_int8(renderer, qtex.scales, tmp / RENDERERS["int8"],
-                             mosaic(calib) + close_calib if close_calib else calib, cfg.input_layout)
-        specs["int8"] = chosen.get("native_tail")
-        step(4, "measuring int8 against fp32")
-        # With no held-out views the report falls back on calibration views (and says so).
-        quality = int8_quality(tmp / RENDERERS["fp32"], tmp / RENDERERS["int8"], held or calib[:4], cfg.input_layout)
-        quality["on"] = "heldout" if held else "calibration"
-        quality["calibration"] = chosen["calibration"]  # the activation ranges kept, and why
-        quality["calibration_scores_db"] = chosen["scores_db"]
-        if close_calib:  # the same check on views as close as the player draws them
-            quality["playback_scale"] = {"zoom": round(float(cfg.playback_zoom), 3),
-                                         **int8_quality(tmp / RENDERERS["fp32"], tmp / RENDERERS["int8"],
-                                                        close_held or close_calib[:4], cfg.input_layout)}
-        rcfg = getattr(renderer, "cfg", None)
-        fields = _manifest_fields(qtex, skeleton, mesh, rcfg, (H, W), shape, cfg, quality,
-                                  len(calib) + len(close_calib), time.time() - t0)
-        fields["body"]["clothing"] = clothing_entry(offsets)
-        tails = native_tails(tmp, specs, cfg.input_layout, held or calib[:4])
-        if tails:
-            fields["renderer"]["native_tail"] = tails
-        manifest = write_manifest(tmp, fields)
-        place_avatar_folder(tmp, out_dir, claim)
-    step(5, "done")
-    return manifest
+    step(3, "quantising the renderer to int8")
+    chosen = export_int8(renderer, qtex.scales, tmp / RENDERERS["int8"],
+                         mosaic(calib) + close_calib if close_calib else calib, cfg.input_layout)
+    specs["int8"] = chosen.get("native_tail")
+    step(4, "measuring int8 against fp32")
+    # With no held-out views the report falls back on calibration views (and says so).
+    quality = int8_quality(tmp / RENDERERS["fp32"], tmp / RENDERERS["int8"], held or calib[:4], cfg.input_layout)
+    quality["on"] = "heldout" if held else "calibration"
+    quality["calibration"] = chosen["calibration"]  # the activation ranges kept, and why
+    quality["calibration_scores_db"] = chosen["scores_db"]
+    if close_calib:  # the same check on views as close as the player draws them
+        quality["playback_scale"] = {"zoom": round(float(cfg.playback_zoom), 3),
+                                     **int8_quality(tmp / RENDERERS["fp32"], tmp / RENDERERS["int8"],
+                                                    views.close_heldout or close_calib[:4], cfg.input_layout)}
+    return specs, quality
 
 
 def clothing_entry(offsets: np.ndarray | None) -> dict:
