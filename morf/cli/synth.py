@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import importlib.util
+
 from morf.cli.options import add_config_options, add_force_option, read_config_option
 from morf.synth.config import CLOTHING, DETECTORS, SynthConfig
 
@@ -80,4 +82,7 @@ def run(args) -> int:
     n_det = int((kp.source == "mediapipe").sum())
     print(f"wrote {project.num_frames} frames ({config.size}x{config.size}) and {config.holdout_frames} hold-out "
           f"frames to {project.root}; keypoints: {n_det} from MediaPipe, {project.num_frames - n_det} ground truth")
+    if n_det == 0 and config.detector == "auto" and importlib.util.find_spec("mediapipe") is None:
+        print("MediaPipe is not installed, so the keypoints are the ground truth's; to detect them as on a real "
+              "video: pip install --no-deps mediapipe==0.10.14")
     return 0
