@@ -88,10 +88,7 @@ def test_no_module_finds_a_shipped_file_around_the_loader():
 
 # Modules that still reach from their own file into the checkout, which an installed wheel does not
 # have (each to be moved behind morf.resources or a user cache, then taken off this list).
-CHECKOUT_READERS = {
-    "morf/web/libraries.py": "onnxruntime-web's cache in tools/web-player/node_modules; installed, it points into "
-                             "site-packages and names a fetch script the wheel does not carry",
-}
+CHECKOUT_READERS: dict[str, str] = {}
 
 
 def _levels_up_from_the_file(node: ast.AST) -> int | None:

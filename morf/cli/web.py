@@ -9,8 +9,11 @@ from morf.cli.options import add_force_option, add_motion_fps_option, check_fram
 
 def add_parser(sub):
     p = sub.add_parser("web", help="write a static web folder that plays an exported avatar in a browser")
-    p.add_argument("avatar", help="avatar folder written by `morf export`")
-    p.add_argument("out", help="the web folder to write (index.html, the player, the avatar, the motions)")
+    p.add_argument("avatar", nargs="?", help="avatar folder written by `morf export`")
+    p.add_argument("out", nargs="?", help="the web folder to write (index.html, the player, the avatar, the motions)")
+    p.add_argument("--fetch-libs", action="store_true",
+                   help="first fetch the pinned onnxruntime-web from the npm registry into the user's cache "
+                        "(~/.cache/morf/web-libs; once per machine); alone, only that")
     p.add_argument("--motion", action="append", default=None, metavar="FILE",
                    help="add a motion to the shipped ones (any kind `morf play` reads); repeat for more")
     add_motion_fps_option(p, "the frame rate of a motion file that stores none (AIST++ / SMPL .npz); a stored rate "
@@ -47,6 +50,16 @@ def run(args) -> int:
 
     from morf.errors import InputError
 
+    if args.fetch_libs:
+        from morf.web.libraries import fetch_libraries
+
+        if fetch_libraries() != 0:
+            raise InputError("could not fetch onnxruntime-web from the npm registry (the reason is above); "
+                             "set MORF_WEB_LIBS to a folder holding onnxruntime-web/ instead")
+        if args.avatar is None and args.out is None:
+            return 0
+    if args.avatar is None or args.out is None:
+        raise InputError("morf web needs AVATAR and OUT (or --fetch-libs alone)")
     if args.motion_fps is not None and not args.motion:
         raise InputError("--motion-fps goes with --motion FILE")
     check_frame_rate("--motion-fps", args.motion_fps)

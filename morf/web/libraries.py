@@ -1,7 +1,8 @@
 """The page's libraries: onnxruntime-web's prebuilt files, pinned by version and lockfile hash in
-``tools/web-player/package-lock.json`` and fetched once from the npm registry into a local cache
-(``tools/web-player/fetch_ort.py``). Exporting a web folder copies them from that cache, so it
-needs no network and no Node; a missing cache is a one-line error naming the fetch command.
+``resources/web-libs/package-lock.json`` (shipped in the wheel) and fetched once from the npm
+registry into the user's cache (``morf web --fetch-libs``; ``~/.cache/morf/web-libs``, or under
+``$XDG_CACHE_HOME``). Exporting a web folder copies them from that cache, so it needs no network
+and no Node; a missing cache is a one-line error naming the fetch command.
 
 The WASM binaries go into the folder gzip-compressed (14 MB -> 3.7 MB): the page inflates them
 itself (``DecompressionStream``), so any static host serves them as plain files.
@@ -19,10 +20,9 @@ from pathlib import Path
 from morf.errors import InputError
 
 ORT_PACKAGE = "onnxruntime-web"
-ORT_VERSION = "1.30.0"  # as tools/web-player/package-lock.json pins it
-ENV = "MORF_WEB_LIBS"  # a folder holding onnxruntime-web/ (package.json + dist/), instead of the checkout's cache
-CHECKOUT_CACHE = Path(__file__).resolve().parents[2] / "tools" / "web-player" / "node_modules"
-FETCH = "python tools/web-player/fetch_ort.py"
+ORT_VERSION = "1.30.0"  # as resources/web-libs/package-lock.json pins it
+ENV = "MORF_WEB_LIBS"  # a folder holding onnxruntime-web/ (package.json + dist/), instead of the user's cache
+FETCH = "morf web --fetch-libs"
 
 
 @dataclass(frozen=True)
@@ -40,10 +40,27 @@ WEBGPU = Backend("webgpu", "ort.webgpu.min.mjs", "ort-wasm-simd-threaded.asyncif
                  "ort-wasm-simd-threaded.asyncify.wasm")
 
 
+def user_cache() -> Path:
+    """Where ``morf web --fetch-libs`` installs: ``$XDG_CACHE_HOME/morf/web-libs`` (default
+    ``~/.cache``), shared by every checkout and install of this user."""
+    return Path(os.environ.get("XDG_CACHE_HOME") or "~/.cache").expanduser() / "morf" / "web-libs"
+
+
 def cache_root() -> Path:
-    """The folder that holds ``onnxruntime-web/``: ``$MORF_WEB_LIBS`` or the checkout's cache."""
+    """The folder that holds ``onnxruntime-web/``: ``$MORF_WEB_LIBS`` or the user's cache."""
     env = os.environ.get(ENV)
-    return Path(env).expanduser() if env else CHECKOUT_CACHE
+    return Path(env).expanduser() if env else user_cache() / "node_modules"
+
+
+def fetch_libraries() -> int:
+    """Install the pinned onnxruntime-web's browser files into the user's cache from the npm
+    registry (checked against the shipped lockfile's sha512); nothing is fetched when they are
+    there. Returns 0, or 1 with the reason on stderr."""
+    from morf.resources import resource
+    from morf.web.npm import install_locked
+
+    dist = tuple(f"dist/{name}" for b in (WASM, WEBGPU) for name in (b.loader, b.worker, b.wasm))
+    return install_locked(user_cache(), ORT_PACKAGE, dist, lock=resource("web-libs", "package-lock.json"))
 
 
 def ort_dist(backends: tuple[Backend, ...] = (WASM,)) -> Path:

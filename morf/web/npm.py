@@ -20,12 +20,13 @@ from pathlib import Path
 REGISTRY = "https://registry.npmjs.org"
 
 
-def install_locked(folder: Path, package: str, keep: tuple[str, ...] | None = None, timeout: float = 300.0) -> int:
-    """Install ``package`` at the version ``folder/package-lock.json`` pins into
+def install_locked(folder: Path, package: str, keep: tuple[str, ...] | None = None, timeout: float = 300.0,
+                   lock: Path | None = None) -> int:
+    """Install ``package`` at the version ``lock`` (default ``folder/package-lock.json``) pins into
     ``folder/node_modules/package``; ``keep``: the only paths inside the package to unpack (e.g.
     ``dist/x.mjs``; ``package.json`` always), or None for all. Already installed (same version,
     every kept file present): nothing is fetched. Returns 0, or 1 with the reason on stderr."""
-    entry = json.loads((folder / "package-lock.json").read_text())["packages"][f"node_modules/{package}"]
+    entry = json.loads((lock or folder / "package-lock.json").read_text())["packages"][f"node_modules/{package}"]
     version, integrity = entry["version"], entry["integrity"]
     url = entry.get("resolved") or f"{REGISTRY}/{package}/-/{package.rsplit('/', 1)[-1]}-{version}.tgz"
     target = folder / "node_modules" / package
@@ -41,6 +42,7 @@ def install_locked(folder: Path, package: str, keep: tuple[str, ...] | None = No
     if algo != "sha512" or base64.b64encode(hashlib.sha512(data).digest()).decode() != want:
         print(f"{url}: checksum differs from package-lock.json", file=sys.stderr)
         return 1
+    folder.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(dir=folder, prefix=f".{package}-"))
     try:
         with tarfile.open(fileobj=io.BytesIO(data), mode="r:gz") as tar:

@@ -90,7 +90,7 @@ def test_missing_libraries_are_one_line(tiny_avatar, tmp_path):
     p = _morf("web", str(tiny_avatar), str(tmp_path / "w"), env={"MORF_WEB_LIBS": str(tmp_path / "none")})
     assert p.returncode == 2
     lines = p.stderr.strip().splitlines()
-    assert len(lines) == 1 and "onnxruntime-web" in lines[0] and "fetch_ort.py" in lines[0], p.stderr
+    assert len(lines) == 1 and "onnxruntime-web" in lines[0] and "morf web --fetch-libs" in lines[0], p.stderr
     assert not (tmp_path / "w").exists()
 
 
