@@ -12,9 +12,11 @@ from morf.errors import InputError
 @pytest.mark.gl
 def test_tiny_auto_check(sweep_dir, print_capture, body_model, gl):
     out = sweep_dir / "auto"
-    # the print scene on the tiny sweep's shared capture (its trainings are reused), plain on its own;
-    # one sizing point beside the base and the choice
-    res = auto_check(out, "tiny", body_model, scenes=("plain", "print"), project_path={"print": str(print_capture.root)},
+    # both scenes on the tiny sweep's shared capture (each distinct training runs once; making a
+    # capture is the conftest's, through the same make_capture), one sizing point beside the base
+    # and the choice: what is checked here is the per-scene loop, its sweeps, verdicts and report
+    cap = str(print_capture.root)
+    res = auto_check(out, "tiny", body_model, scenes=("plain", "print"), project_path={"plain": cap, "print": cap},
                      points=["texture-32"])
     data = json.loads((out / "auto_check.json").read_text())
     assert [r["scene"] for r in data["table"]] == ["plain", "print"] == [r["scene"] for r in res["table"]]
@@ -26,7 +28,8 @@ def test_tiny_auto_check(sweep_dir, print_capture, body_model, gl):
         names = [p["name"] for p in json.loads((out / scene / "pareto.json").read_text())["points"]]
         assert names == ["base", "texture-32", "auto"]  # the points named, then the choice
         assert data["scenes"][scene]["reasons"]
-    assert (out / "plain" / "capture-plain").is_dir() and not (out / "print" / "capture-print").exists()
+    assert not list(out.glob("*/capture-*"))  # the captures named were used, none made
+    assert data["scenes"]["plain"]["point"]["run"] == data["scenes"]["print"]["point"]["run"]
     assert "## plain" in (out / "auto_check.md").read_text()
 
     # one scene on an existing capture (the path form): the same auto choice, its results reused
