@@ -27,20 +27,26 @@ export class BodyBox {
 
   // rows: Float32Array(J * 12), the top three rows of each skinning matrix; cam: pinhole
   // (fx, fy, cx, cy, R row-major, t). Returns [x0, y0, x1, y1] in pixels (rows top first), or
-  // null when a vertex is at or behind the camera (the whole frame is then used).
-  box(rows, cam) {
+  // null when a vertex is at or behind the camera (the whole frame is then used). skinned: the
+  // whole render mesh already skinned (Float32Array, 3 per vertex), whose subset is then only projected.
+  box(rows, cam, skinned = null) {
     const { rest, weights, bones, count } = this, R = cam.R, t = cam.t;
     let x0 = Infinity, y0 = Infinity, x1 = -Infinity, y1 = -Infinity;
     for (let i = 0; i < count; i++) {
-      const px = rest[3 * i], py = rest[3 * i + 1], pz = rest[3 * i + 2];
       let X = 0, Y = 0, Z = 0;
-      for (let k = 8 * i; k < 8 * i + 8; k++) {
-        const w = weights[k];
-        if (w === 0) continue;
-        const r = 12 * bones[k];
-        X += w * (rows[r] * px + rows[r + 1] * py + rows[r + 2] * pz + rows[r + 3]);
-        Y += w * (rows[r + 4] * px + rows[r + 5] * py + rows[r + 6] * pz + rows[r + 7]);
-        Z += w * (rows[r + 8] * px + rows[r + 9] * py + rows[r + 10] * pz + rows[r + 11]);
+      if (skinned) {
+        const v = 3 * STRIDE * i;
+        X = skinned[v]; Y = skinned[v + 1]; Z = skinned[v + 2];
+      } else {
+        const px = rest[3 * i], py = rest[3 * i + 1], pz = rest[3 * i + 2];
+        for (let k = 8 * i; k < 8 * i + 8; k++) {
+          const w = weights[k];
+          if (w === 0) continue;
+          const r = 12 * bones[k];
+          X += w * (rows[r] * px + rows[r + 1] * py + rows[r + 2] * pz + rows[r + 3]);
+          Y += w * (rows[r + 4] * px + rows[r + 5] * py + rows[r + 6] * pz + rows[r + 7]);
+          Z += w * (rows[r + 8] * px + rows[r + 9] * py + rows[r + 10] * pz + rows[r + 11]);
+        }
       }
       const zc = R[6] * X + R[7] * Y + R[8] * Z + t[2];
       if (!(zc > 1e-3)) return null;

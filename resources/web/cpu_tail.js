@@ -30,6 +30,10 @@ function erode(src, dst, width, height, m, alongRows) {
   }
 }
 
+// -ln(2047): below this logit the mask is under 1/2048, where the body cannot move a byte off the
+// background's (the pixel is the background's word without an exp()).
+const LOGIT_FLOOR = -Math.log(2047);
+
 export class CpuTail {
   constructor(spec) {
     this.spec = spec;
@@ -41,6 +45,8 @@ export class CpuTail {
     this.W = W; this.H = H;
     const n = W * H;
     this.rgba = new Uint8ClampedArray(4 * n);  // stores round-half-even and clip, as np.rint + clip
+    this.words = new Uint32Array(this.rgba.buffer);  // the background's pixels as one store
+    this.image = typeof ImageData === 'undefined' ? null : new ImageData(this.rgba, W, H);  // for a 2D canvas
     this.covered = new Uint8Array(n);
     this.rows = new Uint8Array(n);
     this.inside = new Uint8Array(n);
@@ -50,49 +56,65 @@ export class CpuTail {
   }
 
   // raster: Uint8Array (H*W*16); head, fill: Float32Array planar (4, H/2, W/2); background: [r, g, b].
-  // Returns the (H, W) RGBA image (a view of a buffer reused by the next call).
+  // Returns the (H, W) RGBA image (this.rgba: a buffer reused by the next call).
   run(raster, head, fill, background) {
-    const s = this.spec, W = this.W, H = this.H, w = W / 2, plane = w * (H / 2), zp = s.zero_point, m = s.opaque_margin;
-    const { a, b, f } = this.tx, ty = this.ty, covered = this.covered, inside = this.inside, out = this.rgba;
+    const s = this.spec, W = this.W, H = this.H, zp = s.zero_point, m = s.opaque_margin;
+    const covered = this.covered, inside = this.inside;
     for (let i = 0, n = W * H; i < n; i++) covered[i] = raster[16 * i] !== zp ? 1 : 0;
     if (m > 0) { erode(covered, this.rows, W, H, m, true); erode(this.rows, inside, W, H, m, false); }
-    const [c0, c1, c2] = s.colour_scale, ls = s.logit_scale, lo = s.logit_offset, wmin = s.weight_min;
-    const bg0 = background[0] / 255, bg1 = background[1] / 255, bg2 = background[2] / 255;
-    const rows = this.lines;
-    const [H0, H1, H2, H3, F0, F1, F2, F3] = rows;
-    for (let y = 0; y < H; y++) {
-      // The output row's vertical interpolation of the 8 half-resolution planes, once per row.
-      const r0 = ty.a[y] * w, r1 = ty.b[y] * w, fy = ty.f[y], gy = 1 - fy;
-      for (let k = 0; k < 4; k++) {
-        const Hk = rows[k], Fk = rows[4 + k], o = k * plane;
-        for (let x = 0; x < w; x++) {
-          Hk[x] = gy * head[o + r0 + x] + fy * head[o + r1 + x];
-          Fk[x] = gy * fill[o + r0 + x] + fy * fill[o + r1 + x];
-        }
-      }
-      for (let x = 0; x < W; x++) {
-        const i = y * W + x, xa = a[x], xb = b[x], fx = f[x], gx = 1 - fx;
-        let mask = 1 / (1 + Math.exp(-((gx * H3[xa] + fx * H3[xb]) * ls + lo)));
-        if (m > 0 && inside[i]) mask = 1;
-        let R = bg0, G = bg1, B = bg2;
-        if (mask > 1 / 2048) {  // below it the body cannot move the byte off the background's
-          const p = 16 * i;
-          let cr = (raster[p] - zp) * c0, cg = (raster[p + 1] - zp) * c1, cb = (raster[p + 2] - zp) * c2;
-          if (!covered[i]) {
-            const wt = Math.max(gx * F3[xa] + fx * F3[xb], wmin);
-            cr += (gx * F0[xa] + fx * F0[xb]) / wt;
-            cg += (gx * F1[xa] + fx * F1[xb]) / wt;
-            cb += (gx * F2[xa] + fx * F2[xb]) / wt;
-          }
-          const inv = 1 - mask;
-          R = (gx * H0[xa] + fx * H0[xb] + cr) * mask + inv * bg0;
-          G = (gx * H1[xa] + fx * H1[xb] + cg) * mask + inv * bg1;
-          B = (gx * H2[xa] + fx * H2[xb] + cb) * mask + inv * bg2;
-        }
-        const q = 4 * i;
-        out[q] = R * 255; out[q + 1] = G * 255; out[q + 2] = B * 255; out[q + 3] = 255;
-      }
+    // little-endian RGBA word of the background (the stores below are Uint8Clamped: round, clip)
+    const word = (background[0] | (background[1] << 8) | (background[2] << 16) | (255 << 24)) >>> 0;
+    for (let y = 0; y < H; y++) this.row(y, raster, head, fill, background, word);
+    return this.rgba;
+  }
+
+  // One output row: the mask's line first; the other seven planes' lines and the colour only where
+  // some pixel of the row shows the body (most of the window is background).
+  row(y, raster, head, fill, background, word) {
+    const s = this.spec, W = this.W, w = W / 2, plane = w * (this.H / 2), zp = s.zero_point, m = s.opaque_margin;
+    const { a, b, f } = this.tx, ty = this.ty, covered = this.covered, inside = this.inside, out = this.rgba, words = this.words;
+    const r0 = ty.a[y] * w, r1 = ty.b[y] * w, fy = ty.f[y], gy = 1 - fy, lines = this.lines;
+    const [H0, H1, H2, H3, F0, F1, F2, F3] = lines;
+    const ls = s.logit_scale, lo = s.logit_offset, o3 = 3 * plane;
+    let hi = -Infinity;
+    for (let x = 0; x < w; x++) {
+      const v = gy * head[o3 + r0 + x] + fy * head[o3 + r1 + x];
+      H3[x] = v;
+      if (v > hi) hi = v;
     }
-    return new Uint8Array(out.buffer);
+    const base = y * W;
+    let any = hi * ls + lo > LOGIT_FLOOR || ls < 0;
+    if (!any && m > 0) for (let x = 0; x < W && !any; x++) any = inside[base + x] === 1;
+    if (!any) { words.fill(word, base, base + W); return; }
+    for (let k = 0; k < 3; k++) {  // the vertical interpolation of the other planes, once per row
+      const Hk = lines[k], o = k * plane;
+      for (let x = 0; x < w; x++) Hk[x] = gy * head[o + r0 + x] + fy * head[o + r1 + x];
+    }
+    for (let k = 0; k < 4; k++) {
+      const Fk = lines[4 + k], o = k * plane;
+      for (let x = 0; x < w; x++) Fk[x] = gy * fill[o + r0 + x] + fy * fill[o + r1 + x];
+    }
+    const [c0, c1, c2] = s.colour_scale, wmin = s.weight_min;
+    const bg0 = background[0] / 255, bg1 = background[1] / 255, bg2 = background[2] / 255;
+    for (let x = 0; x < W; x++) {
+      const i = base + x, xa = a[x], xb = b[x], fx = f[x], gx = 1 - fx;
+      const z = (gx * H3[xa] + fx * H3[xb]) * ls + lo;
+      const held = m > 0 && inside[i] === 1;
+      if (!held && !(z > LOGIT_FLOOR)) { words[i] = word; continue; }
+      const mask = held ? 1 : 1 / (1 + Math.exp(-z));
+      const p = 16 * i;
+      let cr = (raster[p] - zp) * c0, cg = (raster[p + 1] - zp) * c1, cb = (raster[p + 2] - zp) * c2;
+      if (covered[i] === 0) {
+        const wt = Math.max(gx * F3[xa] + fx * F3[xb], wmin);
+        cr += (gx * F0[xa] + fx * F0[xb]) / wt;
+        cg += (gx * F1[xa] + fx * F1[xb]) / wt;
+        cb += (gx * F2[xa] + fx * F2[xb]) / wt;
+      }
+      const inv = 1 - mask, q = 4 * i;
+      out[q] = ((gx * H0[xa] + fx * H0[xb] + cr) * mask + inv * bg0) * 255;
+      out[q + 1] = ((gx * H1[xa] + fx * H1[xb] + cg) * mask + inv * bg1) * 255;
+      out[q + 2] = ((gx * H2[xa] + fx * H2[xb] + cb) * mask + inv * bg2) * 255;
+      out[q + 3] = 255;
+    }
   }
 }

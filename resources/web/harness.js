@@ -87,10 +87,45 @@ async function compareCrop(app, n) {
   return { size: app.size, frames: n, margin, window: summary(runs.window), whole: summary(runs.whole) };
 }
 
+// Two settings of one player option (player.js, setOption), alternating in blocks of `block`
+// frames (the same load falls on both): per-stage times of each, and the wall time per frame of
+// each block after its first frame (what a setting leaves to the browser's other threads, e.g. the
+// canvas's presentation, falls on the frames after it).
+async function compareOption(app, n, key, values, block, timed) {
+  const runs = Object.fromEntries(values.map((v) => [v, []])), walls = Object.fromEntries(values.map((v) => [v, []]));
+  for (let b = 0; b < 2 * Math.ceil(n / block) + 2; b++) {
+    const value = values[b % 2];
+    app.player.setOption(key, value);
+    let start = 0;
+    for (let i = 0; i < block + 1; i++) {
+      if (i === 1) start = performance.now();
+      const { frame, camera, box } = advance(app);
+      const t = await app.player.render(frame, camera, [255, 255, 255], { timed, canvasSize: app.size, box });
+      if (b >= 2 && i >= 1) runs[value].push({ ...t, total: STAGES.reduce((a, s) => a + t[s], 0) });
+    }
+    if (b >= 2) walls[value].push((performance.now() - start) / block);
+  }
+  const median = (xs) => { const v = [...xs].sort((a, b) => a - b); return v[v.length >> 1]; };
+  const stat = (xs) => ({ median: median(xs), best: Math.min(...xs) });
+  const summary = (rs, ws) => ({ ...Object.fromEntries([...STAGES, 'show', 'total'].map((s) => [s, stat(rs.map((r) => r[s]))])), wall: stat(ws) });
+  return { size: app.size, frames: n, key, block, timed, ...Object.fromEntries(values.map((v) => [v, summary(runs[v], walls[v])])) };
+}
+
 async function bench(app, params) {
   const n = Number(params.get('bench')) || 60;
   app.playing = false;
-  if (params.get('compare') === 'crop') return { compare: await compareCrop(app, n) };
+  const compare = params.get('compare');
+  if (compare === 'crop') return { compare: await compareCrop(app, n) };
+  if (compare) {  // compare=KEY:A,B (player.setOption), block=N frames each turn, untimed=1: stages not waited for
+    const [key, values] = compare.split(':');
+    if (key === 'canvas') {  // both canvases on the page, each sized to the output
+      const g = app.player.gl.canvas;
+      g.width = g.height = app.size;
+      if (!g.isConnected) document.querySelector('main').append(g);
+    }
+    await timeFrames(app, 3, false);
+    return { compare: await compareOption(app, n, key, values.split(','), Number(params.get('block')) || 1, !params.get('untimed')) };
+  }
   await timeFrames(app, 5, false);  // warm-up: sessions, shader compilation
   await timePlayed(app, 5);
   if (params.get('fine')) app.player.compositor.fine = {};

@@ -2,13 +2,15 @@
 // picker, play / pause, an fps readout, and a smaller output where the device cannot hold 30 fps.
 // Query parameters: size=N (fix the output side), start=N (start there, then adapt), adapt=0 (keep
 // the size), crop=off|N (the renderer on the whole frame, or N pixels around the person), motion=NAME, frame=K
-// and pause=1 (show one frame), threads=N, backend=wasm|webgpu, tail=js|webgl, proxy=1, target=FPS; bench=N, check=1, report=N run
+// and pause=1 (show one frame), threads=N, backend=wasm|webgpu, tail=js|webgl, skin=cpu|gpu, canvas=2d|gl, proxy=1,
+// target=FPS; bench=N, check=1, report=N run
 // the checks of harness.js (tests and `morf bench web`).
 import { loadRuntime } from './renderer.js';
 import { Player, loadAvatar, loadMotion } from './player.js';
 import { Orbit } from './camera.js';
 import { runHarness, post } from './harness.js';
 import { OutputSize } from './adaptive.js';
+import { CanvasDisplay } from './display.js';
 
 export const messages = [];
 for (const level of ['warn', 'error']) {
@@ -173,12 +175,25 @@ class App {
 
 async function boot() {
   const config = await (await fetch('player.json')).json();
-  const canvas = $('view');
-  const gl = canvas.getContext('webgl2', { antialias: false, depth: false, alpha: false, premultipliedAlpha: false,
-                                           preserveDrawingBuffer: false, powerPreference: 'high-performance' });
+  // The GL context on a canvas of its own: shown only where the image is made in GL (the tail's
+  // passes); an image made in JavaScript goes onto the page's canvas as a 2D canvas (display.js).
+  const glCanvas = document.createElement('canvas');
+  glCanvas.width = glCanvas.height = 1;
+  const gl = glCanvas.getContext('webgl2', { antialias: false, depth: false, alpha: false, premultipliedAlpha: false,
+                                             preserveDrawingBuffer: false, powerPreference: 'high-performance' });
   if (!gl) throw new Error('this browser has no WebGL2, which the player needs');
   const [runtime, avatar] = await Promise.all([loadRuntime(config, params), loadAvatar(config)]);
-  const app = new App(new Player(gl, avatar, runtime), runtime, config);
+  const player = new Player(gl, avatar, runtime);
+  const madeInJs = player.tailOnCpu || avatar.doc.renderer.mode === 'image';
+  if ((params.get('canvas') || (madeInJs ? '2d' : 'gl')) === '2d' && madeInJs) {
+    player.canvas2d = new CanvasDisplay($('view'));
+    player.setOption('canvas', '2d');
+  } else {
+    glCanvas.id = 'view';
+    glCanvas.setAttribute('aria-label', $('view').getAttribute('aria-label'));
+    $('view').replaceWith(glCanvas);
+  }
+  const app = new App(player, runtime, config);
   await app.selectMotion(params.get('motion'));
   app.wireControls();
   // The other motions too, now: once loaded, the page needs no network (the picker works offline).

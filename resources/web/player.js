@@ -43,12 +43,14 @@ export class Player {
     this.gl = gl;
     this.avatar = avatar;
     this.skeleton = new Skeleton(avatar.doc.skeleton);
-    this.raster = new NeuralRaster(gl, avatar);
-    // Software WebGL (SwiftShader, llvmpipe): the tail on the CPU, as the Python player does there.
+    // Software WebGL (SwiftShader, llvmpipe): the skinning and the tail on the CPU, as the Python
+    // player does there (?skin=cpu|gpu and ?tail=js|webgl override the choice).
     const info = gl.getExtension('WEBGL_debug_renderer_info');
     this.glRenderer = String(gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
-    const wanted = new URLSearchParams(location.search).get('tail');
-    this.tailOnCpu = wanted ? wanted === 'js' : /swiftshader|llvmpipe|softpipe|software/i.test(this.glRenderer);
+    const query = new URLSearchParams(location.search), software = /swiftshader|llvmpipe|softpipe|software/i.test(this.glRenderer);
+    this.raster = new NeuralRaster(gl, avatar, query.get('skin') || (software ? 'cpu' : 'gpu'));
+    const wanted = query.get('tail');
+    this.tailOnCpu = wanted ? wanted === 'js' : software;
     this.compositor = new Compositor(gl, avatar.doc.renderer, this.tailOnCpu);
     this.renderer = new Renderer(runtime, avatar.graph, avatar.doc.renderer);
     this.rows = new Float32Array(this.skeleton.J * 12);
@@ -64,7 +66,18 @@ export class Player {
     if (!this.window || this.window.margin !== this.cropMargin) {
       this.window = new CropWindow(this.avatar.doc.size_multiple || 32, this.cropMargin);
     }
-    return this.window.choose(this.cropMargin < 0 ? null : this.bodyBox.box(this.rows, camera), this.size);
+    const skinned = this.raster.skin === 'cpu' ? this.raster.skinned.positions : null;  // skinned already: projected only
+    return this.window.choose(this.cropMargin < 0 ? null : this.bodyBox.box(this.rows, camera, skinned), this.size);
+  }
+
+  // A setting the harness compares A/B (compare=KEY:A,B): skin (cpu | gpu: raster.js), canvas
+  // (2d | gl: where an image made in JavaScript is shown; both canvases are then on the page).
+  setOption(key, value) {
+    if (key === 'skin') this.raster.setSkin(value);
+    else if (key === 'canvas') {
+      if (value === '2d' && !this.canvas2d) throw new Error('no 2D canvas on this page (?canvas=gl)');
+      this.compositor.canvas2d = value === '2d' ? this.canvas2d : null;
+    } else throw new Error(`no player option ${key}`);
   }
 
   resize(size) {

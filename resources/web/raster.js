@@ -6,10 +6,28 @@
 // the attachment is the renderer's (1, H, W, 16) uint8 input as it is; drawn and read inside a
 // window (the person's, bounds.js), the window's (1, h, w, 16) input.
 
-const VS = `#version 300 es
+// skin "gpu": the vertex shader skins (the bone rows in a float texture: 104 matrices do not fit
+// WebGL's guaranteed uniform space); "cpu": the vertices come skinned from JavaScript and the
+// shader only projects them (software GL: SwiftShader's texelFetch-heavy vertex shading cost more
+// than the JavaScript loop; a uniform block instead of the texture was slower still there).
+function vertexShader(skin) {
+  if (skin === 'cpu') {
+    return `#version 300 es
+precision highp float;
+uniform mat4 u_view_proj;
+in vec3 in_skinned;
+in vec2 in_uv;
+out vec2 v_texcoord;
+void main() {
+  v_texcoord = vec2(in_uv.x, 1.0 - in_uv.y);
+  gl_Position = u_view_proj * vec4(in_skinned, 1.0);
+}`;
+  }
+  return `#version 300 es
 precision highp float;
 precision highp int;
 uniform highp sampler2D u_bones;   // RGBA32F, 3 x J: the top three rows of each skinning matrix
+vec4 row(uint b, int i) { return texelFetch(u_bones, ivec2(i, int(b)), 0); }
 uniform mat4 u_view_proj;          // gl_projection @ view matrix (framebuffer row 0 = image row 0)
 in vec3 in_position;
 in vec2 in_uv;
@@ -18,7 +36,6 @@ in uvec4 in_bones1;
 in vec4 in_weights0;
 in vec4 in_weights1;
 out vec2 v_texcoord;
-vec4 row(uint b, int i) { return texelFetch(u_bones, ivec2(i, int(b)), 0); }
 vec4 blend(int i) {   // row i of the weighted sum of the vertex's skinning matrices (as the GL shader sums them)
   return in_weights0.x * row(in_bones0.x, i) + in_weights0.y * row(in_bones0.y, i)
        + in_weights0.z * row(in_bones0.z, i) + in_weights0.w * row(in_bones0.w, i)
@@ -31,6 +48,7 @@ void main() {
   v_texcoord = vec2(in_uv.x, 1.0 - in_uv.y);  // texture rows are stored top first
   gl_Position = u_view_proj * vec4(w, 1.0);
 }`;
+}
 
 // The fragment shader is the Python player's (resources/shaders/neural_raster_fs.glsl, copied into
 // the folder by morf web), its desktop #version line turned into GLSL ES's.
@@ -60,13 +78,11 @@ export function compile(gl, vs, fs) {
 
 export class NeuralRaster {
   // avatar: {doc (avatar.json), texture (Uint8Array Ht*Wt*16), mesh (ArrayBuffer), rasterShader (GLSL ES source)}
-  constructor(gl, avatar) {
+  constructor(gl, avatar, skin = 'gpu') {
     this.gl = gl;
     const doc = avatar.doc, arrays = doc.mesh.arrays;
     this.J = doc.skeleton.parents.length;
-    this.program = compile(gl, VS, avatar.rasterShader);
-    this.vao = gl.createVertexArray();
-    gl.bindVertexArray(this.vao);
+    this.fs = avatar.rasterShader;
     const buffer = (name, target = gl.ARRAY_BUFFER) => {
       const a = arrays[name], count = a.shape.reduce((x, y) => x * y, 1);
       const bytes = count * { float32: 4, uint32: 4, uint16: 2, uint8: 1 }[a.type];
@@ -75,22 +91,13 @@ export class NeuralRaster {
       gl.bufferData(target, new Uint8Array(avatar.mesh, a.offset, bytes), gl.STATIC_DRAW);
       return b;
     };
-    const attr = (name, size, type, stride, offset, integer) => {
-      const loc = gl.getAttribLocation(this.program, name);
-      if (loc < 0) return;
-      gl.enableVertexAttribArray(loc);
-      if (integer) gl.vertexAttribIPointer(loc, size, type, stride, offset);
-      else gl.vertexAttribPointer(loc, size, type, false, stride, offset);
-    };
-    buffer('rest_vertices'); attr('in_position', 3, gl.FLOAT, 0, 0);
-    buffer('uvs'); attr('in_uv', 2, gl.FLOAT, 0, 0);
-    buffer('bone_weights'); attr('in_weights0', 4, gl.FLOAT, 32, 0); attr('in_weights1', 4, gl.FLOAT, 32, 16);
-    const wide = arrays.bone_indices.type === 'uint16', it = wide ? gl.UNSIGNED_SHORT : gl.UNSIGNED_BYTE, n = wide ? 2 : 1;
-    buffer('bone_indices'); attr('in_bones0', 4, it, 8 * n, 0, true); attr('in_bones1', 4, it, 8 * n, 4 * n, true);
-    buffer('faces', gl.ELEMENT_ARRAY_BUFFER);
+    this.arrays = arrays;
+    this.mesh = avatar.mesh;
+    this.buffers = Object.fromEntries(['rest_vertices', 'uvs', 'bone_weights', 'bone_indices'].map((k) => [k, buffer(k)]));
+    this.faces = buffer('faces', gl.ELEMENT_ARRAY_BUFFER);
     this.indexCount = arrays.faces.shape[0] * 3;
-    gl.bindVertexArray(null);
-
+    this.pipelines = {};
+    this.setSkin(skin);
     const t = doc.texture;
     this.textures = [];
     const plane = new Uint8Array(t.width * t.height * 4);
@@ -110,11 +117,53 @@ export class NeuralRaster {
     gl.bindTexture(gl.TEXTURE_2D, this.bones);
     gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, 3, this.J);
     for (const p of [gl.TEXTURE_MIN_FILTER, gl.TEXTURE_MAG_FILTER]) gl.texParameteri(gl.TEXTURE_2D, p, gl.NEAREST);
-    this.u = {};
-    for (const name of ['u_bones', 'u_view_proj', 'u_texture0', 'u_texture1', 'u_texture2', 'u_texture3']) {
-      this.u[name] = gl.getUniformLocation(this.program, name);
-    }
     this.size = 0;
+  }
+
+  // skin: 'gpu' (the vertex shader skins) or 'cpu' (JavaScript skins, the shader projects).
+  setSkin(skin) {
+    const gl = this.gl;
+    this.skin = skin;
+    if (!this.pipelines[skin]) this.pipelines[skin] = this.pipeline(skin);
+    Object.assign(this, this.pipelines[skin]);
+  }
+
+  pipeline(skin) {
+    const gl = this.gl, arrays = this.arrays, program = compile(gl, vertexShader(skin), this.fs);
+    const vao = gl.createVertexArray();
+    gl.bindVertexArray(vao);
+    const attr = (buffer, name, size, type, stride, offset, integer) => {
+      const loc = gl.getAttribLocation(program, name);
+      if (loc < 0) return;
+      gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+      gl.enableVertexAttribArray(loc);
+      if (integer) gl.vertexAttribIPointer(loc, size, type, stride, offset);
+      else gl.vertexAttribPointer(loc, size, type, false, stride, offset);
+    };
+    const b = this.buffers;
+    let skinned = null;
+    attr(b.uvs, 'in_uv', 2, gl.FLOAT, 0, 0);
+    if (skin === 'cpu') {
+      skinned = new SkinnedVertices(arrays, this.mesh);
+      skinned.buffer = gl.createBuffer();
+      gl.bindBuffer(gl.ARRAY_BUFFER, skinned.buffer);
+      gl.bufferData(gl.ARRAY_BUFFER, skinned.positions.byteLength, gl.STREAM_DRAW);
+      attr(skinned.buffer, 'in_skinned', 3, gl.FLOAT, 0, 0);
+    } else {
+      attr(b.rest_vertices, 'in_position', 3, gl.FLOAT, 0, 0);
+      attr(b.bone_weights, 'in_weights0', 4, gl.FLOAT, 32, 0);
+      attr(b.bone_weights, 'in_weights1', 4, gl.FLOAT, 32, 16);
+      const wide = arrays.bone_indices.type === 'uint16', it = wide ? gl.UNSIGNED_SHORT : gl.UNSIGNED_BYTE, n = wide ? 2 : 1;
+      attr(b.bone_indices, 'in_bones0', 4, it, 8 * n, 0, true);
+      attr(b.bone_indices, 'in_bones1', 4, it, 8 * n, 4 * n, true);
+    }
+    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, this.faces);
+    gl.bindVertexArray(null);
+    const u = {};
+    for (const name of ['u_bones', 'u_view_proj', 'u_texture0', 'u_texture1', 'u_texture2', 'u_texture3']) {
+      u[name] = gl.getUniformLocation(program, name);
+    }
+    return { program, vao, u, skinned };
   }
 
   // Two framebuffers used in turn: a frame's attachment and read-back stay intact while the next
@@ -153,9 +202,14 @@ export class NeuralRaster {
 
   uploadBones(rows) {  // rows: Float32Array(J * 12)
     const gl = this.gl;
-    gl.activeTexture(gl.TEXTURE7);
-    gl.bindTexture(gl.TEXTURE_2D, this.bones);
-    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, 3, this.J, gl.RGBA, gl.FLOAT, rows);
+    if (this.skin === 'cpu') {
+      gl.bindBuffer(gl.ARRAY_BUFFER, this.skinned.buffer);
+      gl.bufferSubData(gl.ARRAY_BUFFER, 0, this.skinned.skin(rows));
+    } else {
+      gl.activeTexture(gl.TEXTURE7);
+      gl.bindTexture(gl.TEXTURE_2D, this.bones);
+      gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, 3, this.J, gl.RGBA, gl.FLOAT, rows);
+    }
   }
 
   // crop: {x, y, w, h} the window drawn (rows top first; the attachment keeps image row 0 in its row
@@ -170,9 +224,11 @@ export class NeuralRaster {
     gl.scissor(crop.x, crop.y, crop.w, crop.h);
     gl.useProgram(this.program);
     gl.uniformMatrix4fv(this.u.u_view_proj, false, viewProj);
-    gl.activeTexture(gl.TEXTURE4);
-    gl.bindTexture(gl.TEXTURE_2D, this.bones);
-    gl.uniform1i(this.u.u_bones, 4);
+    if (this.skin === 'gpu') {
+      gl.activeTexture(gl.TEXTURE4);
+      gl.bindTexture(gl.TEXTURE_2D, this.bones);
+      gl.uniform1i(this.u.u_bones, 4);
+    }
     this.textures.forEach((tex, i) => {
       gl.activeTexture(gl.TEXTURE0 + i);
       gl.bindTexture(gl.TEXTURE_2D, tex);
@@ -211,5 +267,36 @@ export class NeuralRaster {
     gl.readPixels(c.x, c.y, c.w, c.h, gl.RGBA_INTEGER, gl.UNSIGNED_INT, pixels);
     t.view = t.bytes.subarray(0, 4 * n);
     return t.view;
+  }
+}
+
+// The render mesh skinned on the CPU (skin = 'cpu'): the same top-8 linear blend as the vertex shader.
+class SkinnedVertices {
+  constructor(arrays, mesh) {
+    const n = arrays.rest_vertices.shape[0];
+    this.n = n;
+    this.rest = new Float32Array(mesh, arrays.rest_vertices.offset, 3 * n);
+    this.weights = new Float32Array(mesh, arrays.bone_weights.offset, 8 * n);
+    const Index = arrays.bone_indices.type === 'uint16' ? Uint16Array : Uint8Array;
+    this.bones = new Index(mesh, arrays.bone_indices.offset, 8 * n);
+    this.positions = new Float32Array(3 * n);
+  }
+
+  skin(rows) {
+    const { rest, weights, bones, positions: out, n } = this;
+    for (let v = 0; v < n; v++) {
+      const px = rest[3 * v], py = rest[3 * v + 1], pz = rest[3 * v + 2];
+      let X = 0, Y = 0, Z = 0;
+      for (let k = 8 * v, e = k + 8; k < e; k++) {
+        const w = weights[k];
+        if (w === 0) continue;
+        const r = 12 * bones[k];
+        X += w * (rows[r] * px + rows[r + 1] * py + rows[r + 2] * pz + rows[r + 3]);
+        Y += w * (rows[r + 4] * px + rows[r + 5] * py + rows[r + 6] * pz + rows[r + 7]);
+        Z += w * (rows[r + 8] * px + rows[r + 9] * py + rows[r + 10] * pz + rows[r + 11]);
+      }
+      out[3 * v] = X; out[3 * v + 1] = Y; out[3 * v + 2] = Z;
+    }
+    return out;
   }
 }

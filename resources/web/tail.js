@@ -188,6 +188,7 @@ export class Compositor {
     }
     this.size = 0;
     this.halfProgram = null;
+    this.canvas2d = null;  // a CanvasDisplay (display.js) for images made in JavaScript, or the GL canvas
   }
 
   resize(size) {
@@ -195,6 +196,8 @@ export class Compositor {
     if (size === this.size) return;
     for (const t of this.owned || []) (t instanceof WebGLFramebuffer ? gl.deleteFramebuffer(t) : gl.deleteTexture(t));
     this.size = size;
+    this.last = null;
+    if (this.canvas2d) this.canvas2d.placed = null;
     this.image = texture2D(gl, gl.RGBA8, size, size, gl.LINEAR);
     this.imageFbo = target(gl, [this.image]);
     this.owned = [this.image, this.imageFbo];
@@ -261,6 +264,7 @@ export class Compositor {
   // window crop ({x, y, w, h}: the outputs' image area).
   composeTail(rasterTex, outputs, background, crop) {
     const gl = this.gl, s = this.spec, st = s.head_stage, hw = crop.w / 2, hh = crop.h / 2;
+    this.last = null;
     this.place(crop, background);
     const mark = this.fine ? (name) => { this.sync(); const t = performance.now(); this.fine[name] = (this.fine[name] || 0) + t - this.t; this.t = t; } : () => {};
     if (this.fine) this.t = performance.now();
@@ -321,38 +325,36 @@ export class Compositor {
     mark('shade');
   }
 
-  // The tail in JavaScript over the window's read-back raster (Uint8Array) and the graph's outputs.
+  // The tail in JavaScript over the window's read-back raster (Uint8Array) and the graph's outputs:
+  // the window's image stays in memory (this.last) until show() puts it on the canvas.
   composeCpu(raster, outputs, background, crop) {
     const s = this.spec;
     const t0 = this.fine ? performance.now() : 0;
     this.cpu.resize(crop.w, crop.h);
-    const rgba = this.cpu.run(raster, outputs[s.head].data, outputs[s.fill].data, background);
+    this.cpu.run(raster, outputs[s.head].data, outputs[s.fill].data, background);
     if (this.fine) this.fine.js = (this.fine.js || 0) + performance.now() - t0;
-    this.upload(rgba, crop, background);
-  }
-
-  upload(rgba, crop, background) {
-    const gl = this.gl;
-    this.place(crop, background);
-    gl.activeTexture(gl.TEXTURE7);
-    gl.bindTexture(gl.TEXTURE_2D, this.image);
-    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
-    gl.texSubImage2D(gl.TEXTURE_2D, 0, crop.x, crop.y, crop.w, crop.h, gl.RGBA, gl.UNSIGNED_BYTE, rgba);
+    this.last = { rgba: this.cpu.rgba, pixels: this.cpu.image, crop, background, size: this.size };
   }
 
   // The whole graph's composited (1, h, w, 3) uint8 image of the window, as it is.
   composeImage(tensor, background, crop) {
     const rgb = tensor.data, n = crop.w * crop.h * 4;
-    if (!this.rgba || this.rgba.length < n) this.rgba = new Uint8Array(this.size * this.size * 4);
-    const rgba = this.rgba.subarray(0, n);
+    if (!this.rgba || this.rgba.length !== n) {
+      this.rgba = new Uint8ClampedArray(n);
+      this.rgbaImage = new ImageData(this.rgba, crop.w, crop.h);
+    }
+    const rgba = this.rgba;
     for (let i = 0, j = 0; i < rgb.length; i += 3, j += 4) {
       rgba[j] = rgb[i]; rgba[j + 1] = rgb[i + 1]; rgba[j + 2] = rgb[i + 2]; rgba[j + 3] = 255;
     }
-    this.upload(rgba, crop, background);
+    this.last = { rgba, pixels: this.rgbaImage, crop, background, size: this.size };
   }
 
-  // The image onto the canvas (its drawing buffer), box: the part shown (a close-up's enlargement).
+  // The image onto the canvas, box: the part shown (a close-up's enlargement). An image made in
+  // JavaScript goes onto the 2D canvas (display.js) when there is one, else into the GL image first.
   show(canvasSize, box = [0, 0, 1, 1]) {
+    if (this.last && this.canvas2d) return this.canvas2d.show(this.last, canvasSize, box);
+    if (this.last) this.upload(this.last);
     const gl = this.gl;
     if (canvasSize === this.size && box[0] === 0 && box[1] === 0 && box[2] === 1 && box[3] === 1) {
       // the image as it is, flipped upright: a copy, which software WebGL does faster than the sampling pass
@@ -369,15 +371,32 @@ export class Compositor {
     this.pass(null, canvasSize, canvasSize);
   }
 
+  upload({ rgba, crop, background }) {
+    const gl = this.gl;
+    this.place(crop, background);
+    gl.activeTexture(gl.TEXTURE7);
+    gl.bindTexture(gl.TEXTURE_2D, this.image);
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, crop.x, crop.y, crop.w, crop.h, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(rgba.buffer, rgba.byteOffset, rgba.length));
+  }
+
   // The composited image (rows top first, RGBA), for checks.
   readImage() {
-    const gl = this.gl, out = new Uint8Array(this.size * this.size * 4);
+    const out = new Uint8Array(this.size * this.size * 4);
+    if (this.last) {  // made in JavaScript: the window over the background
+      const { rgba, crop: c, background: bg, size } = this.last;
+      for (let i = 0; i < size * size; i++) { out[4 * i] = bg[0]; out[4 * i + 1] = bg[1]; out[4 * i + 2] = bg[2]; out[4 * i + 3] = 255; }
+      for (let y = 0; y < c.h; y++) out.set(rgba.subarray(4 * y * c.w, 4 * (y + 1) * c.w), 4 * ((c.y + y) * size + c.x));
+      return out;
+    }
+    const gl = this.gl;
     gl.bindFramebuffer(gl.FRAMEBUFFER, this.imageFbo);
     gl.readPixels(0, 0, this.size, this.size, gl.RGBA, gl.UNSIGNED_BYTE, out);
     return out;
   }
 
   sync(canvas = false) {  // waits for the passes (one pixel read): for stage timings only
+    if (this.last && (this.canvas2d || !canvas)) return;  // made in JavaScript: nothing of the GL's to wait for
     const gl = this.gl, px = new Uint8Array(4);
     gl.bindFramebuffer(gl.FRAMEBUFFER, canvas ? null : this.imageFbo);
     gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);

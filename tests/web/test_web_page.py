@@ -103,7 +103,8 @@ def test_webgpu_frame_matches_the_python_player(tiny_avatar, tmp_path):
 
 def test_raster_renderer_and_tail_match_the_python_player(tail_web, tail_avatar):
     """The cpu preset's renderer (random weights): onnxruntime-web runs the graph cut before its tail
-    and the page plays the tail, in JavaScript (SwiftShader's choice) and in WebGL passes.
+    and the page plays the tail, in JavaScript (SwiftShader's choice) and in WebGL passes, the
+    mesh skinned in JavaScript and in the vertex shader.
 
     Checked stage by stage: the page's raster against the Python player's GL raster, and the page's
     image against the Python player's renderer + compiled tail run on the page's own raster. (Whole
@@ -115,8 +116,9 @@ def test_raster_renderer_and_tail_match_the_python_player(tail_web, tail_avatar)
 
     size = 128
     frames = _frames(104, size)
-    for tail in ("js", "webgl"):
-        page, info = page_frames(tail_web.path, frames, query=f"tail={tail}", rasters=True)
+    # software WebGL skins on the CPU (with the JavaScript tail); the GPU's vertex-shader skinning with the passes
+    for tail, skin in (("js", "cpu"), ("webgl", "gpu")):
+        page, info = page_frames(tail_web.path, frames, query=f"tail={tail}&skin={skin}", rasters=True)
         assert info["messages"] == [] and info["renderer"]["mode"] == "tail" and info["tail"] == tail
         with Player(tail_avatar, size=size, precision=tail_web.precision, raster="gl") as p:
             for (r, t, c), image, raster in zip(frames, page, info["rasters"]):
@@ -200,3 +202,19 @@ def test_golden_render(tiny_web):
     canvas = _png(r["canvas"])  # what the page shows: the image, upright
     assert np.array_equal(canvas, _image(r["image"]))
     check_golden("web_tiny_walk_in_place_12", canvas, tolerance=0.01)
+
+
+def test_tail_in_javascript_shows_its_image_on_a_2d_canvas(tail_web):
+    """The JavaScript tail's image goes onto the page's canvas as a 2D canvas (the window put over
+    the background): what the canvas shows is the composited image; with ?canvas=gl the same image
+    comes through the WebGL canvas."""
+    from morf.web.browser import run_page
+
+    shown = {}
+    for canvas in ("2d", "gl"):
+        r = run_page(tail_web.path, f"report=1&size=256&motion=walk_in_place&frame=5&pause=1&canvas={canvas}", timeout=240)
+        assert "error" not in r and r["messages"] == [] and r["tail"] == "js", r.get("error")
+        assert r["window"]["w"] * r["window"]["h"] < 256 * 256, r["window"]
+        shown[canvas] = _png(r["canvas"])
+        assert np.array_equal(shown[canvas], _image(r["image"])), canvas
+    assert (np.abs(shown["2d"].astype(int) - 255).max(-1) > 8).mean() > 0.01  # a body on the white background
