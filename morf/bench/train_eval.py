@@ -129,7 +129,9 @@ def holdout_quality(project, run_dir, model, resolution: int | None = None) -> F
     """PSNR / SSIM (image and person) and temporal flicker of a finished run on the project's
     synthetic hold-out sequence (the same evaluation as ``morf bench quality``), rendered and
     scored at ``resolution`` px (default: the run's training resolution; runs trained at
-    different resolutions are only comparable at one common resolution)."""
+    different resolutions are only comparable at one common resolution). The body is the one the
+    run trained on, dressed by its fits' clothing offsets when it was (as the export draws it)."""
+    from morf.export.project_export import avatar_offsets
     from morf.train.data import build_holdout_frames
     from morf.train.project_run import evaluate_frames
     from morf.train.trained_avatar import load_trained_avatar
@@ -138,7 +140,8 @@ def holdout_quality(project, run_dir, model, resolution: int | None = None) -> F
     working = avatar.camera
     if resolution is not None and resolution != working.width:
         working = working.scaled(resolution / working.width)
-    holdout = build_holdout_frames(project, model, working, avatar.shape.numpy())
+    holdout = build_holdout_frames(project, model, working, avatar.shape.numpy(),
+                                   offsets=avatar_offsets(project, avatar, Path(run_dir)))
     if holdout is None:
         raise InputError(f"{project.root} has no hold-out sequence (a synthetic capture is needed)")
     return evaluate_frames(avatar, holdout)

@@ -13,6 +13,10 @@ texture coordinates inside each triangle: the GL rasterization gives each pixel 
 centre in the projected triangle are computed in torch from the posed vertices. The loss is L1
 between the render and the frame, both composited over the capture's backdrop, summed over a
 coarse-to-fine pyramid, with an L2 penalty on the pose change.
+
+The body is the one the avatar trained on: dressed by its clothing offsets when it has them
+(:func:`morf.fitting.offsets.dressed_vertices`), so a loose hem or a hood is drawn, and the
+pose is not pulled to fit the naked body inside the clothes.
 """
 
 from __future__ import annotations
@@ -46,12 +50,15 @@ class RefineConfig:
 @dataclass(frozen=True)
 class RefinedPoses:
     """Fields: rotvecs (N, J, 3) and transl (N, 3) after refinement; loss_before / loss_after:
-    the mean L1 of the composited render at full resolution, before and after."""
+    the mean L1 of the composited render at full resolution, before and after; offsets: (V,)
+    clothing offsets of the body they were refined on (None: the naked body), which
+    :func:`reposed_frames` rasterizes again."""
 
     rotvecs: np.ndarray
     transl: np.ndarray
     loss_before: float
     loss_after: float
+    offsets: np.ndarray | None = None
 
 
 def _rotvec_compose(delta: torch.Tensor, rot: torch.Tensor) -> torch.Tensor:
@@ -97,18 +104,22 @@ def _pyramid_l1(pred: torch.Tensor, gt: torch.Tensor, levels: int) -> torch.Tens
 
 
 def refine_poses(avatar, model, frames: FrameSet, rotvecs: np.ndarray, transl: np.ndarray, shape: np.ndarray,
-                 camera: PinholeCamera, colour: torch.Tensor, cfg: RefineConfig = RefineConfig()) -> RefinedPoses:
+                 camera: PinholeCamera, colour: torch.Tensor, cfg: RefineConfig = RefineConfig(),
+                 offsets: np.ndarray | None = None) -> RefinedPoses:
     """Refine every frame's root orientation and translation (and ``cfg.bones``) against
     ``frames``' images composited over ``colour``, with ``avatar`` (texture and renderer) frozen:
     its renderer's parameters stop requiring gradients. ``camera`` is the camera ``frames`` were
-    rasterized through."""
+    rasterized through; ``offsets`` (V,) the clothing offsets the avatar trained with
+    (:func:`morf.train.data.clothing_offsets`; None: the naked body)."""
     from morf.avatar.metrics import composite_over
     from morf.avatar.model import render_with_texture
     from morf.body import BodyPose
     from morf.body.render_mesh import render_mesh_for
+    from morf.fitting.offsets import dressed_vertices
     from morf.raster import rasterize_uv_batch
 
     rm = render_mesh_for(model)
+    offsets_t = None if offsets is None else torch.as_tensor(np.asarray(offsets, np.float32))
     bone_ids = torch.as_tensor([model.bone_index(b) for b in cfg.bones if model.bone_index(b) > 0], dtype=torch.long)
     faces = torch.as_tensor(rm.faces, dtype=torch.long)
     uvs = torch.as_tensor(rm.uvs, dtype=torch.float32)
@@ -134,7 +145,7 @@ def refine_poses(avatar, model, frames: FrameSet, rotvecs: np.ndarray, transl: n
             rest = rot0[:, 1:].index_add(1, bone_ids - 1, d_bones)
             rot = torch.cat([_rotvec_compose(d_root[:, None], rot0[:, :1]), rest], 1)
             out = model(BodyPose(rot, tr0 + d_tr), shape_t)
-            return rm.gather(out.vertices), rot
+            return rm.gather(dressed_vertices(model, out, shape_t, offsets_t)), rot
 
         def image(verts, face_id):
             uv = interpolate_uv(verts, face_id, faces, uvs, camera)
@@ -165,17 +176,19 @@ def refine_poses(avatar, model, frames: FrameSet, rotvecs: np.ndarray, transl: n
             opt.step()
         after.append(best[0])
         out_rot[idx], out_tr[idx] = best[1].numpy(), best[2].numpy()
-    return RefinedPoses(out_rot, out_tr, float(torch.cat(before).mean()), float(torch.cat(after).mean()))
+    return RefinedPoses(out_rot, out_tr, float(torch.cat(before).mean()), float(torch.cat(after).mean()), offsets)
 
 
 def reposed_frames(frames: FrameSet, model, refined: RefinedPoses, shape: np.ndarray,
                    camera: PinholeCamera) -> FrameSet:
-    """``frames`` with their rasterization redone in the refined poses (images and masks kept)."""
+    """``frames`` with their rasterization redone in the refined poses (images and masks kept), on
+    the body they were refined on (dressed by ``refined.offsets`` when given)."""
     from morf.train.data import rasterize_frames
 
     uvs, uvms, facings = [], [], []
     for uv, uvm, fac in rasterize_frames(model, refined.rotvecs, refined.transl,
-                                         np.asarray(shape, np.float32).reshape(1, -1), camera):
+                                         np.asarray(shape, np.float32).reshape(1, -1), camera,
+                                         offsets=refined.offsets):
         uvs.append(pack_uv(uv))
         uvms.append(uvm)
         facings.append(fac)

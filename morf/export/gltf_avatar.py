@@ -3,7 +3,8 @@
 What the file holds (one scene):
     nodes 0..J-1   the body's joints (Anny bone names), in the shaped rest (bind) pose
     node J         the skinned body mesh (skin 0), at the scene root as glTF asks
-    mesh 0         POSITION (shaped rest vertices), NORMAL, TEXCOORD_0 (top-left origin:
+    mesh 0         POSITION (shaped rest vertices, dressed by the fit's clothing offsets as the
+                   avatar folder's mesh.npz: the surface the renderer trained on), NORMAL, TEXCOORD_0 (top-left origin:
                    t = 1 - v), JOINTS_0 / WEIGHTS_0 (the 4 largest skinning weights, summing to 1),
                    triangle indices; vertices on UV seams are split exactly as the rasterizer's
                    render mesh (:mod:`morf.body.render_mesh`), in the same order as the avatar
@@ -39,7 +40,7 @@ class GltfMesh:
     """The skinned body mesh in glTF axes.
 
     Fields:
-        positions: (V, 3) float32 shaped rest vertices (metres, Y up, facing +Z).
+        positions: (V, 3) float32 shaped (and dressed) rest vertices (metres, Y up, facing +Z).
         normals: (V, 3) float32 unit vertex normals (area-weighted, shared across UV seams).
         texcoords: (V, 2) float32 (s, t) with t = 1 - v: glTF's origin is the image's top-left.
         indices: (F, 3) uint16 or uint32 counter-clockwise triangles.
@@ -56,21 +57,23 @@ class GltfMesh:
     num_vertices = length_of("positions")
 
 
-def gltf_mesh(model, shape, influences: int = 4) -> GltfMesh:
+def gltf_mesh(model, shape, offsets=None, influences: int = 4) -> GltfMesh:
     """The shaped rest body of ``model`` as a glTF mesh (needs torch).
 
     Args:
         model: the body model (:class:`morf.body.anny_model.AnnyBodyModel`); shape: (1, S) tensor.
+        offsets: (V,) clothing offsets the avatar trained with (None: the naked body); the rest
+            vertices are then the dressed ones of the avatar folder's mesh.npz
+            (:func:`morf.fitting.offsets.dressed_rest_vertices`), so loose clothes the renderer
+            learned are not cut away in a viewer.
         influences: skinning weights kept per vertex (glTF's JOINTS_0 / WEIGHTS_0 hold 4).
     """
-    import torch
-
     from morf.body.normals import vertex_normals
     from morf.body.render_mesh import render_mesh_for
+    from morf.fitting.offsets import dressed_rest_vertices
 
     rm = render_mesh_for(model)
-    with torch.no_grad():
-        rest = model.rest(shape)["rest_vertices"][0].double().cpu().numpy()
+    rest = dressed_rest_vertices(model, shape, offsets)[0].double().cpu().numpy()
     # Normals on the model's own topology, so the two copies of a seam vertex agree.
     normals = vertex_normals(rest, model.faces.cpu().numpy())[rm.vertex_map]
     joints, weights = top_influences(model.dense_weights.cpu().numpy()[rm.vertex_map], influences)

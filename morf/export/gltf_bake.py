@@ -1,6 +1,7 @@
 """The glTF base-colour texture: what the trained avatar's renderer shows, baked into the UV atlas.
 
-How it is baked: the body in the neutral A-pose (zero pose, the pose the neural texture was
+How it is baked: the body (dressed by the clothing offsets the avatar trained with, as the glTF's
+mesh is) in the neutral A-pose (zero pose, the pose the neural texture was
 baked for) is rendered by the trained renderer (fp32, torch) from a ring of cameras around it at
 eye level plus rings above and below, each view framed on the body as the training crops were
 (the person's square plus a margin, at the training resolution, so the renderer sees the scale it
@@ -124,21 +125,23 @@ def render_bake_views(trained, mesh, vertices: np.ndarray, cameras: list) -> Fra
                                np.zeros((n, 1, 3), np.float32), np.stack(facings))
 
 
-def neutral_vertices(model, shape: torch.Tensor) -> np.ndarray:
-    """(Vr, 3) render-mesh vertices of the zero (A-) pose at the origin, Anny axes."""
+def neutral_vertices(model, shape: torch.Tensor, offsets: np.ndarray | None = None) -> np.ndarray:
+    """(Vr, 3) render-mesh vertices of the zero (A-) pose at the origin, Anny axes; dressed by
+    clothing ``offsets`` (V,) when given, so the bake sees the surface the renderer trained on."""
     from morf.train.data import posed_render_vertices
 
     J = len(model.bone_names)
     return posed_render_vertices(model, np.zeros((1, J, 3), np.float32), np.zeros((1, 3), np.float32),
-                                 shape.detach().cpu().numpy().reshape(1, -1))[0]
+                                 shape.detach().cpu().numpy().reshape(1, -1), offsets)[0]
 
 
-def bake_base_colour(trained, model, cfg: BakeConfig = BakeConfig()) -> BakedColour:
+def bake_base_colour(trained, model, cfg: BakeConfig = BakeConfig(), offsets: np.ndarray | None = None) -> BakedColour:
     """Bake the avatar's colour into a texture (see the module docstring).
 
     Args:
         trained: the TrainedAvatar (its renderer, texture, shape and training resolution are used).
         model: the body model it was trained with.
+        offsets: (V,) clothing offsets it trained with (None: the naked body), as the glTF mesh's.
     """
     from morf.avatar.renderer import push_pull_fill
     from morf.avatar.spectral import body_uv_atlas
@@ -146,7 +149,7 @@ def bake_base_colour(trained, model, cfg: BakeConfig = BakeConfig()) -> BakedCol
     from morf.train.floor_texture import choose_floor_size, floor_texture
 
     mesh = render_mesh_for(model)
-    verts = neutral_vertices(model, trained.shape)
+    verts = neutral_vertices(model, trained.shape, offsets)
     multiple = int(getattr(trained.renderer.cfg, "multiple", 1))
     res = cfg.resolution or int(trained.config.resolution)
     res = -(-res // multiple) * multiple

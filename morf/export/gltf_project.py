@@ -80,7 +80,7 @@ def export_gltf(project, glb: str | Path, cfg: ProjectExportConfig = ProjectExpo
     from morf.export.gltf_avatar import gltf_mesh, write_gltf_avatar
     from morf.export.gltf_bake import bake_base_colour
     from morf.export.gltf_rig import gltf_rig
-    from morf.export.project_export import export_project, pick_run
+    from morf.export.project_export import avatar_offsets, export_project, pick_run
     from morf.export.skeleton import skeleton_from_body_model
     from morf.train.trained_avatar import load_trained_avatar
 
@@ -117,13 +117,17 @@ def export_gltf(project, glb: str | Path, cfg: ProjectExportConfig = ProjectExpo
     animation = None
     if clip is not None:
         animation = joint_animation(skeleton, clip.rotvecs, clip.transl, clip.fps, Path(motion).stem)
+    # the body the avatar folder's mesh.npz holds: dressed by the clothing offsets the run trained with
+    offsets = avatar_offsets(project, trained, run_dir)
     step = lambda i, msg: control.report(Progress("export", i, 2, f"glTF: {msg}"))  # noqa: E731
     step(0, "baking the base colour from the renderer")
-    baked = bake_base_colour(trained, body_model, bake)
+    baked = bake_base_colour(trained, body_model, bake, offsets)
     control.check()
     step(1, "writing the rigged mesh")
-    mesh = gltf_mesh(body_model, trained.shape)
-    bake_info = {"from": "the trained renderer (fp32) in the neutral A-pose, projected into the UV atlas",
+    mesh = gltf_mesh(body_model, trained.shape, offsets)
+    bake_info = {"from": "the trained renderer (fp32) in the neutral A-pose"
+                 + (", body dressed by the clothing offsets" if offsets is not None else "")
+                 + ", projected into the UV atlas",
                  "views": len(baked.cameras), "render_size": int(baked.views.resolution),
                  "texture_size": int(baked.rgb.shape[0]), "seen_share": round(baked.seen_share, 4)}
     extras = gltf_extras(glb, avatar_dir, manifest, bake_info)
