@@ -17,6 +17,7 @@ processes on a 2-core machine change every number here).
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 import time
 from dataclasses import dataclass
@@ -34,7 +35,12 @@ class WebOptions:
         web.json and web.md; size: output side in pixels; frames: timed frames a measurement;
         isolation: serve with the COOP/COEP headers (False: as a plain static host, one WASM
         thread); threads: onnxruntime-web threads (0: the page's choice); tail: auto | js | webgl,
-        where the renderer's tail runs; timeout: seconds to wait for the page.
+        where the renderer's tail runs; timeout: seconds to wait for the page; crop: "" (the page's
+        margin around the person), "off" (the whole frame) or a margin in pixels; proxy:
+        onnxruntime-web in its worker; compare: "KEY:A,B", two settings of one page option measured
+        in turn (skin:cpu,gpu, canvas:2d,gl, overlap:on,off; "crop": the window against the whole
+        frame) instead of the bench; block: frames per turn of a comparison; played: a comparison
+        of the frames as the page plays them (wall times only) instead of each stage waited for.
     """
 
     avatar: str
@@ -45,6 +51,11 @@ class WebOptions:
     threads: int = 0
     tail: str = "auto"
     timeout: float = 900.0
+    crop: str = ""
+    proxy: bool = False
+    compare: str = ""
+    block: int = 1
+    played: bool = False
 
 
 def _web_folder(avatar: Path, tmp: Path) -> Path:
@@ -55,27 +66,90 @@ def _web_folder(avatar: Path, tmp: Path) -> Path:
     return build_web_folder(avatar, tmp / "web", command="morf bench web").path
 
 
-def _markdown(r: dict) -> str:
-    from morf.bench.common import markdown_table
+def _query(opts: WebOptions) -> str:
+    """The page's query for these options (harness.js, main.js)."""
+    q = [f"bench={opts.frames}", f"size={opts.size}"]
+    q += [f"threads={opts.threads}"] if opts.threads else []
+    q += [] if opts.tail == "auto" else [f"tail={opts.tail}"]
+    q += [f"crop={opts.crop}"] if opts.crop else []
+    q += ["proxy=1"] if opts.proxy else []
+    if opts.compare:
+        q += [f"compare={opts.compare}", f"block={opts.block}"] + (["played=1"] if opts.played else [])
+    return "&".join(q)
 
+
+def _flags(opts: WebOptions) -> str:
+    return (f"crop={opts.crop or 'the page default'}, proxy={'on' if opts.proxy else 'off'}, "
+            f"compare={opts.compare or 'none'}" + (f" (blocks of {opts.block}, {'played' if opts.played else 'each stage waited for'})"
+                                                   if opts.compare else "") + f"; page query ?{_query(opts)}")
+
+
+def _cpu_between(marks: list[dict], start: str, end: str) -> dict | None:
+    """The browser's CPU seconds and the wall seconds between two of the page's marks."""
+    m = {k["name"]: k for k in marks}
+    if start not in m or end not in m or not m[start]["cpu"]:
+        return None
+    wall = m[end]["time"] - m[start]["time"]
+    by = {k: m[end]["cpu"].get(k, 0.0) - v for k, v in m[start]["cpu"].items()}
+    cpu = sum(by.values())
+    return {"cpu_s": cpu, "wall_s": wall, "cores": cpu / wall if wall > 0 else None, "by_process": by}
+
+
+def _header(r: dict) -> str:
     env = r["page"]
-    rows = [{"stage": s, "ms": r["page"]["stages_ms"][s], "share": f"{100 * r['page']['shares'][s]:.0f} %"} for s in STAGES]
-    adaptive = env["adaptive"]
-    steps = "; ".join(f"{s['from']} px at {s['fps']:.1f} fps -> {s['to']} px" for s in adaptive["steps"]) or "none"
     return (f"# The avatar in a web page\n\n"
             f"{r['machine']['cpu']}, {r['machine']['cores']} cores; {env['user_agent']}\n\n"
             f"WebGL: {env['webgl']}; onnxruntime-web {env['backend']}, {env['threads']} thread(s), "
             f"cross-origin isolated: {env['isolated']}; renderer {env['renderer']['precision']} "
-            f"({env['renderer']['mode']}), tail in {env.get('tail')}\n\n"
+            f"({env['renderer']['mode']}), tail in {env.get('tail')}, skinning on the {env.get('skin')}, "
+            f"canvas {env.get('display')}\n\nFlags: {r['flags']}\n\n"
             f"Load average while it ran: {r['load_before'][0]:.1f} before, {r['load_after'][0]:.1f} after "
             f"(1 min; 2 cores: above 2 other processes share the CPU)\n\n"
+            f"The browser's CPU time: {env['browser_cpu_s']:.1f} s in all ({r['seconds']:.0f} s wall, the page's "
+            f"loading included)\n\n")
+
+
+def _compare_markdown(r: dict) -> str:
+    from morf.bench.common import markdown_table
+
+    c = r["page"]["compare"]
+    names = [k for k, v in c.items() if isinstance(v, dict) and "wall" in v]
+    rows = [{"": s, **{n: f"{c[n][s]['median']:.1f} / {c[n][s]['best']:.1f}" for n in names}}
+            for s in [*STAGES, "show", "total", "wall"] if all(s in c[n] for n in names)]
+    return (_header(r) + f"Compared in turn, {c.get('key', 'crop')}: {' against '.join(names)} at {c['size']} x {c['size']}, "
+            f"{c['frames']} frames each (ms a frame, median / best; show: the canvas part of composite; "
+            f"wall: each turn's frames' wall time)\n\n" + markdown_table(rows, ["", *names]))
+
+
+def _markdown(r: dict) -> str:
+    from morf.bench.common import markdown_table
+
+    env = r["page"]
+    if "compare" in env:
+        return _compare_markdown(r)
+    rows = [{"stage": s, "ms": env["stages_ms"][s], "share": f"{100 * env['shares'][s]:.0f} %"} for s in STAGES]
+    rows.append({"stage": "(of composite: the canvas)", "ms": env["parts_ms"]["show"], "share": ""})
+    adaptive = env["adaptive"]
+    steps = "; ".join(f"{s['from']} px at {s['fps']:.1f} fps -> {s['to']} px" for s in adaptive["steps"]) or "none"
+    win = env["window"]
+    shapes = ", ".join(f"{k} ({v} frames)" for k, v in sorted(win.get("shapes", {}).items(), key=lambda kv: -kv[1]))
+    where = "the whole frame" if win["margin"] < 0 else f"margin {win['margin']} px"
+    cpu = r.get("played_cpu")
+    cpu_line = (f"The browser's CPU time while it played: {1000 * cpu['cpu_s'] / r['frames']:.1f} ms a frame "
+                f"({cpu['cores']:.2f} cores busy on average; " + ", ".join(
+                    f"{k} {1000 * v / r['frames']:.1f}" for k, v in sorted(cpu["by_process"].items(), key=lambda kv: -kv[1])
+                    if v > 0) + ")\n\n" if cpu else "")
+    return (_header(r) +
             f"**{env['size']} x {env['size']}: {env['fps']:.1f} fps end to end** as the page plays "
             f"({env['ms_per_frame']:.1f} ms a frame, {r['frames']} frames; the renderer proxied to a worker: "
             f"{env.get('proxy')}); one frame after another: {env['sequential_fps']:.1f} fps; with each stage waited "
-            f"for: {env['staged_fps']:.1f} fps\n\n"
+            f"for: {env['staged_fps']:.1f} fps\n\n" + cpu_line +
+            f"The person's window ({where}): "
+            f"{100 * win['share']:.0f} % of the frame on average; shapes {shapes or 'n/a'}\n\n"
             + markdown_table(rows, ["stage", "ms", "share"], "{:.1f}") +
             f"\nAdaptive size: **{adaptive['size']} x {adaptive['size']}: {adaptive['fps']:.1f} fps** "
-            f"(steps: {steps})\n\nWeb folder: {r['folder_mb']:.2f} MB ({r['folder']})\n")
+            f"(steps: {steps}); settled because: {adaptive.get('why', 'n/a')}\n\n"
+            f"Web folder: {r['folder_mb']:.2f} MB ({r['folder']})\n")
 
 
 def run_web(opts: WebOptions) -> dict:
@@ -88,27 +162,32 @@ def run_web(opts: WebOptions) -> dict:
     why = missing_browser()
     if why:
         raise InputError(why)
-    if not 32 <= opts.size <= 4096 or opts.frames < 1:
-        raise InputError(f"--size must be 32-4096 and --frames positive, got {opts.size} and {opts.frames}")
+    if not 32 <= opts.size <= 4096 or opts.frames < 1 or opts.block < 1:
+        raise InputError(f"--size must be 32-4096, --frames and --block positive, got {opts.size}, {opts.frames}, {opts.block}")
+    if opts.crop and opts.crop != "off" and not (opts.crop.isdigit() and int(opts.crop) <= 1024):
+        raise InputError(f"--crop must be 'off' or a margin of 0-1024 pixels, got {opts.crop!r}")
+    if opts.compare and opts.compare != "crop" and not re.fullmatch(r"[a-z]+:[a-z0-9]+,[a-z0-9]+", opts.compare):
+        raise InputError(f"--compare must be 'crop' or KEY:A,B (e.g. skin:cpu,gpu), got {opts.compare!r}")
     avatar = Path(opts.avatar)
     if not avatar.is_dir():
         raise InputError(f"avatar folder not found: {avatar}")
     with tempfile.TemporaryDirectory(prefix="morf-bench-web-") as tmp:
         folder = _web_folder(avatar, Path(tmp))
-        query = f"bench={opts.frames}&size={opts.size}" + (f"&threads={opts.threads}" if opts.threads else "") \
-            + ("" if opts.tail == "auto" else f"&tail={opts.tail}")
         load_before = os.getloadavg()
         t0 = time.monotonic()
-        page = run_page(folder, query, isolation=opts.isolation, timeout=opts.timeout)
+        page = run_page(folder, _query(opts), isolation=opts.isolation, timeout=opts.timeout)
         seconds = time.monotonic() - t0
         load_after = os.getloadavg()
         size = folder_bytes(folder)
     if "error" in page:
         raise InputError(f"the page failed: {page['error'].splitlines()[0]}")
     page.pop("requests", None)
+    marks = page.pop("marks", [])
     result = {"avatar": str(avatar), "folder": str(folder), "folder_mb": size / 1e6, "frames": opts.frames,
-              "page": page, "machine": machine_info(), "load_before": load_before, "load_after": load_after,
-              "seconds": round(seconds, 1)}
+              "flags": _flags(opts), "page": page, "machine": machine_info(), "load_before": load_before,
+              "load_after": load_after, "seconds": round(seconds, 1), "marks": marks,
+              "played_cpu": _cpu_between(marks, "played", "played_end"),
+              "adaptive_cpu": _cpu_between(marks, "adaptive", "adaptive_end")}
     md = _markdown(result)
     path = write_results(opts.out, "web", result, md)
     print(md)

@@ -8,12 +8,14 @@ The tests and ``morf bench web`` use it; Node is never needed.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import signal
 import subprocess
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from morf.errors import InputError
@@ -75,28 +77,43 @@ def group_cpu_seconds(pgid: int) -> float | None:
     """CPU seconds (user + system) used so far by the live processes of process group ``pgid``
     (Linux /proc; None elsewhere). On a shared machine a page's CPU time is steadier than its wall
     time, which other processes' load stretches."""
+    by = group_cpu_by_process(pgid)
+    return None if by is None else sum(by.values())
+
+
+def group_cpu_by_process(pgid: int) -> dict[str, float] | None:
+    """:func:`group_cpu_seconds` per kind of Chromium process ("renderer": the page's JavaScript and
+    WASM; "gpu-process": WebGL, i.e. SwiftShader; "browser", "utility", ...), summed over processes
+    of a kind; None where there is no /proc."""
     proc = Path("/proc")
     if not proc.is_dir():
         return None
-    ticks, total = os.sysconf("SC_CLK_TCK"), 0
+    ticks, by = os.sysconf("SC_CLK_TCK"), {}
     for d in proc.iterdir():
         if not d.name.isdigit():
             continue
         try:
             fields = (d / "stat").read_text().rsplit(")", 1)[1].split()
-        except OSError:
+            if int(fields[2]) != pgid:  # fields after the name: state, ppid, pgrp, ..., utime (12), stime (13)
+                continue
+            cmdline = (d / "cmdline").read_bytes()
+        except (OSError, ValueError):
             continue
-        if int(fields[2]) == pgid:  # fields after the name: state, ppid, pgrp, ..., utime (12), stime (13)
-            total += int(fields[11]) + int(fields[12])
-    return total / ticks
+        # Chromium rewrites its children's titles: the arguments may be NUL- or space-separated
+        found = re.search(rb"--type=([\w-]+)", cmdline)
+        kind = found.group(1).decode() if found else "browser"
+        by[kind] = by.get(kind, 0.0) + (int(fields[11]) + int(fields[12])) / ticks
+    return by
 
 
 def browse_until(url: str, done: threading.Event, timeout: float = 300.0, chromium: str | None = None,
-                 log: Path | None = None, flags: tuple[str, ...] = BROWSER_FLAGS) -> float | None:
+                 log: Path | None = None, flags: tuple[str, ...] = BROWSER_FLAGS,
+                 started: Callable[[int], None] | None = None) -> float | None:
     """Open ``url`` in headless Chromium (a fresh profile) and wait until ``done`` is set (the page
     posted its result to the caller's server); then end the browser. Returns the CPU seconds the
     browser's processes used by then (:func:`group_cpu_seconds`). ``log``: a file for the browser's
-    own output. Raises InputError when Chromium is missing, TimeoutError when ``done`` is not set
+    own output. ``started``: called with the browser's process group once it runs. Raises
+    InputError when Chromium is missing, TimeoutError when ``done`` is not set
     within ``timeout`` seconds, RuntimeError when the browser exits first."""
     browser = find_chromium(chromium)
     if browser is None:
@@ -108,6 +125,8 @@ def browse_until(url: str, done: threading.Event, timeout: float = 300.0, chromi
         # the browser is ended as the process group started here, not by the wrapper's pid alone.
         proc = subprocess.Popen([browser, *flags, *sandbox, f"--user-data-dir={profile}", url],
                                 stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
+        if started:
+            started(proc.pid)
         try:
             deadline = time.monotonic() + timeout
             while not done.wait(0.25):
@@ -130,17 +149,22 @@ def run_page(folder: str | Path, query: str, extra: dict[str, Path] | None = Non
 
     ``extra``: URL path -> file served beside the folder (``/check.json``). ``webgpu``: offer the
     page WebGPU (:data:`WEBGPU_FLAGS`: headless Chromium has none by default). The result's
-    ``browser_cpu_s`` is the CPU time the browser's processes used until the page posted. Raises
+    ``browser_cpu_s`` is the CPU time the browser's processes used until the page posted, its
+    ``marks`` the page's marks with the browser's CPU seconds at each (:class:`WebServer`). Raises
     as :func:`browse_until` does."""
     if find_chromium(chromium) is None:
         raise InputError(missing_browser(chromium))
     server = WebServer(folder, isolation=isolation, extra=extra, accept_results=True).start()
     try:
+        def started(pgid: int) -> None:
+            server.cpu_probe = lambda: group_cpu_by_process(pgid)
+
         cpu = browse_until(f"{server.url}index.html?{query}", server.posted, timeout, chromium, log,
-                           BROWSER_FLAGS + (WEBGPU_FLAGS if webgpu else ()))
+                           BROWSER_FLAGS + (WEBGPU_FLAGS if webgpu else ()), started)
     finally:
         server.stop()
     result = server.results[0]
     result["requests"] = server.log
     result["browser_cpu_s"] = cpu
+    result["marks"] = server.marks
     return result

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import json
 import threading
+import time
+from urllib.parse import parse_qs, urlsplit
 from http.server import SimpleHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
@@ -26,7 +28,10 @@ class WebServer(ThreadingHTTPServer):
 
     Fields beyond the server's: ``isolation`` (send the headers), ``extra`` (URL path -> file, e.g.
     a check's request), ``results`` (what the page posted to ``/result``, in order), ``posted`` (an
-    Event set on each post), ``log`` (the requests, "METHOD path status")."""
+    Event set on each post), ``log`` (the requests, "METHOD path status"), ``marks`` (the page's
+    posts to ``/mark?name=NAME``: name, monotonic seconds and ``cpu_probe()``'s CPU seconds then, so
+    that a measurement's own CPU time can be told from the page's loading), ``cpu_probe`` (a
+    callable giving the browser's CPU seconds so far per kind of process, or None)."""
 
     daemon_threads = True
 
@@ -38,6 +43,8 @@ class WebServer(ThreadingHTTPServer):
         self.results: list[dict] = []
         self.posted = threading.Event()
         self.log: list[str] = []
+        self.marks: list[dict] = []
+        self.cpu_probe = None
         super().__init__((host, port), _Handler)
 
     @property
@@ -73,10 +80,15 @@ class _Handler(SimpleHTTPRequestHandler):
 
     def do_POST(self) -> None:  # noqa: N802 (http.server's naming)
         body = self.rfile.read(int(self.headers.get("Content-Length", 0)))
-        ok = self.server.accept_results and self.path == "/result"
+        url = urlsplit(self.path)
+        if self.server.accept_results and url.path == "/mark":  # taken before answering: the page waits for it
+            probe = self.server.cpu_probe
+            name = parse_qs(url.query).get("name", [""])[0]
+            self.server.marks.append({"name": name, "time": time.monotonic(), "cpu": probe() if probe else None})
+        ok = self.server.accept_results and url.path in ("/result", "/mark")
         self.send_response(204 if ok else 404)
         self.end_headers()
-        if ok:
+        if ok and url.path == "/result":
             self.server.results.append(json.loads(body))
             self.server.posted.set()
 

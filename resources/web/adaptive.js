@@ -46,4 +46,22 @@ export class OutputSize {
     }
     return null;
   }
+
+  // Why observe() keeps the current size for this rate (a sentence: what `morf bench web` reports).
+  why(fps, now) {
+    const from = this.size, t = this.target;
+    if (fps < t) {
+      return this.sizes.some((s) => s < from) ? `${fps.toFixed(1)} fps, under ${t}, not yet measured over ${SHRINK_FRAMES} frames`
+        : `the smallest size offered; ${fps.toFixed(1)} fps there`;
+    }
+    const to = this.sizes.filter((s) => s > from).pop();
+    if (!to) return `the largest size, at ${fps.toFixed(1)} fps (target ${t})`;
+    const predicted = fps * (from / to) ** 2, b = this.blocked.get(to);
+    if (predicted < GROW_MARGIN * t) {
+      return `${fps.toFixed(1)} fps here; ${to} px would run about ${predicted.toFixed(1)} fps, under the ${(GROW_MARGIN * t).toFixed(0)} fps ` +
+        `(target + ${Math.round(100 * (GROW_MARGIN - 1))} %) a larger size needs`;
+    }
+    if (b && now < b.until) return `${to} px ran under ${t} fps before; not retried for ${((b.until - now) / 1000).toFixed(1)} s more`;
+    return `${fps.toFixed(1)} fps; room for ${to} px once measured over ${GROW_FRAMES} frames`;
+  }
 }

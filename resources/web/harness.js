@@ -17,6 +17,11 @@ import { OutputSize } from './adaptive.js';
 const STAGES = ['skinning', 'raster', 'readback', 'renderer', 'composite'];
 const PARTS = ['show'];  // parts of a stage: the canvas pass of "composite"
 
+// A mark the server stamps with the time and the browser's CPU seconds (morf/web/server.py).
+async function mark(name) {
+  await fetch(`./mark?name=${name}`, { method: 'POST' });
+}
+
 export async function post(body) {
   await fetch('./result', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
 }
@@ -35,6 +40,7 @@ function environment(app) {
     backend: app.runtime.backend, threads: app.runtime.threads, isolated: app.runtime.isolated, proxy: app.runtime.proxy,
     renderer: { mode: app.doc.renderer.mode, precision: app.doc.renderer.precision },
     tail: app.doc.renderer.mode === 'tail' ? (app.player.tailOnCpu ? 'js' : 'webgl') : null,
+    skin: app.player.raster.skin, display: app.player.compositor.canvas2d ? '2d' : 'gl', frames_drawn: app.player.framesDrawn,
   };
 }
 
@@ -48,18 +54,20 @@ function advance(app) {
 async function timeFrames(app, n, timed) {
   const sums = Object.fromEntries([...STAGES, ...PARTS].map((s) => [s, 0]));
   let area = 0;
+  const shapes = {};  // the windows' "wxh" -> frames
   const start = performance.now();
   for (let i = 0; i < n; i++) {
     const { frame, camera, box } = advance(app);
     const t = await app.player.render(frame, camera, [255, 255, 255], { timed, canvasSize: app.size, box });
     for (const s of [...STAGES, ...PARTS]) sums[s] += t[s] || 0;
-    const c = app.player.window ? app.player.window : null;
-    area += c && c.w ? (c.w * c.h) / (app.size * app.size) : 1;
+    const c = app.player.lastCrop;
+    area += (c.w * c.h) / (app.size * app.size);
+    shapes[`${c.w}x${c.h}`] = (shapes[`${c.w}x${c.h}`] || 0) + 1;
   }
   const ms = (performance.now() - start) / n;
   return { ms_per_frame: ms, fps: 1000 / ms, stages_ms: Object.fromEntries(STAGES.map((s) => [s, sums[s] / n])),
            parts_ms: Object.fromEntries(PARTS.map((s) => [s, sums[s] / n])),
-           window_share: area / n };
+           window_share: area / n, window_shapes: shapes };
 }
 
 // n frames as the page plays them: frame t's renderer overlapping frame t+1's GL work.
@@ -89,26 +97,34 @@ async function compareCrop(app, n) {
 
 // Two settings of one player option (player.js, setOption), alternating in blocks of `block`
 // frames (the same load falls on both): per-stage times of each, and the wall time per frame of
-// each block after its first frame (what a setting leaves to the browser's other threads, e.g. the
+// each block after its first frame (played: the frames as the page plays them, wall times only) (what a setting leaves to the browser's other threads, e.g. the
 // canvas's presentation, falls on the frames after it).
-async function compareOption(app, n, key, values, block, timed) {
+async function compareOption(app, n, key, values, block, timed, played) {
   const runs = Object.fromEntries(values.map((v) => [v, []])), walls = Object.fromEntries(values.map((v) => [v, []]));
   for (let b = 0; b < 2 * Math.ceil(n / block) + 2; b++) {
     const value = values[b % 2];
     app.player.setOption(key, value);
     let start = 0;
-    for (let i = 0; i < block + 1; i++) {
-      if (i === 1) start = performance.now();
-      const { frame, camera, box } = advance(app);
-      const t = await app.player.render(frame, camera, [255, 255, 255], { timed, canvasSize: app.size, box });
-      if (b >= 2 && i >= 1) runs[value].push({ ...t, total: STAGES.reduce((a, s) => a + t[s], 0) });
+    if (played) {  // as the page plays (player.play): the block's wall time alone, and the browser's CPU time
+      await timePlayed(app, 1);
+      if (b >= 2) await mark(`${value}.${b}`);
+      start = performance.now();
+      await timePlayed(app, block);
+      if (b >= 2) await mark(`${value}.${b}.end`);
+    } else {
+      for (let i = 0; i < block + 1; i++) {
+        if (i === 1) start = performance.now();
+        const { frame, camera, box } = advance(app);
+        const t = await app.player.render(frame, camera, [255, 255, 255], { timed, canvasSize: app.size, box });
+        if (b >= 2 && i >= 1) runs[value].push({ ...t, total: STAGES.reduce((a, s) => a + t[s], 0) });
+      }
     }
     if (b >= 2) walls[value].push((performance.now() - start) / block);
   }
   const median = (xs) => { const v = [...xs].sort((a, b) => a - b); return v[v.length >> 1]; };
   const stat = (xs) => ({ median: median(xs), best: Math.min(...xs) });
-  const summary = (rs, ws) => ({ ...Object.fromEntries([...STAGES, 'show', 'total'].map((s) => [s, stat(rs.map((r) => r[s]))])), wall: stat(ws) });
-  return { size: app.size, frames: n, key, block, timed, ...Object.fromEntries(values.map((v) => [v, summary(runs[v], walls[v])])) };
+  const summary = (rs, ws) => ({ ...(rs.length ? Object.fromEntries([...STAGES, 'show', 'total'].map((s) => [s, stat(rs.map((r) => r[s]))])) : {}), wall: stat(ws) });
+  return { size: app.size, frames: n, key, block, timed, played, ...Object.fromEntries(values.map((v) => [v, summary(runs[v], walls[v])])) };
 }
 
 async function bench(app, params) {
@@ -124,7 +140,8 @@ async function bench(app, params) {
       if (!g.isConnected) document.querySelector('main').append(g);
     }
     await timeFrames(app, 3, false);
-    return { compare: await compareOption(app, n, key, values.split(','), Number(params.get('block')) || 1, !params.get('untimed')) };
+    return { compare: await compareOption(app, n, key, values.split(','), Number(params.get('block')) || 1, !params.get('untimed'),
+                                          !!params.get('played')) };
   }
   await timeFrames(app, 5, false);  // warm-up: sessions, shader compilation
   await timePlayed(app, 5);
@@ -134,26 +151,35 @@ async function bench(app, params) {
   if (fine) for (const k of Object.keys(fine)) fine[k] /= n;
   app.player.compositor.fine = null;
   const sequential = await timeFrames(app, n, false);
+  await mark('played');
   const played = await timePlayed(app, n);
+  await mark('played_end');
   const total = STAGES.reduce((a, s) => a + staged.stages_ms[s], 0);
   const shares = Object.fromEntries(STAGES.map((s) => [s, staged.stages_ms[s] / total]));
   const result = { size: app.size, frames: n, ...played, sequential_fps: sequential.fps, staged_fps: staged.fps,
                    stages_ms: staged.stages_ms, parts_ms: staged.parts_ms, shares, fine, proxy: app.runtime.proxy,
-                   window: { margin: app.player.cropMargin, share: staged.window_share } };
+                   window: { margin: app.player.cropMargin, share: staged.window_share, shapes: staged.window_shapes } };
   if (params.get('noadapt')) return result;
   // The adaptive size: what the page picks from the rate it measures while playing, then the rate there.
   const steps = [];
+  let why = 'still changing after 6 steps';
   app.fixed = false;
   for (let round = 0; round < 6; round++) {
     await timePlayed(app, 3);
     const m = await timePlayed(app, 20);
     app.sizeFrames = Infinity;  // adapt() judges only a size it has seen for a while
     const before = app.size;
-    if (!app.adapt(m.fps)) break;
+    if (!app.adapt(m.fps)) {
+      why = app.output.why(m.fps, performance.now());
+      break;
+    }
     steps.push({ from: before, fps: m.fps, to: app.size });
   }
   await timePlayed(app, 5);
-  return { ...result, adaptive: { size: app.size, steps, ...(await timePlayed(app, n)) } };
+  await mark('adaptive');
+  const adaptive = await timePlayed(app, n);
+  await mark('adaptive_end');
+  return { ...result, adaptive: { size: app.size, steps, why, ...adaptive } };
 }
 
 async function check(app) {

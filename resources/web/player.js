@@ -70,10 +70,12 @@ export class Player {
     return this.window.choose(this.cropMargin < 0 ? null : this.bodyBox.box(this.rows, camera, skinned), this.size);
   }
 
-  // A setting the harness compares A/B (compare=KEY:A,B): skin (cpu | gpu: raster.js), canvas
+  // A setting the harness compares A/B (compare=KEY:A,B): skin (cpu | gpu: raster.js), overlap
+  // (on | off: play()), canvas
   // (2d | gl: where an image made in JavaScript is shown; both canvases are then on the page).
   setOption(key, value) {
     if (key === 'skin') this.raster.setSkin(value);
+    else if (key === 'overlap') this.overlap = value === 'on';
     else if (key === 'canvas') {
       if (value === '2d' && !this.canvas2d) throw new Error('no 2D canvas on this page (?canvas=gl)');
       this.compositor.canvas2d = value === '2d' ? this.canvas2d : null;
@@ -89,7 +91,14 @@ export class Player {
   // A frame's GL work: bone matrices, skinning + neural rasterization, read-back. Returns the frame's
   // renderer input (valid until the frame after next is prepared: two framebuffers in turn).
   prepare(frame, camera, timed = false) {
+    return this.readBack(this.draw(frame, camera, timed));
+  }
+
+  // The bone matrices, the skinning and the raster's draw calls, handed to the GL without waiting
+  // for them (timed: waited for): the GL rasterizes while the page's thread does other work.
+  draw(frame, camera, timed = false) {
     const t0 = performance.now();
+    this.framesDrawn = (this.framesDrawn || 0) + 1;
     this.skeleton.boneRows(frame, this.rows);
     this.raster.uploadBones(this.rows);
     const crop = this.crop(camera);
@@ -97,10 +106,15 @@ export class Player {
     const t1 = performance.now();
     this.raster.draw(viewProjection(camera), crop);
     if (timed) this.raster.sync();
+    else this.gl.flush();
     const t2 = performance.now();
+    this.timings = { skinning: t1 - t0, raster: t2 - t1 };
+    return { crop, t2 };
+  }
+
+  readBack({ crop, t2 }) {
     const bytes = this.raster.read();
-    const t3 = performance.now();
-    this.timings = { skinning: t1 - t0, raster: t2 - t1, readback: t3 - t2 };
+    this.timings.readback = performance.now() - t2;
     return { bytes, attachment: this.raster.attachment, size: this.size, crop };
   }
 
@@ -144,24 +158,24 @@ export class Player {
     return this.timings;
   }
 
-  // Frames one after another with frame t's renderer overlapping frame t+1's GL work (which needs
-  // onnxruntime-web proxied to its worker: otherwise the renderer holds the page's thread).
-  // next() -> {frame, camera, box}, or null to stop; shown() is awaited once a frame is on the canvas.
+  // Frames one after another, frame t+1's raster (in the GL's own threads) overlapping frame t's
+  // tail and composite (JavaScript), and frame t's renderer overlapping frame t+1's GL work where
+  // onnxruntime-web runs in its worker (proxy=1). next() -> {frame, camera, box}, or null to stop;
+  // shown() is awaited once a frame is on the canvas. overlap = false: frame t+1's GL work only
+  // after frame t is shown (for comparison).
   async play(next, background, canvasSize, shown = async () => {}) {
     let pending = null;
     for (;;) {
       const want = next();
-      let job = null;
-      if (want) {
-        const prepared = this.prepare(want.frame, want.camera);
-        job = { prepared, box: want.box, outputs: this.infer(prepared, background) };
-      }
+      let drawn = want && this.overlap !== false ? this.draw(want.frame, want.camera) : null;
       if (pending) {
         this.finish(pending.prepared, await pending.outputs, background, { canvasSize, box: pending.box });
         await shown();
       }
-      if (!job) return;
-      pending = job;
+      if (!want) return;
+      if (!drawn) drawn = this.draw(want.frame, want.camera);
+      const prepared = this.readBack(drawn);
+      pending = { prepared, box: want.box, outputs: this.infer(prepared, background) };
     }
   }
 }

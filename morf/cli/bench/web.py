@@ -14,11 +14,21 @@ def add_arguments(p) -> None:
     p.add_argument("--tail", choices=("auto", "js", "webgl"), default="auto",
                    help="where the renderer's tail runs: JavaScript, WebGL passes, or the page's choice")
     p.add_argument("--timeout", type=float, default=900.0, help="seconds to wait for the page")
+    p.add_argument("--crop", default="", help="'off': the renderer on the whole frame; N: N pixels around the person "
+                   "(default: the page's margin)")
+    p.add_argument("--proxy", action="store_true", help="onnxruntime-web in its worker (the renderer beside the next frame's GL)")
+    p.add_argument("--compare", default="", metavar="KEY:A,B",
+                   help="two settings of a page option measured in turn instead of the bench: skin:cpu,gpu, "
+                        "canvas:2d,gl, overlap:on,off, or 'crop' (the person's window against the whole frame)")
+    p.add_argument("--block", type=int, default=1, help="frames per turn of --compare (default 1)")
+    p.add_argument("--played", action="store_true",
+                   help="--compare the frames as the page plays them (wall times) instead of each stage waited for")
 
 
 def run(args) -> int:
     from morf.bench.web import WebOptions, run_web
 
     run_web(WebOptions(args.avatar, args.out, args.size, args.frames, isolation=not args.no_isolation,
-                       threads=args.threads, tail=args.tail, timeout=args.timeout))
+                       threads=args.threads, tail=args.tail, timeout=args.timeout, crop=args.crop,
+                       proxy=args.proxy, compare=args.compare, block=args.block, played=args.played))
     return 0

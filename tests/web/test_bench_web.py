@@ -1,0 +1,64 @@
+"""``morf bench web`` in headless Chromium: the report names what review asked of it (the page's
+window, the canvas part of the composite, the browser's CPU time per kind of process, why the
+adaptive size settled, the flags used), and a comparison of two page settings measured in turn."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+pytestmark = pytest.mark.gl
+
+
+def test_bench_reports_window_canvas_cpu_adaptive_reason_and_flags(tail_web, tmp_path):
+    from morf.bench.web import WebOptions, run_web
+
+    r = run_web(WebOptions(str(tail_web.path), str(tmp_path / "o"), size=256, frames=4, timeout=600))
+    md = (tmp_path / "o" / "web.md").read_text()
+    page = r["page"]
+    assert page["messages"] == [] and page["tail"] == "js" and page["skin"] == "cpu" and page["display"] == "2d"
+    shapes = page["window"]["shapes"]
+    assert sum(shapes.values()) == 4 and all("x" in k for k in shapes), shapes
+    assert f"shapes {next(iter(shapes))}" in md or next(iter(shapes)) in md
+    assert "(of composite: the canvas)" in md and page["parts_ms"]["show"] >= 0
+    cpu = r["played_cpu"]  # marks around the played frames: the browser's CPU time in them, per process kind
+    assert cpu and cpu["cpu_s"] > 0 and cpu["by_process"].get("renderer", 0) > 0, cpu
+    assert "The browser's CPU time while it played" in md and "renderer" in md
+    assert "settled because: " in md and page["adaptive"]["why"], page["adaptive"]
+    assert "Flags: crop=the page default, proxy=off, compare=none" in md
+    json.loads((tmp_path / "o" / "web.json").read_text())
+
+
+def test_bench_compares_two_settings_in_turn(tail_web, tmp_path):
+    from morf.bench.web import WebOptions, run_web
+
+    r = run_web(WebOptions(str(tail_web.path), str(tmp_path / "o"), size=256, frames=2, compare="skin:cpu,gpu",
+                           crop="off", timeout=600))
+    c = r["page"]["compare"]
+    assert c["key"] == "skin" and set(c) >= {"cpu", "gpu"}
+    for v in ("cpu", "gpu"):
+        assert len(c[v]) and c[v]["raster"]["best"] > 0 and c[v]["wall"]["median"] > 0, c[v]
+    md = (tmp_path / "o" / "web.md").read_text()
+    assert "cpu against gpu" in md and "| raster |" in md and "compare=skin:cpu,gpu" in md and "crop=off" in md
+
+
+def test_bench_flags_reach_the_library_and_bad_ones_are_one_line(tmp_path, monkeypatch, capsys):
+    import morf.bench.web as web
+    from morf.cli.main import main
+
+    seen = []
+    monkeypatch.setattr(web, "run_web", lambda opts: seen.append(opts) or {})
+    assert main(["bench", "web", str(tmp_path), "--out", str(tmp_path / "o"), "--crop", "off", "--proxy",
+                 "--compare", "canvas:2d,gl", "--block", "4", "--played"]) == 0
+    assert seen == [web.WebOptions(str(tmp_path), str(tmp_path / "o"), crop="off", proxy=True, compare="canvas:2d,gl",
+                                   block=4, played=True)]
+    monkeypatch.undo()
+    from morf.web.browser import missing_browser
+
+    if missing_browser():
+        pytest.skip("the option checks come after the browser's")
+    for flag, value, word in (("--crop", "wide", "--crop"), ("--compare", "skin", "--compare")):
+        assert main(["bench", "web", str(tmp_path), "--out", str(tmp_path / "o"), flag, value]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and word in err[0] and "Traceback" not in err[0], err
