@@ -240,7 +240,8 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
     say(f"{run.name}: {tr.target.key}, {frames.num_frames} frames at {side} px")
     refined, poses = None, None
     if cfg.refine_poses:
-        frames, refined, poses = _refine(project, model, avatar, target, fits, frames, camera, cfg.refine, say)
+        frames, refined, poses = _refine(project, model, avatar, target, fits, frames, camera, cfg.refine, say,
+                                          offsets)
     # a photo set's views are no sequence: flicker between unrelated photos means nothing
     scores = evaluate_frames(avatar, frames, ordered=not (target.key.startswith("holdout") and project.unordered_views))
     colour = torch.tensor(scores.background, dtype=torch.float32)
@@ -293,8 +294,9 @@ def _detail(project, model, avatar, target, fits, frames, camera, colour, poses,
     return detail_scores(avatar, frames, colour, part_atlas(model), shift, rows)
 
 
-def _refine(project, model, avatar, target, fits, frames, camera, rcfg: RefineConfig, say):
-    """``frames`` re-rasterized in poses refined against their images with ``avatar`` frozen; the
+def _refine(project, model, avatar, target, fits, frames, camera, rcfg: RefineConfig, say, offsets=None):
+    """``frames`` re-rasterized in poses refined against their images with ``avatar`` frozen (the
+    body dressed by ``offsets``, as the run trained and the player draws it); the
     mean L1 of the composited render (before, after); and (RefinedPoses, shape)."""
     import time
 
@@ -304,7 +306,7 @@ def _refine(project, model, avatar, target, fits, frames, camera, rcfg: RefineCo
 
     rot, tr, shape = target_poses(project, target, fits, avatar.shape.numpy())
     t0 = time.perf_counter()
-    res = refine_poses(avatar, model, frames, rot, tr, shape, camera, backdrop_colour(frames), rcfg)
+    res = refine_poses(avatar, model, frames, rot, tr, shape, camera, backdrop_colour(frames), rcfg, offsets=offsets)
     say(f"  poses refined in {time.perf_counter() - t0:.0f} s: L1 {res.loss_before:.4f} -> {res.loss_after:.4f}")
     return (reposed_frames(frames, model, res, shape, camera), (round(res.loss_before, 5), round(res.loss_after, 5)),
             (res, shape))

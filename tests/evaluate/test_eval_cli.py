@@ -103,11 +103,11 @@ def test_refined_poses_score_every_run_alike(evaluated, tmp_path, capsys, monkey
     project, run = evaluated["project"], evaluated["run"]
     real, seen = pose_refine.refine_poses, []
 
-    def fewer_steps(*args):
+    def fewer_steps(*args, **kwargs):
         """The command's refinement, with 10 Adam steps a frame instead of 40: what is checked here
         (every run and the floor refined, never worse) does not wait for convergence."""
         seen.append(args[-1])
-        return real(*args[:-1], dataclasses.replace(args[-1], steps=10))
+        return real(*args[:-1], dataclasses.replace(args[-1], steps=10), **kwargs)
 
     monkeypatch.setattr(pose_refine, "refine_poses", fewer_steps)
     assert main(["eval", str(project.root), "--refine-poses", "--out", str(tmp_path)]) == 0

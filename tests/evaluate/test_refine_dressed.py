@@ -77,8 +77,6 @@ def test_refinement_from_a_moved_pose_keeps_the_dressed_body(gl, body_model):
     assert again.sum() > 1.1 * naked.sum()
 
 
-@pytest.mark.xfail(strict=True, reason="morf/evaluate/project_eval.py _refine does not pass the run's clothing "
-                                       "offsets to refine_poses yet")
 def test_eval_refine_poses_draws_the_dressed_body(tiny_capture, body_model, gl, tmp_path, monkeypatch):
     """``morf eval --refine-poses`` on a run trained on the dressed body: every re-rasterization of
     the refined poses carries the fit's offsets and covers more than the naked body would."""
