@@ -23,7 +23,8 @@ one model share it): on a local Ray by default, on a cluster with ``--address``.
 ``--cpus-per-task`` cores, by default all of this machine's, so on one machine the points train one
 after another on every core as the training-minutes axis has always meant; fewer cores per task
 train several at once. Playback speed is then measured here, one point after another, with no
-training running beside it.
+training running beside it, once per run and machine: a point whose training another point or
+scene already timed reads that run's stored speed (:mod:`morf.bench.run_speed`).
 """
 
 from __future__ import annotations
@@ -150,7 +151,7 @@ def measure_points(project, sweep, pairs, model, out: Path, ray=None, workers: i
     where reused means loaded from ``OUT/points/<name>.json`` (same config, same fps size) without
     any work. The trainings run on Ray (:func:`train_all`); then each point's playback speed is
     measured here and its result saved as it is complete."""
-    from morf.bench.train_eval import speed_of_run
+    from morf.bench.run_speed import speed_of_run_once
     from morf.io import atomic_write_json
     from morf.scale.tasks import Outcome, TasksFailed
     from morf.sizing.sweep import train_key
@@ -174,8 +175,8 @@ def measure_points(project, sweep, pairs, model, out: Path, ray=None, workers: i
             continue
         t0 = time.time()
         ev: TrainEvaluation = o.value
-        speed = None if ev.diverged else speed_of_run(ev.run, out / "work", sweep.fps_size, sweep.fps_frames,
-                                                      point.precision, model)
+        speed = None if ev.diverged else speed_of_run_once(ev.run, out / "work", sweep.fps_size, sweep.fps_frames,
+                                                           point.precision, model)[0]
         row = PointRow(point.name, point.axis, cfg.method, point.precision, key, _summary(cfg), ev, speed,
                        o.seconds + time.time() - t0)
         atomic_write_json(out / "points" / f"{point.name}.json", row.to_dict())

@@ -2,7 +2,9 @@
 
 The sweep trains each distinct config once per capture (``ROOT/runs/pareto-<config key>``), so
 tests that measure points on the same capture reuse each other's trainings instead of training
-the base point again: the trainings, not the checks, are what takes the time.
+the base point again: the trainings, not the checks, are what takes the time. The suite hands
+whole files to its workers, so the tests that train on this capture live in one file
+(test_pareto.py): split across files they would each make the capture and train the points again.
 """
 
 from __future__ import annotations

@@ -1,11 +1,11 @@
 """``morf bench pareto`` on the tiny preset: documented JSON keys, charts, and resumability."""
 
-import hashlib
 import json
 import shutil
 
 import pytest
 
+from morf.bench.auto_check import auto_check
 from morf.bench.pareto import run_sweep
 
 POINT_KEYS = {"name", "axis", "method", "precision", "config", "params", "psnr", "ssim", "psnr_person",
@@ -93,15 +93,6 @@ def test_a_resolution_point_is_scored_at_the_base_resolution(tiny_sweep, body_mo
     assert at_base.psnr != pytest.approx(at_own.psnr)
 
 
-def test_crowded_chart_labels_move_apart():
-    from morf.bench.charts import _label_offsets
-
-    # the second and fourth points sit on top of earlier ones: each moves down one line per neighbour
-    off = _label_offsets([20.0, 20.05, 30.0, 20.02], [18.0, 18.01, 17.0, 18.0])
-    assert off[0] == off[2] == 3.0 and off[1] == 3.0 - 9.0 and off[3] == 3.0 - 18.0
-    assert _label_offsets([], []) == []
-
-
 @pytest.mark.gl
 def test_seed_points_measure_the_noise_and_stay_off_the_fronts(tiny_sweep, body_model):
     out = tiny_sweep[0]
@@ -116,81 +107,6 @@ def test_seed_points_measure_the_noise_and_stay_off_the_fronts(tiny_sweep, body_
     assert spread["points"] == ["base", "seed-1"] and spread["psnr_person"] == q
     assert spread["range_db"] == pytest.approx(abs(q[0] - q[1])) and spread["range_db"] > 0
     assert "seeds spans" in (out / "pareto.md").read_text()
-
-
-def sweep_row(name: str, axis: str, psnr_person: float | None, fps: float | None = 30.0):
-    from morf.bench.pareto_results import PointRow
-    from morf.bench.train_eval import PlaybackSpeed, RunSpeed, TrainEvaluation
-
-    if psnr_person is None:  # training raised
-        return PointRow(name, axis, "morf", "int8", "k", {}, TrainEvaluation(1000, True, error="NaN"), None, 1.0)
-    ev = TrainEvaluation(1000, False, 25.0, 0.9, psnr_person, 0.8, 0.01, 1.0, 6, background=(0.5, 0.5, 0.5),
-                         frames=3, run=f"/p/runs/{name}", eval_resolution=64)
-    return PointRow(name, axis, "morf", "int8", "k", {"resolution": 64}, ev,
-                    None if fps is None else RunSpeed(PlaybackSpeed(fps, 1000 / fps, 5.0, 40.0), 38.0), 1.0)
-
-
-def test_no_seed_spread_without_seed_points():
-    from morf.bench.pareto import seed_spread
-
-    rows = [sweep_row("base", "base", 20.0), sweep_row("texture-32", "texture_size", 19.0)]
-    assert seed_spread(rows) is None
-    rows.append(sweep_row("seed-1", "seed", 21.0))
-    rows.append(sweep_row("seed-2", "seed", None))  # diverged: left out
-    s = seed_spread(rows)
-    assert s["points"] == ["base", "seed-1"] and s["range_db"] == pytest.approx(1.0)
-
-
-def test_a_point_row_keeps_its_keys_and_order():
-    import dataclasses
-
-    from morf.bench.pareto import with_seeds
-    from morf.bench.pareto_results import PointRow
-
-    row = sweep_row("base", "base", 20.0)
-    saved = row.to_dict()
-    assert list(saved) == ["name", "axis", "method", "precision", "key", "config", "psnr", "ssim", "psnr_person",
-                           "ssim_person", "temporal", "background", "frames", "diverged", "params", "train_minutes",
-                           "steps", "run", "eval_resolution", "fps", "frame_ms", "renderer_ms",
-                           "int8_psnr_vs_fp32_db", "int8_psnr_vs_fp32_image_db", "seconds"]
-    assert PointRow.from_dict(json.loads(json.dumps(saved))) == row
-    fp32 = dataclasses.replace(row, precision="fp32", speed=dataclasses.replace(
-        row.speed, playback=dataclasses.replace(row.speed.playback, int8_psnr_vs_fp32_image_db=None)))
-    assert "int8_psnr_vs_fp32_image_db" not in fp32.to_dict()
-    raised = sweep_row("r", "renderer", None).to_dict()
-    assert list(raised)[6:9] == ["diverged", "error", "params"] and raised["fps"] is None and "run" not in raised
-    # the sweep adds the seeds and the fronts after the point file's keys
-    seeded = dataclasses.replace(with_seeds(row, [sweep_row("base-seed1", "base", 22.0, fps=None)]),
-                                 on_front_fps=True, on_front_train=False)
-    assert list(seeded.to_dict())[-4:] == ["seed_runs", "seed_means", "on_front_fps", "on_front_train"]
-    assert seeded.seed_runs["psnr_person"] == [20.0, 22.0] and seeded.seed_runs["fps"] == [30.0, None]
-    assert seeded.mean("psnr_person") == pytest.approx(21.0) and seeded.mean("fps") == 30.0
-    assert row.mean("psnr_person") == 20.0
-
-
-def test_schedule_points_and_run_names_of_constant_rate_configs():
-    from morf.presets.sweep import PRESETS
-    from morf.sizing.sweep import SweepPoint, resolve, train_key
-
-    sweep = PRESETS["default"]
-    base = resolve(sweep, SweepPoint("base", "base"))
-    points = {p.name: p for p in sweep.points}
-    const = resolve(sweep, points["lr-constant"])
-    half = resolve(sweep, points["lr-decay-half"])
-    assert const.lr_decay_start == 1.0 and half.lr_decay_start == 0.5
-    assert resolve(sweep, points["lr-cosine-all"]).lr_decay_start == 0.0
-    assert len({train_key(const), train_key(half)}) == 2
-    # the cpu preset decays over the second half: that point is the base, trained once
-    assert base.lr_decay_start == 0.5 and train_key(half) == train_key(base)
-    # while the decay is off its fields leave the run name alone (runs made before it keep theirs),
-    # so the floor, which changes nothing then, does not rename the run either
-    plain = const.replace(ema_decay=0.0)
-    assert train_key(plain) == train_key(plain.replace(lr_decay_floor=0.5))
-    before = {k: v for k, v in plain.to_dict().items() if not k.startswith("lr_decay") and k != "ema_decay"}
-    assert train_key(plain) == hashlib.sha1(json.dumps(before, sort_keys=True).encode()).hexdigest()[:10]
-    assert train_key(half) != train_key(half.replace(lr_decay_floor=0.5))
-    ema, no_ema = resolve(sweep, points["ema"]), resolve(sweep, points["no-ema"])
-    assert ema.ema_decay == 0.998 and no_ema.ema_decay == 0.0 and train_key(ema) != train_key(no_ema)
 
 
 @pytest.mark.gl
@@ -220,18 +136,67 @@ def test_bad_seed_count_is_one_line_error(tmp_path, capsys):
     assert not (tmp_path / "p").exists()
 
 
-def test_a_renderer_name_gives_its_whole_architecture_and_its_own_run_name(monkeypatch):
-    from morf.sizing import sweep
-    from morf.presets.sweep import PRESETS
-    from morf.sizing.sweep import SweepPoint, resolve, train_key
+# ``--auto-check`` on the same capture: the automatic choice measured beside the sizing points, per
+# scene, and the single-scene form on an existing capture. Its base and texture-32 points (and
+# their seed repeats) are the trainings above, each trained and timed once (the run's stored speed).
 
-    cfg = resolve(PRESETS["default"], SweepPoint("r", "renderer", {"renderer": "stem2_b16"}))
-    half = resolve(PRESETS["default"], SweepPoint("r", "renderer", {"renderer": "stem4_b16"}))
-    assert cfg.renderer.head_stride == 1 and half.renderer.head_stride == 2  # not the preset's head
-    assert train_key(half) != train_key(cfg)
-    # a full-resolution head leaves the name alone: runs made before the field keep theirs
-    hashed = []
-    monkeypatch.setattr(sweep.json, "dumps", lambda d, **kw: hashed.append(d) or "{}")
-    train_key(cfg)
-    train_key(half)
-    assert "head_stride" not in hashed[0]["renderer"] and hashed[1]["renderer"]["head_stride"] == 2
+@pytest.mark.gl
+def test_tiny_auto_check(sweep_dir, print_capture, body_model, gl):
+    out = sweep_dir / "auto"
+    # both scenes on the tiny sweep's shared capture (each distinct training runs once; making a
+    # capture is the conftest's, through the same make_capture), one sizing point beside the base
+    # and the choice: what is checked here is the per-scene loop, its sweeps, verdicts and report
+    cap = str(print_capture.root)
+    res = auto_check(out, "tiny", body_model, scenes=("plain", "print"), project_path={"plain": cap, "print": cap},
+                     points=["texture-32"])
+    data = json.loads((out / "auto_check.json").read_text())
+    assert [r["scene"] for r in data["table"]] == ["plain", "print"] == [r["scene"] for r in res["table"]]
+    for row in data["table"]:
+        assert isinstance(row["near_front"], bool) and row["psnr_person"] is not None and row["fps"] > 0
+        assert row["best_psnr_person"] >= row["psnr_person"]
+        assert row["gap_se_db"] is None and row["beyond_noise"] is None  # one training per point: no noise estimate
+    for scene in ("plain", "print"):
+        names = [p["name"] for p in json.loads((out / scene / "pareto.json").read_text())["points"]]
+        assert names == ["base", "texture-32", "auto"]  # the points named, then the choice
+        assert data["scenes"][scene]["reasons"]
+    assert not list(out.glob("*/capture-*"))  # the captures named were used, none made
+    assert data["scenes"]["plain"]["point"]["run"] == data["scenes"]["print"]["point"]["run"]
+    assert "## plain" in (out / "auto_check.md").read_text()
+
+    # one scene on an existing capture (the path form): the same auto choice, its results reused
+    again = auto_check(out, "tiny", body_model, scenes=("print",), project_path=str(print_capture.root),
+                       points=["texture-32"])
+    sweep = json.loads((out / "print" / "pareto.json").read_text())
+    assert [p["name"] for p in sweep["points"]] == ["base", "texture-32", "auto"]
+    assert sweep["reused"] == ["base", "texture-32", "auto"]
+    assert again["table"][0]["texture_size"] == data["table"][1]["texture_size"]
+    assert again["scenes"]["print"]["point"]["run"] == data["scenes"]["print"]["point"]["run"]
+
+
+@pytest.mark.gl
+def test_auto_check_with_seeds_judges_means(sweep_dir, print_capture, body_model, gl):
+    # the folder of the check above: its base, texture-32 and auto points are reused, the seed
+    # repeats measured beside them
+    out = sweep_dir / "auto"
+    res = auto_check(out, "tiny", body_model, scenes=("print",), project_path=str(print_capture.root),
+                     points=["texture-32"], seeds=2)
+    means = res["scenes"]["print"]["means"]
+    assert list(means) == ["base", "texture-32", "auto"]
+    saved = {p.stem for p in (out / "print" / "points").glob("*.json")}
+    assert {"base-seed1", "texture-32-seed1", "auto-seed1"} <= saved
+    runs = {n: json.loads((out / "print" / "points" / f"{n}.json").read_text())["run"] for n in ("base", "base-seed1")}
+    assert runs["base"] != runs["base-seed1"]  # a second training, not the first one read again
+    for m in means.values():
+        assert len(m["psnr_person_runs"]) == 2
+        assert m["psnr_person"] == pytest.approx(sum(m["psnr_person_runs"]) / 2)
+    row = res["table"][0]
+    assert row["psnr_person"] == means["auto"]["psnr_person"]
+    assert row["best_psnr_person"] == max(m["psnr_person"] for m in means.values())
+    rival = res["scenes"]["print"]["rival"]  # None only when every other point timed 20 % slower
+    if rival is None:
+        assert row["gap_db"] is None and row["beyond_noise"] is None
+    else:
+        assert row["gap_db"] == pytest.approx(means[rival]["psnr_person"] - row["psnr_person"])
+        assert row["gap_se_db"] >= 0 and isinstance(row["beyond_noise"], bool)
+    assert json.loads((out / "auto_check.json").read_text())["seeds"] == 2
+    assert "means over 2 seeds" in (out / "auto_check.md").read_text()
