@@ -95,6 +95,24 @@ def _cpu_between(marks: list[dict], start: str, end: str) -> dict | None:
     return {"cpu_s": cpu, "wall_s": wall, "cores": cpu / wall if wall > 0 else None, "by_process": by}
 
 
+def _cpu_by_setting(marks: list[dict]) -> dict:
+    """A played comparison's browser CPU seconds per setting, summed over its turns (the page marks
+    each turn "VALUE.TURN" and "VALUE.TURN.end"), per kind of process."""
+    m = {k["name"]: k for k in marks}
+    out: dict = {}
+    for name, end in m.items():
+        start = m.get(name[:-4]) if name.endswith(".end") else None
+        if start is None or not start["cpu"]:
+            continue
+        acc = out.setdefault(name.split(".")[0], {"cpu_s": 0.0, "wall_s": 0.0, "by_process": {}})
+        acc["wall_s"] += end["time"] - start["time"]
+        for kind, v in end["cpu"].items():
+            d = v - start["cpu"].get(kind, 0.0)
+            acc["cpu_s"] += d
+            acc["by_process"][kind] = acc["by_process"].get(kind, 0.0) + d
+    return out
+
+
 def _header(r: dict) -> str:
     env = r["page"]
     return (f"# The avatar in a web page\n\n"
@@ -116,9 +134,17 @@ def _compare_markdown(r: dict) -> str:
     names = [k for k, v in c.items() if isinstance(v, dict) and "wall" in v]
     rows = [{"": s, **{n: f"{c[n][s]['median']:.1f} / {c[n][s]['best']:.1f}" for n in names}}
             for s in [*STAGES, "show", "total", "wall"] if all(s in c[n] for n in names)]
+    cpu = r.get("compare_cpu") or {}
+    frames = {n: c[n].get("frames", c["frames"]) for n in names}
+    for kind in sorted({k for v in cpu.values() for k in v["by_process"]}):
+        if all(cpu.get(n, {}).get("by_process", {}).get(kind, 0) > 0.005 for n in names):
+            rows.append({"": f"CPU ms a frame: {kind}", **{n: f"{1000 * cpu[n]['by_process'][kind] / frames[n]:.1f}" for n in names}})
+    if cpu and all(n in cpu for n in names):
+        rows.append({"": "CPU ms a frame: all", **{n: f"{1000 * cpu[n]['cpu_s'] / frames[n]:.1f}" for n in names}})
     return (_header(r) + f"Compared in turn, {c.get('key', 'crop')}: {' against '.join(names)} at {c['size']} x {c['size']}, "
             f"{c['frames']} frames each (ms a frame, median / best; show: the canvas part of composite; "
-            f"wall: each turn's frames' wall time)\n\n" + markdown_table(rows, ["", *names]))
+            f"wall: each turn's frames' wall time; the browser's CPU time per process kind where played)\n\n"
+            + markdown_table(rows, ["", *names]))
 
 
 def _markdown(r: dict) -> str:
@@ -187,7 +213,7 @@ def run_web(opts: WebOptions) -> dict:
               "flags": _flags(opts), "page": page, "machine": machine_info(), "load_before": load_before,
               "load_after": load_after, "seconds": round(seconds, 1), "marks": marks,
               "played_cpu": _cpu_between(marks, "played", "played_end"),
-              "adaptive_cpu": _cpu_between(marks, "adaptive", "adaptive_end")}
+              "adaptive_cpu": _cpu_between(marks, "adaptive", "adaptive_end"), "compare_cpu": _cpu_by_setting(marks)}
     md = _markdown(result)
     path = write_results(opts.out, "web", result, md)
     print(md)

@@ -123,7 +123,7 @@ async function compareOption(app, n, key, values, block, timed, played) {
   }
   const median = (xs) => { const v = [...xs].sort((a, b) => a - b); return v[v.length >> 1]; };
   const stat = (xs) => ({ median: median(xs), best: Math.min(...xs) });
-  const summary = (rs, ws) => ({ ...(rs.length ? Object.fromEntries([...STAGES, 'show', 'total'].map((s) => [s, stat(rs.map((r) => r[s]))])) : {}), wall: stat(ws) });
+  const summary = (rs, ws) => ({ ...(rs.length ? Object.fromEntries([...STAGES, 'show', 'total'].map((s) => [s, stat(rs.map((r) => r[s]))])) : {}), wall: stat(ws), frames: ws.length * block });
   return { size: app.size, frames: n, key, block, timed, played, ...Object.fromEntries(values.map((v) => [v, summary(runs[v], walls[v])])) };
 }
 
