@@ -1,5 +1,5 @@
 // Neural rasterization in WebGL2, as morf/raster/neural_raster.py and its shaders do it: the
-// render mesh skinned in the vertex shader (top-8 bones, the bone rows in a float texture), the
+// render mesh skinned (top-8 bones) in the vertex shader or, on software WebGL, in JavaScript, the
 // 16-channel uint8 neural texture (four RGBA8 textures, bilinear, clamped) written as 16 bytes
 // per pixel into one RGBA32UI attachment cleared to the zero point (128). Channel 0 is never 128
 // on the body (129 instead): the coverage mark the renderer graph and the tail read. Read back,
@@ -122,7 +122,7 @@ export class NeuralRaster {
 
   // skin: 'gpu' (the vertex shader skins) or 'cpu' (JavaScript skins, the shader projects).
   setSkin(skin) {
-    const gl = this.gl;
+    if (skin !== 'gpu' && skin !== 'cpu') throw new Error(`skin=${skin}: the skinning runs on the "cpu" or the "gpu"`);
     this.skin = skin;
     if (!this.pipelines[skin]) this.pipelines[skin] = this.pipeline(skin);
     Object.assign(this, this.pipelines[skin]);
