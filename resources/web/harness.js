@@ -134,7 +134,7 @@ async function bench(app, params) {
   if (compare === 'crop') return { compare: await compareCrop(app, n) };
   if (compare) {  // compare=KEY:A,B (player.setOption), block=N frames each turn, untimed=1: stages not waited for
     const [key, values] = compare.split(':');
-    if (key === 'canvas') {  // both canvases on the page, each sized to the output
+    if (key === 'canvas' || key === 'path') {  // both canvases on the page, each sized to the output
       const g = app.player.gl.canvas;
       g.width = g.height = app.size;
       if (!g.isConnected) document.querySelector('main').append(g);

@@ -71,10 +71,12 @@ export class Player {
   }
 
   // A setting the harness compares A/B (compare=KEY:A,B): skin (cpu | gpu: raster.js), overlap
-  // (on | off: play()), canvas
+  // (on | off: play()), path (gl | js: the three at once, the GL way or the software-WebGL way), canvas
   // (2d | gl: where an image made in JavaScript is shown; both canvases are then on the page).
   setOption(key, value) {
-    if (key === 'skin') this.raster.setSkin(value);
+    if (key === 'path') {  // all of them: "gl" as the page ran before (skin gpu, canvas gl, overlap off), "js" as now
+      for (const [k, gl, js] of [['skin', 'gpu', 'cpu'], ['canvas', 'gl', '2d'], ['overlap', 'off', 'on']]) this.setOption(k, value === 'gl' ? gl : js);
+    } else if (key === 'skin') this.raster.setSkin(value);
     else if (key === 'overlap') this.overlap = value === 'on';
     else if (key === 'canvas') {
       if (value === '2d' && !this.canvas2d) throw new Error('no 2D canvas on this page (?canvas=gl)');
