@@ -33,14 +33,19 @@ def test_bench_reports_window_canvas_cpu_adaptive_reason_and_flags(tail_web, tmp
 def test_bench_compares_two_settings_in_turn(tail_web, tmp_path):
     from morf.bench.web import WebOptions, run_web
 
-    r = run_web(WebOptions(str(tail_web.path), str(tmp_path / "o"), size=256, frames=2, compare="skin:cpu,gpu",
+    r = run_web(WebOptions(str(tail_web.path), str(tmp_path / "o"), size=256, frames=2, compare="path:gl,js",
                            crop="off", timeout=600))
     c = r["page"]["compare"]
-    assert c["key"] == "skin" and set(c) >= {"cpu", "gpu"}
-    for v in ("cpu", "gpu"):
+    assert c["key"] == "path" and set(c) >= {"gl", "js"} and r["page"]["messages"] == []
+    for v in ("gl", "js"):
         assert len(c[v]) and c[v]["raster"]["best"] > 0 and c[v]["wall"]["median"] > 0, c[v]
     md = (tmp_path / "o" / "web.md").read_text()
-    assert "cpu against gpu" in md and "| raster |" in md and "compare=skin:cpu,gpu" in md and "crop=off" in md
+    assert "gl against js" in md and "| raster |" in md and "compare=path:gl,js" in md and "crop=off" in md
+    # played: the wall time and the browser's CPU time per setting (the page marks each turn)
+    r = run_web(WebOptions(str(tail_web.path), str(tmp_path / "p"), size=256, frames=4, compare="skin:cpu,gpu",
+                           block=2, played=True, timeout=600))
+    assert set(r["compare_cpu"]) == {"cpu", "gpu"} and all(v["cpu_s"] > 0 for v in r["compare_cpu"].values())
+    assert "CPU ms a frame: all" in (tmp_path / "p" / "web.md").read_text()
 
 
 def test_bench_flags_reach_the_library_and_bad_ones_are_one_line(tmp_path, monkeypatch, capsys):
