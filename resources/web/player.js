@@ -70,13 +70,15 @@ export class Player {
     return this.window.choose(this.cropMargin < 0 ? null : this.bodyBox.box(this.rows, camera, skinned), this.size);
   }
 
-  // A setting the harness compares A/B (compare=KEY:A,B): skin (cpu | gpu: raster.js), overlap
+  // A setting the harness compares A/B (compare=KEY:A,B): skin (cpu | gpu: raster.js), cull (cpu |
+  // gl: raster.js), overlap
   // (on | off: play()), path (gl | js: the three at once, the GL way or the software-WebGL way), canvas
   // (2d | gl: where an image made in JavaScript is shown; both canvases are then on the page).
   setOption(key, value) {
     if (key === 'path') {  // all of them: "gl" as the page ran before (skin gpu, canvas gl, overlap off), "js" as now
       for (const [k, gl, js] of [['skin', 'gpu', 'cpu'], ['canvas', 'gl', '2d'], ['overlap', 'off', 'on']]) this.setOption(k, value === 'gl' ? gl : js);
     } else if (key === 'skin') this.raster.setSkin(value);
+    else if (key === 'cull') this.raster.cull = value === 'gl' ? 'gl' : 'cpu';
     else if (key === 'overlap') this.overlap = value === 'on';
     else if (key === 'canvas') {
       if (value === '2d' && !this.canvas2d) throw new Error('no 2D canvas on this page (?canvas=gl)');

@@ -9,7 +9,10 @@
 // skin "gpu": the vertex shader skins (the bone rows in a float texture: 104 matrices do not fit
 // WebGL's guaranteed uniform space); "cpu": the vertices come skinned from JavaScript and the
 // shader only projects them (software GL: SwiftShader's texelFetch-heavy vertex shading cost more
-// than the JavaScript loop; a uniform block instead of the texture was slower still there).
+// than the JavaScript loop; a uniform block instead of the texture was slower still there). With
+// the vertices skinned in JavaScript the faces turned away from the camera are dropped there too
+// (cull "cpu", the default; "gl": all faces drawn, GL culls): SwiftShader's cost follows the
+// triangles it is given, and the image is the same.
 function vertexShader(skin) {
   if (skin === 'cpu') {
     return `#version 300 es
@@ -145,6 +148,11 @@ export class NeuralRaster {
     attr(b.uvs, 'in_uv', 2, gl.FLOAT, 0, 0);
     if (skin === 'cpu') {
       skinned = new SkinnedVertices(arrays, this.mesh);
+      skinned.front = gl.createBuffer();  // the faces facing the camera, chosen in JavaScript each frame
+      skinned.faces = new Uint32Array(this.mesh, arrays.faces.offset, this.indexCount);
+      skinned.kept = new Uint32Array(this.indexCount);
+      gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, skinned.front);
+      gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, this.indexCount * 4, gl.STREAM_DRAW);
       skinned.buffer = gl.createBuffer();
       gl.bindBuffer(gl.ARRAY_BUFFER, skinned.buffer);
       gl.bufferData(gl.ARRAY_BUFFER, skinned.positions.byteLength, gl.STREAM_DRAW);
@@ -157,7 +165,7 @@ export class NeuralRaster {
       attr(b.bone_indices, 'in_bones0', 4, it, 8 * n, 0, true);
       attr(b.bone_indices, 'in_bones1', 4, it, 8 * n, 4 * n, true);
     }
-    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, this.faces);
+    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, skin === 'cpu' ? skinned.front : this.faces);
     gl.bindVertexArray(null);
     const u = {};
     for (const name of ['u_bones', 'u_view_proj', 'u_texture0', 'u_texture1', 'u_texture2', 'u_texture3']) {
@@ -246,7 +254,14 @@ export class NeuralRaster {
     gl.clearBufferuiv(gl.COLOR, 0, new Uint32Array([0x80808080, 0x80808080, 0x80808080, 0x80808080]));
     gl.clearBufferfv(gl.DEPTH, 0, new Float32Array([1]));
     gl.bindVertexArray(this.vao);
-    gl.drawElements(gl.TRIANGLES, this.indexCount, gl.UNSIGNED_INT, 0);
+    let count = this.indexCount;
+    if (this.skin === 'cpu') {
+      const sk = this.skinned, all = this.cull === 'gl';
+      if (!all || !sk.allSet) count = all ? sk.all(count) : sk.frontFaces(viewProj);
+      if (!all || !sk.uploaded) gl.bufferSubData(gl.ELEMENT_ARRAY_BUFFER, 0, sk.kept, 0, count);
+      sk.uploaded = all;
+    }
+    gl.drawElements(gl.TRIANGLES, count, gl.UNSIGNED_INT, 0);
     gl.bindVertexArray(null);
     gl.disable(gl.CULL_FACE);
     gl.disable(gl.DEPTH_TEST);
@@ -298,5 +313,40 @@ class SkinnedVertices {
       out[3 * v] = X; out[3 * v + 1] = Y; out[3 * v + 2] = Z;
     }
     return out;
+  }
+
+  all(n) {
+    if (!this.allSet) { this.kept.set(this.faces); this.allSet = true; }
+    return n;
+  }
+
+  // The faces not clearly facing away from the camera (viewProj: column-major 4x4), into this.kept;
+  // returns their index count. Back faces are those GL culls (frontFace CW after the projection's y
+  // flip: positive area in normalized device coordinates); one with a vertex at or behind the eye, or
+  // an area under about a pixel, is left to GL to decide.
+  frontFaces(m) {
+    const p = this.positions, n = this.n, faces = this.faces, kept = this.kept;
+    if (!this.ndc || this.ndc.length !== 3 * n) this.ndc = new Float32Array(3 * n);
+    const ndc = this.ndc;
+    this.allSet = false;
+    for (let v = 0; v < n; v++) {
+      const X = p[3 * v], Y = p[3 * v + 1], Z = p[3 * v + 2];
+      const w = m[3] * X + m[7] * Y + m[11] * Z + m[15];
+      ndc[3 * v] = (m[0] * X + m[4] * Y + m[8] * Z + m[12]) / w;
+      ndc[3 * v + 1] = (m[1] * X + m[5] * Y + m[9] * Z + m[13]) / w;
+      ndc[3 * v + 2] = w;
+    }
+    let k = 0;
+    for (let f = 0; f < faces.length; f += 3) {
+      const a = 3 * faces[f], b = 3 * faces[f + 1], c = 3 * faces[f + 2];
+      if (ndc[a + 2] > 1e-6 && ndc[b + 2] > 1e-6 && ndc[c + 2] > 1e-6) {
+        const ax = ndc[a], ay = ndc[a + 1];
+        const area = (ndc[b] - ax) * (ndc[c + 1] - ay) - (ndc[c] - ax) * (ndc[b + 1] - ay);
+        if (area > 1e-5) continue;
+      }
+      kept[k] = faces[f]; kept[k + 1] = faces[f + 1]; kept[k + 2] = faces[f + 2];
+      k += 3;
+    }
+    return k;
   }
 }
