@@ -200,26 +200,57 @@ def root_error_deg(rotvecs: np.ndarray, true_rotvecs: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
 
 
-def bone_error_deg(model, fits, gt, bones: tuple[str, ...]) -> np.ndarray:
-    """(N, len(bones)) angle between the fitted and the true world orientation of ``bones``
-    (their skinning rotations), degrees."""
+def bone_rotations(model, rotvecs, transl, shape, bones: tuple[str, ...]) -> np.ndarray:
+    """(N, len(bones), 3, 3) world orientation of ``bones`` (their skinning rotations) of poses."""
     import torch
 
     from morf.body.model import BodyPose
 
-    def world(rot, tr, shape):
-        out = []
-        with torch.no_grad():
-            for s in range(0, len(rot), 64):
-                sh = torch.as_tensor(shape if len(shape) == 1 else shape[s:s + 64], dtype=torch.float32)
-                o = model(BodyPose(torch.as_tensor(rot[s:s + 64], dtype=torch.float32),
-                                   torch.as_tensor(tr[s:s + 64], dtype=torch.float32)), sh)
-                out.append(o.bone_transforms[:, [model.bone_index(b) for b in bones], :3, :3].numpy())
-        return np.concatenate(out)
+    out = []
+    with torch.no_grad():
+        for s in range(0, len(rotvecs), 64):
+            sh = torch.as_tensor(shape if len(shape) == 1 else shape[s:s + 64], dtype=torch.float32)
+            o = model(BodyPose(torch.as_tensor(rotvecs[s:s + 64], dtype=torch.float32),
+                               torch.as_tensor(transl[s:s + 64], dtype=torch.float32)), sh)
+            out.append(o.bone_transforms[:, [model.bone_index(b) for b in bones], :3, :3].numpy())
+    return np.concatenate(out)
 
-    fit, true = world(fits.rotvecs, fits.transl, fits.shape), world(gt.rotvecs, gt.transl, gt.shape)
+
+def bone_error_deg(model, fits, gt, bones: tuple[str, ...]) -> np.ndarray:
+    """(N, len(bones)) angle between the fitted and the true world orientation of ``bones``
+    (their skinning rotations), degrees."""
+    fit = bone_rotations(model, fits.rotvecs, fits.transl, fits.shape, bones)
+    true = bone_rotations(model, gt.rotvecs, gt.transl, gt.shape, bones)
     cos = (np.einsum("nkji,nkji->nk", true, fit) - 1.0) / 2.0
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+# the true head's facing against the camera, degrees from looking straight into it
+VIEWS = {"front": (0.0, 45.0), "side": (45.0, 135.0), "back": (135.0, 180.1)}
+
+
+def head_error_parts(model, fits, gt, camera, used: np.ndarray) -> dict:
+    """Where the head's error lies, over the frames ``used`` (N,) bool: "head_error_by_view" (mean
+    degrees over the frames whose true head faces the camera within 45 degrees, sideways, or away,
+    with their counts) and "head_error_camera_deg": the mean size of the error rotation's
+    components about the camera's axes, "pitch" (the image's horizontal axis), "yaw" (its vertical
+    axis) and "roll" (the line of sight); small rotations add up by components."""
+    from morf.motion.so3 import matrix_to_rotvec
+
+    fit = bone_rotations(model, fits.rotvecs, fits.transl, fits.shape, ("head",))[:, 0].astype(np.float64)
+    true = bone_rotations(model, gt.rotvecs, gt.transl, gt.shape, ("head",))[:, 0].astype(np.float64)
+    C = np.asarray(camera.R, np.float64)
+    err = np.degrees(np.arccos(np.clip((np.einsum("nji,nji->n", true, fit) - 1.0) / 2.0, -1.0, 1.0)))
+    parts = np.degrees(matrix_to_rotvec(np.einsum("nij,nkj->nik", fit, true))) @ C.T  # camera axes
+    face = np.einsum("ij,njk,k->ni", C, true, np.array([0.0, -1.0, 0.0]))  # the body model faces -y
+    facing = np.abs(np.degrees(np.arctan2(face[:, 0], -face[:, 2])))
+    by_view = {}
+    for name, (lo, hi) in VIEWS.items():
+        sel = used & (facing >= lo) & (facing < hi)
+        by_view[name] = {"frames": int(sel.sum()), "head_error_deg": float(err[sel].mean()) if sel.any() else None}
+    return {"head_error_by_view": by_view,
+            "head_error_camera_deg": {k: float(np.abs(parts[used, i]).mean()) for i, k in
+                                      enumerate(("pitch", "yaw", "roll"))}}
 
 
 def evaluate_config(model, fits, rejected: dict[int, str], gt, gt_verts, gt_roots) -> FitQuality:
@@ -257,16 +288,19 @@ def evaluate_config(model, fits, rejected: dict[int, str], gt, gt_verts, gt_root
     )
 
 
-def head_hands_errors(model, fits, rejected: dict[int, str], gt) -> dict:
+def head_hands_errors(model, fits, rejected: dict[int, str], gt, camera=None) -> dict:
     """{"head_error_deg", "wrist_error_deg"}: mean angle between the fitted and the true world
     orientation of the head bone and of the two wrist bones over the frames kept, degrees (the
-    root's error included, as the image shows it), and "landmark_residual_px" (face, left hand,
-    right hand; medians) when the fit refined them to landmarks."""
+    root's error included, as the image shows it), "landmark_residual_px" (face, left hand,
+    right hand; medians) when the fit refined them to landmarks, and with the capture's
+    ``camera`` the head's error by view and about the camera's axes (:func:`head_error_parts`)."""
     used = np.ones(fits.num_frames, bool)
     used[list(rejected)] = False
     err = bone_error_deg(model, fits, gt, ("head", "wrist.L", "wrist.R"))[used]
     out = {"head_error_deg": float(err[:, 0].mean()), "wrist_error_deg": float(err[:, 1:].mean()),
            "landmark_residual_px": None}
+    if camera is not None:
+        out.update(head_error_parts(model, fits, gt, camera, used))
     if fits.landmark_residual_px is not None:
         out["landmark_residual_px"] = [float(v) for v in np.nanmedian(fits.landmark_residual_px[used], 0)]
     return out
@@ -303,7 +337,7 @@ def _fit_configs(model, inputs, base, keys, gt, gt_verts, gt_roots) -> tuple[dic
         row = ConfigRow(evaluate_config(model, fits, rejected, gt, gt_verts, gt_roots), inputs.num_frames / seconds,
                         seconds)
         results[key] = row
-        head_hands[key] = head_hands_errors(model, fits, rejected, gt)
+        head_hands[key] = head_hands_errors(model, fits, rejected, gt, inputs.camera)
         print("  " + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
                                for k, v in {**row.measured(), **head_hands[key]}.items()))
     base_jitter = results["baseline"].quality.jitter if "baseline" in results else None
@@ -312,16 +346,29 @@ def _fit_configs(model, inputs, base, keys, gt, gt_verts, gt_roots) -> tuple[dic
     return results, head_hands
 
 
+HEAD_COLUMNS = ["config", "head_error_deg", "front", "side", "back", "pitch", "yaw", "roll", "wrist_error_deg"]
+
+
+def _head_row(key: str, d: dict) -> dict:
+    """One row of the head table: the head's error over all kept frames, by view (front / side /
+    back, with their frame counts) and about the camera's axes, and the wrists'."""
+    row = {"config": key, "head_error_deg": d["head_error_deg"], "wrist_error_deg": d["wrist_error_deg"]}
+    for view, v in d.get("head_error_by_view", {}).items():
+        row[view] = "n/a" if v["head_error_deg"] is None else f"{v['head_error_deg']:.3g} ({v['frames']})"
+    row.update(d.get("head_error_camera_deg", {}))
+    return row
+
+
 def _markdown(summary: dict, project, results: dict[str, ConfigRow], head_hands: dict[str, dict]) -> str:
     rows = [{"config": k, **row.to_dict()} for k, row in results.items()]
     md = (f"# Mesh fitting ablation\n\nCapture: {project.num_frames} frames, "
           f"{project.image_size[0]}x{project.image_size[1]}, {summary['capture']['corrupted_frames']} corrupted; "
           f"true motion jitter {summary['capture']['true_jitter']:.2f} mm/frame^2.\n\n"
           + markdown_table(rows, COLUMNS)
-          + "\n\nHead and wrists (world orientation against the truth, degrees; "
+          + "\n\nHead and wrists (world orientation against the truth, degrees, frames kept; the head by "
+          "view, frames in brackets, and about the camera's axes; "
           + ("landmarks: " + ("yes" if summary["landmarks"] else "none in the capture")) + "):\n\n"
-          + markdown_table([{"config": k, **{c: v for c, v in d.items() if c != "landmark_residual_px"}}
-                            for k, d in head_hands.items()], ["config", "head_error_deg", "wrist_error_deg"]))
+          + markdown_table([_head_row(k, d) for k, d in head_hands.items()], HEAD_COLUMNS))
     command = summary.get("command")
     if command is not None:
         md += ("\n\n'morf fit' as a whole command (fresh process, start-up, evaluation and overlays counted): "

@@ -93,6 +93,14 @@ class FitConfig:
     keypoint_robust_sigma: float = 5.0  # Geman-McClure scale, percent of the image height
     pose_prior_weight: float = 0.02  # joint-limit prior
     pose_l2_weight: float = 0.002  # weak pull towards the rest A-pose
+    # pull of the neck's and the head's rotations towards upright on the chest (radians^2): the
+    # body keypoints hold the head by five face points, and where those are hidden the head was
+    # free to wander (docs/fitting.md "The head's orientation"): head_prior_weight where the nose
+    # and both eyes face the camera, rising to head_prior_hidden_weight where none does (a back
+    # view, the ears left). Stronger weights fit the synthetic capture's upright head better
+    # (30 everywhere: 6.6 degrees against 7.2) but take more off a real nod or tilt
+    head_prior_weight: float = 10.0
+    head_prior_hidden_weight: float = 30.0
     twist_weight: float = 100.0  # pelvis-shoulder twist beyond twist_limit_deg (twist.py)
     twist_limit_deg: float = 25.0  # twist the penalty allows for free
     shape_weight: float = 0.5  # shape regularisation towards the default phenotype
@@ -129,6 +137,12 @@ class FitConfig:
     # after the last stage, turn the head, the wrists and the fingers to the face and hand landmarks
     # where the project has them (head_hands.py; detected by ingest, or OpenPose's face and hands)
     head_hands: bool = True
+    # fit the body keypoints' ears where a pose detector marks them (near the ear canal), not on the
+    # body model's auricle (face_visibility.py; head error on the default capture, below)
+    detector_ears: bool = True
+    # weight the nose, eyes and ears by whether the fitted head turns them towards the camera: a
+    # detector's guesses at hidden face points (a face on the back of the head) tilted the head
+    face_visibility: bool = True
 
     # evaluation and outputs
     iou_resolution: int = 256  # raster size of the long image side for silhouette IoU
@@ -174,7 +188,8 @@ class FitConfig:
             raise InputError("a fit needs at least one stage")
         for stage in self.stages:
             stage.validate()
-        weights = ("keypoint_weight", "pose_prior_weight", "pose_l2_weight", "twist_weight", "shape_weight", "temporal_weight",
+        weights = ("keypoint_weight", "pose_prior_weight", "pose_l2_weight", "head_prior_weight",
+                   "head_prior_hidden_weight", "twist_weight", "shape_weight", "temporal_weight",
                    "temporal_transl_weight", "silhouette_weight", "offset_smooth_weight", "offset_l2_weight",
                    "yaw_switch_weight", "root_acceleration_weight")
         checks = [(getattr(self, w) >= 0, f"{w} must be >= 0, got {getattr(self, w)}") for w in weights]

@@ -18,6 +18,7 @@ from morf.body.rotations import axis_angle_to_matrix
 from morf.fitting import frame_spacing
 from morf.fitting.config import FitConfig
 from morf.fitting.evaluate import evaluate_fit
+from morf.fitting.face_visibility import detector_ears, detector_frames, ear_offsets_per_frame
 from morf.fitting.fit_body import FitBody
 from morf.fitting.fits_io import BodyFits
 from morf.fitting.frame_filter import filter_frames, limit_excess, pose_change_deg
@@ -96,13 +97,17 @@ def known_spacing(inputs: FitInputs, cfg: FitConfig) -> FrameSpacing | None:
 def _problem(model, inputs: FitInputs, cfg: FitConfig, device: torch.device) -> FitProblem:
     proxy = body_proxy(model, cfg.proxy_cell) if (cfg.silhouette and inputs.masks is not None) else None
     body = FitBody(model, proxy).to(device)
+    ears = ear_offsets_per_frame(inputs.keypoint_source, cfg.detector_ears)
     masks = torch.as_tensor(inputs.masks, device=device) if (proxy is not None) else None
     edges = proxy_edges(proxy.faces).to(device) if proxy is not None else None
     sil_camera = inputs.camera.scaled(inputs.mask_scale) if masks is not None else None
     return FitProblem(body=body, prior=JointLimitPrior(model).to(device), inputs=inputs,
                       keypoints=torch.as_tensor(inputs.keypoints, device=device), masks=masks,
                       sil_camera=sil_camera, shape_mean=model.default_shape().to(device), offset_edges=edges,
-                      keypoint_scale=0.01 * inputs.camera.height)
+                      keypoint_scale=0.01 * inputs.camera.height,
+                      camera_position=torch.as_tensor(inputs.camera.position, dtype=torch.float32, device=device),
+                      ear_offsets=None if ears is None else ears.to(device),
+                      guessed=detector_frames(inputs.keypoint_source, inputs.num_frames).to(device))
 
 
 def fit_sequence(model, inputs: FitInputs, cfg: FitConfig, *, control: StageControl | None = None,
@@ -141,6 +146,9 @@ def _fit_sequence(model, inputs, cfg, control, start, device, on_stage) -> FitSt
         control.report(Progress(stage="fit", message=f"fitting {first.name}, stage 1/{len(cfg.stages)}"))
         with torch.no_grad():
             rest_kp = model(model.zero_pose(1), shape0).keypoints3d[0]
+            if problem.ear_offsets is not None:  # the rigid stage fits one rest body: the frames' usual ears
+                ears = problem.ear_offsets.median(0).values
+                rest_kp = detector_ears(rest_kp[None], torch.eye(3, device=device)[None], ears)[0]
         g = fit_global(inputs.keypoints, inputs.camera, rest_kp.cpu(), hypotheses=cfg.yaw_hypotheses,
                        iterations=first.iterations, lr=first.lr, scale=0.01 * inputs.camera.height,
                        sigma=cfg.keypoint_robust_sigma, switch_weight=cfg.yaw_switch_weight,

@@ -23,10 +23,13 @@ class FitBodyOutput:
     """Fields:
         keypoints3d: (B, 23, 3) world keypoints (COCO-17 + feet).
         proxy_vertices: (P, Vp, 3) posed vertices of the silhouette proxy for the requested rows.
+        head_rotation: (B, 3, 3) the head bone's skinning rotation (what turns points fixed to the
+            head, :func:`morf.fitting.face_visibility.detector_ears`).
     """
 
     keypoints3d: torch.Tensor
     proxy_vertices: torch.Tensor
+    head_rotation: torch.Tensor
 
 
 def prune_regressor(regressor: torch.Tensor, mass: float = 0.999) -> torch.Tensor:
@@ -56,6 +59,7 @@ class FitBody(torch.nn.Module):
     def __init__(self, model, proxy: ProxyMesh | None = None, regressor_mass: float = 0.999):
         super().__init__()
         self.model = model
+        self.head = model.bone_index("head")
         reg = prune_regressor(model.keypoint_regressor, regressor_mass)
         kp_ids = torch.nonzero(reg.abs().sum(0) > 0).squeeze(1)
         self.register_buffer("kp_ids", kp_ids, persistent=False)
@@ -104,7 +108,7 @@ class FitBody(torch.nn.Module):
                 normals = vertex_normals_torch(rest_v.detach(), self.normal_faces)[:, self.proxy_ids]
                 pv = pv + proxy_offsets[None, :, None] * normals
             proxy = _skin(T34[rows], self.proxy_weights, pv if pv.shape[0] == 1 else pv[rows])
-        return FitBodyOutput(keypoints3d=kp, proxy_vertices=proxy)
+        return FitBodyOutput(keypoints3d=kp, proxy_vertices=proxy, head_rotation=T34[:, self.head, :, :3])
 
 
     def _rest(self, shape: torch.Tensor) -> dict[str, torch.Tensor]:

@@ -25,6 +25,8 @@ class FitInputs:
         unordered: the frames are views in no particular order (a photo set), not a clip.
         landmarks: (N, 49, 3) float32 face anchors, ears and both hands' 21 points (x, y pixels,
             confidence; :func:`morf.fitting.head_hands.landmark_targets`), or None without any.
+        keypoint_source: (N,) str where each frame's keypoints come from ("mediapipe", "openpose",
+            "ground_truth", "none"; detectors mark ears differently), or None when unknown.
     """
 
     keypoints: np.ndarray
@@ -37,6 +39,7 @@ class FitInputs:
     frame_times: np.ndarray | None = None
     unordered: bool = False
     landmarks: np.ndarray | None = None
+    keypoint_source: np.ndarray | None = None
 
     @property
     def num_frames(self) -> int:
@@ -86,7 +89,8 @@ def load_fit_inputs(project, camera: PinholeCamera, silhouette_resolution: int, 
             masks_eval[i] = downsample_mask(m, ew, eh) >= 0.5
     unordered = project.unordered_views
     return FitInputs(points, kp.detected.astype(bool), camera, masks, sh / H, masks_eval, eh / H,
-                     None if unordered else project.frame_times(), unordered, project_landmarks(project, points))
+                     None if unordered else project.frame_times(), unordered, project_landmarks(project, points),
+                     np.asarray(kp.source).astype(str))
 
 
 def project_landmarks(project, points: np.ndarray) -> np.ndarray | None:

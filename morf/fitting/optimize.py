@@ -16,17 +16,21 @@ from morf.camera import PinholeCamera, project_points
 from morf.fitting.adam import Adam
 from morf.fitting.config import FitConfig, StageConfig
 from morf.fitting.evaluate import silhouettes
+from morf.fitting.face_visibility import detector_ears, face_point_visibility, weight_face_points
 from morf.fitting.fit_body import FitBody
 from morf.fitting.inputs import FitInputs
 from morf.fitting.losses import (dice_loss_per_frame, keypoint_loss, rotation_acceleration_loss, rotation_temporal_loss,
                                  shape_loss, temporal_loss)
 from morf.fitting.offsets import smoothness_loss
-from morf.fitting.params import FitParameters
+from morf.fitting.params import FIT_BONES, FitParameters
 from morf.fitting.pose_prior import JointLimitPrior
 from morf.fitting.twist import twist_penalty
 from morf.pipeline.control import Progress, StageControl
 from morf.progress import progress
 from morf.raster.soft_silhouette import front_facing, soft_silhouette
+
+
+HEAD_CHAIN = tuple(FIT_BONES.index(b) for b in ("neck01", "head"))  # rows of FitParameters.body
 
 
 @dataclass
@@ -43,6 +47,10 @@ class FitProblem:
     offset_edges: torch.Tensor | None  # (E, 2) edges of the proxy mesh (offset smoothness), or None
     keypoint_scale: float  # pixels per keypoint residual unit (1% of the image height)
     pair_weights: torch.Tensor | None = None  # (N-1,) temporal weight factor per neighbour pair (frame_spacing.py)
+    camera_position: torch.Tensor | None = None  # (3,) the camera centre, world (which face points it sees)
+    face_weights: torch.Tensor | None = None  # (N, 5) the stage's weights of the face points (face_visibility.py)
+    ear_offsets: torch.Tensor | None = None  # (N, 2, 3) where each frame's detector marks the ears (face_visibility.py)
+    guessed: torch.Tensor | None = None  # (N,) bool frames whose keypoints a detector guessed (None: all)
 
 
 def _data_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, idx: torch.Tensor,
@@ -54,12 +62,16 @@ def _data_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, idx:
     out = problem.body(params.pose_matrices(idx), params.shape(idx), proxy_rows=local,
                        proxy_offsets=params.offsets if (offsets and use_sil) else None)
     cam = problem.inputs.camera
-    proj = cam.project(out.keypoints3d)
-    kp = keypoint_loss(proj, problem.keypoints[idx], problem.keypoint_scale, cfg.keypoint_robust_sigma).sum()
+    kp3d = _detector_keypoints(problem, out, idx)
+    proj = cam.project(kp3d)
+    detected = problem.keypoints[idx]
+    if problem.face_weights is not None:  # a detector's guesses at the face points the head turns away
+        detected = weight_face_points(detected, problem.face_weights[idx])
+    kp = keypoint_loss(proj, detected, problem.keypoint_scale, cfg.keypoint_robust_sigma).sum()
     total = cfg.keypoint_weight * kp
     logs = {"keypoints": float(kp.detach())}
     if cfg.twist_weight > 0:  # an anatomically possible body: the pelvis turns with the shoulders
-        twist = twist_penalty(out.keypoints3d, cfg.twist_limit_deg).sum()
+        twist = twist_penalty(kp3d, cfg.twist_limit_deg).sum()
         total = total + cfg.twist_weight * twist
         logs["twist"] = float(twist.detach())
     if use_sil:
@@ -91,6 +103,8 @@ def _sequence_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, 
         prior = problem.prior(params.body).sum()
         l2 = params.body.pow(2).sum()
         total = total + cfg.pose_prior_weight * prior + cfg.pose_l2_weight * l2
+        head = head_prior_weights(problem.face_weights, cfg, params.num_frames).to(params.body)
+        total = total + (head[:, None, None] * params.body[:, list(HEAD_CHAIN)].pow(2)).sum()
         logs["prior"] = float(prior.detach())
     if stage.shape:
         sh = shape_loss(params.shape(), problem.shape_mean).sum()
@@ -110,6 +124,36 @@ def _sequence_terms(problem: FitProblem, params: FitParameters, cfg: FitConfig, 
         total = total + cfg.temporal_weight * rot + root + cfg.temporal_transl_weight * tr
         logs["temporal"] = float(rot.detach())
     return total, logs
+
+
+def head_prior_weights(face_weights: torch.Tensor | None, cfg: FitConfig, num_frames: int) -> torch.Tensor:
+    """(N,) weight of the neck and head prior per frame: ``cfg.head_prior_weight`` where the nose
+    and both eyes face the camera, rising to ``cfg.head_prior_hidden_weight`` with the share of
+    them hidden (``face_weights`` (N, 5) of :func:`_face_weights`; None: all seen)."""
+    if face_weights is None:
+        return torch.full((num_frames,), cfg.head_prior_weight)
+    hidden = 1.0 - face_weights[:, :3].mean(1)
+    return cfg.head_prior_weight + (cfg.head_prior_hidden_weight - cfg.head_prior_weight) * hidden
+
+
+def _detector_keypoints(problem: FitProblem, out, idx: torch.Tensor) -> torch.Tensor:
+    """(B, 23, 3) the posed body's keypoints as the frames ``idx``' detector marks them (the ears)."""
+    if problem.ear_offsets is None:
+        return out.keypoints3d
+    return detector_ears(out.keypoints3d, out.head_rotation, problem.ear_offsets[idx])
+
+
+def _face_weights(problem: FitProblem, params: FitParameters, chunks) -> torch.Tensor:
+    """(N, 5) which face points the pose the stage starts from turns towards the camera, held for
+    the stage (:mod:`morf.fitting.face_visibility` says why not step by step)."""
+    with torch.no_grad():
+        out = [face_point_visibility(_detector_keypoints(problem, problem.body(
+            params.pose_matrices(idx), params.shape(idx), proxy_rows=idx.new_zeros(0)), idx), problem.camera_position)
+               for idx in chunks]
+    weights = torch.cat(out)
+    if problem.guessed is not None:  # the truth's own keypoints are where the hidden points are
+        weights = torch.where(problem.guessed[:, None], weights, torch.ones_like(weights))
+    return weights
 
 
 def run_stage(problem: FitProblem, params: FitParameters, cfg: FitConfig, stage: StageConfig, *,
@@ -138,6 +182,7 @@ def run_stage(problem: FitProblem, params: FitParameters, cfg: FitConfig, stage:
     # at least 8 frames per step: on short sequences a rotating eighth is one noisy frame a step
     groups = min(groups, max(1, int(sil_frames.numel()) // 8))
     chunks = torch.arange(N, device=device).split(max(1, cfg.chunk_frames))
+    problem.face_weights = _face_weights(problem, params, chunks) if cfg.face_visibility else None
     logs: dict[str, float] = {}
     bar = progress(total=stage.iterations, desc=f"fit {stage_number}/{len(cfg.stages)} {stage.name}", unit="step")
     for it in range(stage.iterations):

@@ -34,7 +34,8 @@ def turning_poses(model, n: int, seed: int = 0, turn: float = 2 * math.pi, cycle
 
 def make_inputs(model, pose: BodyPose, shape: torch.Tensor, size: int = 256, noise_px: float = 1.0,
                 sil_res: int = 96, eval_res: int = 128, seed: int = 0):
-    """FitInputs with projected keypoints (+ noise) and masks rendered from the ground truth."""
+    """FitInputs with projected keypoints (+ noise) and masks rendered from the ground truth (the
+    keypoints' source is "ground_truth": no detector's guesses among them)."""
     cam = PinholeCamera.look_at(size, size, 40.0, eye=(0.0, -3.4, 0.0), target=(0.0, 0.0, -0.05))
     with torch.no_grad():
         out = model(pose, shape)
@@ -47,7 +48,8 @@ def make_inputs(model, pose: BodyPose, shape: torch.Tensor, size: int = 256, noi
     masks = np.stack([downsample_mask(m, sw, sh) for m in full])
     masks_eval = np.stack([downsample_mask(m, ew, eh) >= 0.5 for m in full])
     n = pose.batch_size
-    return FitInputs(pts, np.ones(n, bool), cam, masks, sh / size, masks_eval, eh / size), out
+    return FitInputs(pts, np.ones(n, bool), cam, masks, sh / size, masks_eval, eh / size,
+                     keypoint_source=np.full(n, "ground_truth")), out
 
 
 def write_project(root, model, n=8, bad=4):
