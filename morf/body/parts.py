@@ -112,8 +112,12 @@ def face_anchor_vertices(model) -> tuple[tuple[int, ...], ...]:
     * nose tip: the front-most head vertex on the midline;
     * chin: the lowest midline head vertex within 3 cm of the nose tip's depth (the menton, not
       the jaw's underside);
-    * mouth: the front-most midline vertex of the upper lip band and of the lower lip band
-      (between the nose tip and the chin), averaged: the lips' meeting line.
+    * mouth: the front-most midline vertex of the upper lip band and of the lower lip band,
+      averaged: the lips' meeting line, where MediaPipe's inner-lip points 13 and 14 and the
+      iBUG inner-lip points 62 and 66 sit. The bands are fractions of the nose-to-chin height: on
+      Anny's rest face the nose's underside reaches 10 %, the philtrum dips at 15-25 %, the
+      upper lip bulges at 30-35 % and the lower lip at 50-57 %; bands of 5-25 % and 25-50 %
+      took the nose's underside and the upper lip, 1.3 cm above the meeting line.
     """
     v, _, dominant = _rest(model)
     labels = vertex_parts(model)
@@ -128,8 +132,8 @@ def face_anchor_vertices(model) -> tuple[tuple[int, ...], ...]:
     ids = np.nonzero(mid & (v[:, 1] < v[nose, 1] + 0.03))[0]
     chin = int(ids[np.argmin(v[ids, 2])])
     zn, span = v[nose, 2], v[nose, 2] - v[chin, 2]
-    upper = front_most(mid & (v[:, 2] < zn - 0.05 * span) & (v[:, 2] >= zn - 0.25 * span))
-    lower = front_most(mid & (v[:, 2] < zn - 0.25 * span) & (v[:, 2] >= zn - 0.5 * span))
+    upper = front_most(mid & (v[:, 2] < zn - 0.2 * span) & (v[:, 2] >= zn - 0.4 * span))
+    lower = front_most(mid & (v[:, 2] < zn - 0.45 * span) & (v[:, 2] >= zn - 0.6 * span))
     return (eyes[0],), (eyes[1],), (nose,), (upper, lower), (chin,)
 
 

@@ -42,3 +42,20 @@ def test_atlas_gives_each_vertex_its_part(body_model):
     assert (got[want == 0] == 0).mean() > 0.98
     off = pixel_parts(centre[None], np.zeros((1, len(centre)), bool), atlas)
     assert not off.any()  # no mesh, no part
+
+
+def test_the_mouth_anchor_is_the_lips_meeting_line(body_model):
+    # MediaPipe's mouth (inner-lip points 13 and 14) and iBUG's (62, 66) mark where the lips meet:
+    # the model's mouth must sit there, between the upper and the lower lip's bulges, not on the
+    # nose's underside (which a band starting just below the nose tip picks)
+    import numpy as np
+
+    from morf.body.parts import _rest, face_anchor_vertices
+
+    v, _, _ = _rest(body_model)
+    _, _, (nose,), (upper, lower), (chin,) = face_anchor_vertices(body_model)
+    zn, span = v[nose, 2], v[nose, 2] - v[chin, 2]
+    depth = [(zn - v[i, 2]) / span for i in (upper, lower)]
+    assert 0.25 < depth[0] < 0.4 and 0.45 < depth[1] < 0.6, depth  # upper lip, lower lip
+    assert 0.38 < np.mean(depth) < 0.5  # the meeting line: 2.9 cm below the nose tip on Anny's rest face
+    assert v[upper, 1] < v[nose, 1] + 0.02 and v[lower, 1] < v[nose, 1] + 0.02  # on the face's front
