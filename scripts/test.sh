@@ -19,8 +19,11 @@ fi
 .venv/bin/python tools/gltf-check/fetch_three.py || echo "[test] no three.js: the glTF browser check is skipped"
 .venv/bin/python tools/web-player/fetch_ort.py || echo "[test] no onnxruntime-web: the web player tests are skipped"
 . .venv/bin/activate
-# Two pytest-xdist workers (MORF_TEST_WORKERS to change), each taking whole test files so that a
-# module's fixtures are built once; on 2 cores this took the motion, io, raster and body tests from
-# 229 s to 131 s (shared machine, load 5-6). Torch threads are split between the workers
-# (tests/conftest.py). MORF_TEST_WORKERS=0 runs everything in this process.
-python -m pytest -q -p no:cacheprovider -n "${MORF_TEST_WORKERS:-2}" --dist loadfile tests "$@"
+# Three pytest-xdist workers on two cores (MORF_TEST_WORKERS to change), each taking whole test
+# files so that a module's fixtures are built once; many tests wait on child processes, the
+# browser or the X server, so a third worker fills those waits (quiet 2-core Xeon: the suite in
+# 6 min 13 s with three workers against 6 min 41 s with two). Torch threads are split between the
+# workers (tests/conftest.py). MORF_TEST_WORKERS=0 runs everything in this process.
+# The slowest files start first (tests/conftest.py SLOWEST_FILES; --no-loadscope-reorder keeps that
+# order instead of xdist's most-tests-first).
+python -m pytest -q -p no:cacheprovider -n "${MORF_TEST_WORKERS:-3}" --dist loadfile --no-loadscope-reorder tests "$@"

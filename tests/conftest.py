@@ -28,6 +28,28 @@ def pytest_configure(config):
         torch.set_num_threads(max(1, (os.cpu_count() or 1) // workers))
 
 
+# The files that take longest on two cores (``--durations=0`` summed per file, slowest first). The
+# suite hands whole files to its workers (``--dist loadfile``) in collection order
+# (``--no-loadscope-reorder``: xdist would otherwise start the files with the most tests first),
+# so these start first and the short files fill in around them: the workers end together instead
+# of one of them starting the sweep's trainings when the other is nearly done.
+SLOWEST_FILES = (
+    "tests/bench/test_pareto.py", "tests/cli/test_hostile_inputs.py", "tests/test_scale_batch.py",
+    "tests/web/test_web_page.py", "tests/bench/test_quality.py", "tests/test_scale_retry.py",
+    "tests/bench/test_stability.py", "tests/train/test_training.py", "tests/motion/test_motion_checks_cli.py",
+    "tests/export/test_project_export.py", "tests/cli/test_demo.py", "tests/export/test_onnx_renderer.py",
+    "tests/studio/test_pipeline_ui.py", "tests/test_dependencies.py", "tests/evaluate/test_eval_cli.py",
+)
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """:data:`SLOWEST_FILES` first, in that order; every other file after them as collected (the
+    tests of one file keep their order)."""
+    rank = {path: i for i, path in enumerate(SLOWEST_FILES)}
+    place = lambda item: rank.get(item.nodeid.split("::", 1)[0], len(rank))  # noqa: E731
+    items[:] = sorted(items, key=place)  # sorted() is stable
+
+
 def strict_install() -> bool:
     """Whether this run has every declared dependency installed, so that a missing one is a broken
     install that fails its tests instead of skipping them: ``MORF_REQUIRE_DEPS=1``, or

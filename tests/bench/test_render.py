@@ -28,10 +28,13 @@ def test_cpu_report_names_the_features_that_matter_for_int8():
 
 @pytest.fixture(scope="module")
 def tiny_player(tiny_avatar, gl):
-    """The session's tiny exported avatar, played: any int8 avatar serves the profile's checks."""
+    """The session's tiny exported avatar, played: any int8 avatar serves the profile's checks. The
+    session's context is made current for the module: a test run before it on this worker may have
+    left another context current (a studio window's), where the player's buffers cannot be made."""
     from morf.playback.player import Player
+    from morf.raster.gl_context import current
 
-    with Player(tiny_avatar, size=64, ctx=gl.ctx) as p:
+    with current(gl), Player(tiny_avatar, size=64, ctx=gl.ctx) as p:
         yield p
 
 
