@@ -4,6 +4,8 @@
 // frame: on this avatar at 640 x 640 the body covers about a tenth of the image, and off the body
 // the renderer's mask is 0 (the background shows) beyond a few pixels (docs/web.md, "The person's window").
 
+import { skinVertex } from './skinning.js';
+
 const STRIDE = 3;  // every third render vertex: gaps of a few millimetres, far under the margin
 
 export class BodyBox {
@@ -18,6 +20,7 @@ export class BodyBox {
     this.rest = new Float32Array(3 * k);
     this.weights = new Float32Array(8 * k);
     this.bones = new Uint16Array(8 * k);
+    this.point = new Float64Array(3);  // one skinned vertex at a time
     for (let i = 0, v = 0; v < n; i++, v += STRIDE) {
       this.rest.set(rest.subarray(3 * v, 3 * v + 3), 3 * i);
       this.weights.set(weights.subarray(8 * v, 8 * v + 8), 8 * i);
@@ -30,24 +33,16 @@ export class BodyBox {
   // null when a vertex is at or behind the camera (the whole frame is then used). skinned: the
   // whole render mesh already skinned (Float32Array, 3 per vertex), whose subset is then only projected.
   box(rows, cam, skinned = null) {
-    const { rest, weights, bones, count } = this, R = cam.R, t = cam.t;
+    const { rest, weights, bones, count } = this, R = cam.R, t = cam.t, p = this.point;
     let x0 = Infinity, y0 = Infinity, x1 = -Infinity, y1 = -Infinity;
     for (let i = 0; i < count; i++) {
-      let X = 0, Y = 0, Z = 0;
       if (skinned) {
         const v = 3 * STRIDE * i;
-        X = skinned[v]; Y = skinned[v + 1]; Z = skinned[v + 2];
+        p[0] = skinned[v]; p[1] = skinned[v + 1]; p[2] = skinned[v + 2];
       } else {
-        const px = rest[3 * i], py = rest[3 * i + 1], pz = rest[3 * i + 2];
-        for (let k = 8 * i; k < 8 * i + 8; k++) {
-          const w = weights[k];
-          if (w === 0) continue;
-          const r = 12 * bones[k];
-          X += w * (rows[r] * px + rows[r + 1] * py + rows[r + 2] * pz + rows[r + 3]);
-          Y += w * (rows[r + 4] * px + rows[r + 5] * py + rows[r + 6] * pz + rows[r + 7]);
-          Z += w * (rows[r + 8] * px + rows[r + 9] * py + rows[r + 10] * pz + rows[r + 11]);
-        }
+        skinVertex(p, 0, rows, rest, weights, bones, i);
       }
+      const X = p[0], Y = p[1], Z = p[2];
       const zc = R[6] * X + R[7] * Y + R[8] * Z + t[2];
       if (!(zc > 1e-3)) return null;
       const u = (cam.fx * (R[0] * X + R[1] * Y + R[2] * Z + t[0])) / zc + cam.cx;

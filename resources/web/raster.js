@@ -13,6 +13,8 @@
 // the vertices skinned in JavaScript the faces turned away from the camera are dropped there too
 // (cull "cpu", the default; "gl": all faces drawn, GL culls): SwiftShader's cost follows the
 // triangles it is given, and the image is the same.
+import { skinVertex } from './skinning.js';
+
 function vertexShader(skin) {
   if (skin === 'cpu') {
     return `#version 300 es
@@ -299,19 +301,7 @@ class SkinnedVertices {
 
   skin(rows) {
     const { rest, weights, bones, positions: out, n } = this;
-    for (let v = 0; v < n; v++) {
-      const px = rest[3 * v], py = rest[3 * v + 1], pz = rest[3 * v + 2];
-      let X = 0, Y = 0, Z = 0;
-      for (let k = 8 * v, e = k + 8; k < e; k++) {
-        const w = weights[k];
-        if (w === 0) continue;
-        const r = 12 * bones[k];
-        X += w * (rows[r] * px + rows[r + 1] * py + rows[r + 2] * pz + rows[r + 3]);
-        Y += w * (rows[r + 4] * px + rows[r + 5] * py + rows[r + 6] * pz + rows[r + 7]);
-        Z += w * (rows[r + 8] * px + rows[r + 9] * py + rows[r + 10] * pz + rows[r + 11]);
-      }
-      out[3 * v] = X; out[3 * v + 1] = Y; out[3 * v + 2] = Z;
-    }
+    for (let v = 0; v < n; v++) skinVertex(out, 3 * v, rows, rest, weights, bones, v);
     return out;
   }
 
