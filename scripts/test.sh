@@ -26,4 +26,8 @@ fi
 # workers (tests/conftest.py). MORF_TEST_WORKERS=0 runs everything in this process.
 # The slowest files start first (tests/conftest.py SLOWEST_FILES; --no-loadscope-reorder keeps that
 # order instead of xdist's most-tests-first).
+# Bytecode is cached even where the environment turns it off (PYTHONDONTWRITEBYTECODE): the suite
+# starts over a hundred Python processes that import morf, and each pytest worker would rewrite
+# every test module's asserts again.
+unset PYTHONDONTWRITEBYTECODE
 python -m pytest -q -p no:cacheprovider -n "${MORF_TEST_WORKERS:-3}" --dist loadfile --no-loadscope-reorder tests "$@"

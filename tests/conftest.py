@@ -34,11 +34,12 @@ def pytest_configure(config):
 # so these start first and the short files fill in around them: the workers end together instead
 # of one of them starting the sweep's trainings when the other is nearly done.
 SLOWEST_FILES = (
-    "tests/bench/test_pareto.py", "tests/cli/test_hostile_inputs.py", "tests/test_scale_batch.py",
-    "tests/web/test_web_page.py", "tests/bench/test_quality.py", "tests/test_scale_retry.py",
-    "tests/bench/test_stability.py", "tests/train/test_training.py", "tests/motion/test_motion_checks_cli.py",
-    "tests/export/test_project_export.py", "tests/cli/test_demo.py", "tests/export/test_onnx_renderer.py",
-    "tests/studio/test_pipeline_ui.py", "tests/test_dependencies.py", "tests/evaluate/test_eval_cli.py",
+    "tests/web/test_web_page.py", "tests/test_scale_ray.py", "tests/bench/test_pareto.py",
+    "tests/cli/test_hostile_inputs.py", "tests/bench/test_quality.py", "tests/export/test_onnx_renderer.py",
+    "tests/motion/test_motion_checks_cli.py", "tests/fitting/test_fit_resume.py", "tests/export/test_gltf_browser.py",
+    "tests/studio/test_bench.py", "tests/train/test_training.py",
+    "tests/evaluate/test_eval_cli.py", "tests/studio/test_pipeline_ui.py", "tests/export/test_project_export.py",
+    "tests/cli/test_demo.py", "tests/test_dependencies.py", "tests/bench/test_stability.py",
 )
 
 

@@ -91,7 +91,7 @@ def _runs_text(vals: list) -> str:
 
 
 def _check_scene(out: Path, preset: str, sweep, scene: str, project_path: str | None, model, rule,
-                 points: list[str] | None, seeds: int) -> tuple[SceneVerdict, dict]:
+                 points: list[str] | None, seeds: int, ray=None) -> tuple[SceneVerdict, dict]:
     """One scene: the automatic choice made from its capture, measured beside the sizing points
     (:func:`morf.bench.pareto.run_sweep` in ``OUT/<scene>``), and judged; (its row, its details)."""
     from morf.bench.front import near_front, quality_gap
@@ -105,7 +105,7 @@ def _check_scene(out: Path, preset: str, sweep, scene: str, project_path: str | 
     # Same training as an identical sweep point (the preset name is only a label).
     cfg = cfg.replace(preset=sweep.train[0])
     res = run_sweep(out / scene, preset, scene, axes=SIZING_AXES, model=model, extra=[(SweepPoint("auto", "auto"), cfg)],
-                    points=points, project=project, seeds=seeds)
+                    points=points, project=project, seeds=seeds, ray=ray)
     rows_by_name = {r.name: r for r in res.points}
     means = {n: [r.mean(QUALITY), r.mean("fps")] for n, r in rows_by_name.items()}
     q_auto, fps_auto = means["auto"]
@@ -148,12 +148,14 @@ def _markdown(rule, seeds: int, table: list[dict], details: dict) -> str:
 
 
 def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
-               project_path: str | dict | None = None, points: list[str] | None = None, seeds: int = 1) -> dict:
+               project_path: str | dict | None = None, points: list[str] | None = None, seeds: int = 1,
+               ray=None) -> dict:
     """Run the check on ``scenes``; returns the summary written to ``OUT/auto_check.json``.
 
     ``project_path``: existing synthetic captures to use instead of making them
     (see :func:`scene_projects`); ``points``: only these sweep points beside the automatic choice
-    (names as in ``--points``); ``seeds``: trainings per point, the verdict on their means.
+    (names as in ``--points``); ``seeds``: trainings per point, the verdict on their means;
+    ``ray`` (RayOptions): where the scenes' sweeps train (:func:`morf.bench.pareto.run_sweep`).
     """
     from morf.bench.common import machine_info, write_results
     from morf.errors import InputError
@@ -175,7 +177,8 @@ def auto_check(out: Path, preset: str = "quick", model=None, scenes=SCENE_ORDER,
         model = load_body_model("anny")
     rows, details = [], {}
     for scene in scenes:
-        row, details[scene] = _check_scene(out, preset, sweep, scene, projects[scene], model, rule, points, seeds)
+        row, details[scene] = _check_scene(out, preset, sweep, scene, projects[scene], model, rule, points, seeds,
+                                              ray)
         rows.append(row)
     distinct = len({(r.texture_size, r.texture_channels, r.renderer_width) for r in rows})
     table = [r.to_dict() for r in rows]

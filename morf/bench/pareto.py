@@ -103,7 +103,8 @@ def train_point_task(root: str, cfg, run: str, fits_source: str, eval_resolution
 
 def train_all(trainings, ray=None, workers: int | None = None, cpus_per_task: int | None = None) -> dict:
     """Every distinct training of ``trainings`` (one per project and run name) as a Ray task
-    (:func:`train_point_task`), ``cpus_per_task`` cores each (None: all of this machine's);
+    (:func:`train_point_task`; in this process with ``RayOptions(in_process=True)``),
+    ``cpus_per_task`` cores each (None: all of this machine's);
     {(root, run): Outcome}. A training that raised is an outcome with an error; the others go on."""
     from morf.scale.ray_runtime import resources_for
     from morf.scale.tasks import Task, run_tasks
@@ -125,7 +126,8 @@ def train_all(trainings, ray=None, workers: int | None = None, cpus_per_task: in
 
     if tasks:
         plural = lambda n, word: f"{n} {word}{'s' if n > 1 else ''}"  # noqa: E731
-        print(f"training {plural(len(tasks), 'run')} on Ray, {plural(cpus, 'core')} each")
+        where = "in this process" if ray is not None and ray.in_process else "on Ray"
+        print(f"training {plural(len(tasks), 'run')} {where}, {plural(cpus, 'core')} each")
     return dict(zip(unique, run_tasks(tasks, ray, workers, report)))
 
 
@@ -399,7 +401,7 @@ def run_sweep(out, preset: str = "default", scene: str = "print", project_path: 
     over = f", means over {seeds} seeds" if seeds > 1 else ""
     drawn = charts(view, front, out, sweep.fps_size, f"{preset} sweep, {scene} scene{over}", noise, floor)
     result = SweepResult(preset, scene, str(project.root), sweep.fps_size, tuple(rows), noise, tuple(reused), seeds,
-                         floor, {"address": (ray or RayOptions()).cluster_address or "local",
+                         floor, {"address": (ray or RayOptions()).where,
                                  "cpus_per_task": cpus_per_task or os.cpu_count()}, machine_info(), tuple(drawn))
     shown = view + [r.to_dict() for r in rows if r.axis in NOISE_AXES]
     path = write_results(out, "pareto", result.to_dict(), _markdown(result, shown, sweep.fps_size))

@@ -389,7 +389,7 @@ def run_stability(out, preset: str = "default", series: list[str] | None = None,
     result = {"benchmark": "stability", "preset": preset, "methods": methods, "repeats": repeats,
               "series": result_series, "breakdown_rule": _breakdown_rule(repeats),
               "train": {"preset": sp.train[0], **sp.train[1]}, "machine": machine_info(),
-              "ray": {"address": (ray or RayOptions()).cluster_address or "local", "cpus_per_task": cpus_per_task or 1}}
+              "ray": {"address": (ray or RayOptions()).where, "cpus_per_task": cpus_per_task or 1}}
     result["charts"] = _charts(result_series, out, preset)
     if views is not None:
         result["fit_series"] = {"views": views}

@@ -154,9 +154,11 @@ def run(args) -> int:
             "started": time.strftime("%Y-%m-%d %H:%M:%S")}
     _write(out, head, rows)
     head["ray"] = describe(options)
-    print(f"morf batch: {len(captures)} capture{'s' if len(captures) > 1 else ''} until {args.until} on Ray "
-          f"({head['ray']['address']}: {head['ray']['nodes']} node(s), {head['ray']['cpus']:g} CPUs, "
-          f"{head['ray']['gpus']:g} GPUs); {args.cpus_per_task} core(s) each")
+    ray = head["ray"]
+    where = "in this process, one after another" if options.in_process else (
+        f"on Ray ({ray['address']}: {ray['nodes']} node(s), {ray['cpus']:g} CPUs, {ray['gpus']:g} GPUs)")
+    print(f"morf batch: {len(captures)} capture{'s' if len(captures) > 1 else ''} until {args.until} {where}; "
+          f"{args.cpus_per_task} core(s) each")
 
     def done(o):
         row = rows[o.name.removeprefix("batch:")]

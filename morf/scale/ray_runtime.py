@@ -18,6 +18,7 @@ from morf.errors import InputError
 
 EXTRA = "morf-studio[ray]"  # the optional extra in pyproject.toml
 INSTALL_HINT = f"pip install '{EXTRA}' (bash scripts/install.sh installs it)"
+HERE = "here"  # --address here: the tasks in this process, without Ray
 LOCAL_OBJECT_STORE = 100 * 1024**2  # bytes; the tasks send paths and configs and get small dicts back
 
 
@@ -31,17 +32,28 @@ class RayOptions:
         num_cpus: CPUs a local Ray offers (None: all of this machine's); not used with a cluster.
         object_store_memory: bytes of a local Ray's object store (None: :data:`LOCAL_OBJECT_STORE`).
         log_to_driver: print the workers' output here (off: it stays in Ray's session logs).
+        in_process: no Ray at all: the tasks run one after another in this process, each on its
+            CPUs' worth of torch threads (``--address here``; works without the ``ray`` extra, but
+            a task that crashes the process is not started again).
     """
 
     address: str | None = None
     num_cpus: int | None = None
     object_store_memory: int | None = None
     log_to_driver: bool = False
+    in_process: bool = False
 
     @property
     def cluster_address(self) -> str | None:
-        """The cluster to connect to, or None for a local Ray."""
+        """The cluster to connect to, or None for a local Ray (or none, in process)."""
+        if self.in_process:
+            return None
         return self.address or os.environ.get("RAY_ADDRESS") or None
+
+    @property
+    def where(self) -> str:
+        """For results files: the cluster's address, "local" (a local Ray) or "here" (in process)."""
+        return "here" if self.in_process else self.cluster_address or "local"
 
 
 @dataclass(frozen=True)
@@ -80,10 +92,12 @@ def require_ray():
 def connect(options: RayOptions | None = None):
     """Connect to Ray as ``options`` say (see :class:`RayOptions`) unless this process already is;
     returns the ``ray`` module. A cluster that cannot be reached is an :class:`InputError`."""
+    options = options or RayOptions()
+    if options.in_process:
+        raise ValueError("in-process options have no Ray to connect to")
     ray = require_ray()
     if ray.is_initialized():
         return ray
-    options = options or RayOptions()
     address = options.cluster_address
     if address:
         try:
@@ -101,12 +115,18 @@ def connect(options: RayOptions | None = None):
 
 
 def describe(options: RayOptions | None = None) -> dict:
-    """What the connected Ray is, for results files: address (or "local"), nodes, CPUs, GPUs."""
+    """What the connected Ray is, for results files: address ("local", or "here" in process), nodes,
+    CPUs, GPUs."""
+    options = options or RayOptions()
+    if options.in_process:
+        import torch
+
+        return {"address": options.where, "nodes": 1, "cpus": float(os.cpu_count() or 1),
+                "gpus": float(torch.cuda.device_count())}
     ray = connect(options)
     alive = [n for n in ray.nodes() if n.get("Alive")]
     total = ray.cluster_resources()
-    return {"address": (options or RayOptions()).cluster_address or "local", "nodes": len(alive),
-            "cpus": total.get("CPU", 0.0), "gpus": total.get("GPU", 0.0)}
+    return {"address": options.where, "nodes": len(alive), "cpus": total.get("CPU", 0.0), "gpus": total.get("GPU", 0.0)}
 
 
 def check_fits(resources: Resources, options: RayOptions | None = None) -> None:
@@ -127,7 +147,8 @@ def add_arguments(p, cpus_help: str, default_cpus: int | None = 1) -> None:
     """The options every command that runs on Ray takes: --address, --workers, --cpus-per-task."""
     p.add_argument("--address", default=None, metavar="ADDR",
                    help="Ray cluster to run on (HOST:PORT, ray://HOST:10001, or 'auto' for the one 'ray start' "
-                        "began here; default: $RAY_ADDRESS, else a local Ray on this machine's CPUs)")
+                        "began here; default: $RAY_ADDRESS, else a local Ray on this machine's CPUs); 'here': no "
+                        "Ray, one task after another in this process")
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="run at most N tasks at once (default: as many as the CPUs and GPUs allow)")
     p.add_argument("--cpus-per-task", type=int, default=default_cpus, metavar="C", help=cpus_help)
@@ -138,4 +159,6 @@ def options_from_args(args) -> RayOptions:
     for flag, value in (("--workers", args.workers), ("--cpus-per-task", args.cpus_per_task)):
         if value is not None and value < 1:
             raise InputError(f"{flag} must be at least 1, got {value}")
+    if args.address == HERE:
+        return RayOptions(in_process=True)
     return RayOptions(address=args.address)

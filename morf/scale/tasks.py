@@ -1,4 +1,5 @@
-"""A list of calls run as Ray tasks, each on the resources it declares, with one outcome per call.
+"""A list of calls run as Ray tasks, each on the resources it declares, with one outcome per call
+(or, with ``RayOptions(in_process=True)``, one after another in this process, without Ray).
 
 A :class:`Task` names a module-level function and its arguments; workers import the function by
 its module and name (so it must be importable there: ``morf`` installed on every node), and the
@@ -81,6 +82,8 @@ def run_tasks(tasks: Sequence[Task], options: RayOptions | None = None, workers:
         raise ValueError(f"workers must be at least 1, got {workers}")
     if not tasks:
         return []
+    if options is not None and options.in_process:
+        return _run_here(tasks, on_done)
     ray = connect(options)
     for res in {t.resources for t in tasks}:
         check_fits(res, options)
@@ -116,6 +119,33 @@ def run_tasks(tasks: Sequence[Task], options: RayOptions | None = None, workers:
                 pass
         raise
     return outcomes  # type: ignore[return-value]
+
+
+def _run_here(tasks: Sequence[Task], on_done: Callable[[Outcome], None] | None) -> list[Outcome]:
+    """The tasks one after another in this process (no Ray), each on its CPUs' worth of torch
+    threads but no more than this process runs already; an exception the function raises is its
+    outcome's error, as on Ray."""
+    import socket
+
+    import torch
+
+    outcomes = []
+    threads = torch.get_num_threads()
+    for t in tasks:
+        t0 = time.perf_counter()
+        torch.set_num_threads(max(1, min(threads, int(t.resources.num_cpus))))
+        try:
+            out = Outcome(t.name, value=t.fn(*t.args), seconds=time.perf_counter() - t0, node=socket.gethostname())
+        except Exception as e:  # noqa: BLE001 -- every failure of a task is its outcome
+            first = (str(e).splitlines() or [""])[0]
+            out = Outcome(t.name, error=str(e) if isinstance(e, MorfError) else f"{type(e).__name__}: {first}",
+                          seconds=time.perf_counter() - t0)
+        finally:
+            torch.set_num_threads(threads)
+        outcomes.append(out)
+        if on_done is not None:
+            on_done(out)
+    return outcomes
 
 
 def _call(fn: Callable, args: tuple, threads: int) -> tuple[Any, str]:

@@ -7,6 +7,7 @@ import pytest
 
 from morf.bench.auto_check import auto_check
 from morf.bench.pareto import run_sweep
+from morf.scale.ray_runtime import RayOptions
 
 POINT_KEYS = {"name", "axis", "method", "precision", "config", "params", "psnr", "ssim", "psnr_person",
               "ssim_person", "temporal", "train_minutes", "fps", "frame_ms", "renderer_ms", "int8_psnr_vs_fp32_db",
@@ -14,6 +15,9 @@ POINT_KEYS = {"name", "axis", "method", "precision", "config", "params", "psnr",
 
 
 AXES = ["texture_size", "precision"]
+# The trainings run in this process (``--address here``): what these tests check is the sweep, and
+# a Ray worker per test file would import torch and morf again (Ray itself: tests/test_scale_ray.py).
+HERE = RayOptions(in_process=True)
 
 
 @pytest.fixture(scope="module")
@@ -21,7 +25,7 @@ def tiny_sweep(sweep_dir, print_capture, body_model):
     """(OUT, result, pareto.json as written) of the tiny sweep's texture and precision points, in
     the shared folder whose capture the other sweep tests measure their points on."""
     out = sweep_dir / "pareto"
-    res = run_sweep(out, "tiny", axes=AXES, model=body_model)
+    res = run_sweep(out, "tiny", axes=AXES, model=body_model, ray=HERE)
     return out, res, json.loads((out / "pareto.json").read_text())
 
 
@@ -52,13 +56,13 @@ def test_tiny_sweep_writes_results_and_resumes(tiny_sweep, print_capture, body_m
     assert res.to_dict() == data
 
     stamps = {p.name: p.stat().st_mtime_ns for p in (out / "points").iterdir()}
-    again = run_sweep(out, "tiny", axes=AXES, model=body_model)
+    again = run_sweep(out, "tiny", axes=AXES, model=body_model, ray=HERE)
     assert list(again.reused) == names
     assert {p.name: p.stat().st_mtime_ns for p in (out / "points").iterdir()} == stamps
 
     # naming one point keeps the others measured on this capture, and only those (in a copy of
     # OUT's results: the shared folder keeps its points for the other tests)
-    grown = run_sweep(out, "tiny", axes=AXES, points=["fp32"], model=body_model)
+    grown = run_sweep(out, "tiny", axes=AXES, points=["fp32"], model=body_model, ray=HERE)
     assert [p.name for p in grown.points] == names and list(grown.reused) == names
     copy = tmp_path / "pareto"
     shutil.copytree(out / "points", copy / "points")
@@ -66,7 +70,7 @@ def test_tiny_sweep_writes_results_and_resumes(tiny_sweep, print_capture, body_m
     moved["run"] = str(tmp_path / "another-capture" / "runs" / "x")
     (copy / "points" / "texture-32.json").write_text(json.dumps(moved))
     alone = run_sweep(copy, "tiny", project_path=str(print_capture.root), axes=AXES, points=["fp32"],
-                      model=body_model)
+                      model=body_model, ray=HERE)
     assert [p.name for p in alone.points] == ["base", "fp32"] and list(alone.reused) == ["base", "fp32"]
 
 
@@ -80,7 +84,8 @@ def test_a_resolution_point_is_scored_at_the_base_resolution(tiny_sweep, body_mo
     sweep = PRESETS["tiny"]
     point = SweepPoint("resolution-32", "resolution", {"resolution": 32})
     out = tiny_sweep[0]
-    data = run_sweep(out, "tiny", axes=["resolution"], model=body_model, extra=[(point, resolve(sweep, point))])
+    data = run_sweep(out, "tiny", axes=["resolution"], model=body_model, ray=HERE,
+                     extra=[(point, resolve(sweep, point))])
     rows = {p.name: p for p in data.points}
     assert list(rows) == ["base", "resolution-32"]
     base_res = resolve(sweep, SweepPoint("base", "base")).resolution
@@ -96,7 +101,7 @@ def test_a_resolution_point_is_scored_at_the_base_resolution(tiny_sweep, body_mo
 @pytest.mark.gl
 def test_seed_points_measure_the_noise_and_stay_off_the_fronts(tiny_sweep, body_model):
     out = tiny_sweep[0]
-    data = run_sweep(out, "tiny", axes=["seed"], model=body_model).to_dict()
+    data = run_sweep(out, "tiny", axes=["seed"], model=body_model, ray=HERE).to_dict()
     rows = {p["name"]: p for p in data["points"]}
     assert list(rows) == ["base", "seed-1"]
     assert rows["seed-1"]["run"] != rows["base"]["run"]
@@ -112,7 +117,7 @@ def test_seed_points_measure_the_noise_and_stay_off_the_fronts(tiny_sweep, body_
 @pytest.mark.gl
 def test_sweep_with_seeds_charts_the_means(tiny_sweep, body_model):
     out = tiny_sweep[0]
-    res = run_sweep(out, "tiny", axes=["texture_size"], model=body_model, seeds=2).to_dict()
+    res = run_sweep(out, "tiny", axes=["texture_size"], model=body_model, seeds=2, ray=HERE).to_dict()
     assert res["seeds"] == 2 and [p["name"] for p in res["points"]] == ["base", "texture-32"]
     saved = {p.stem for p in (out / "points").glob("*.json")}
     assert {"base", "texture-32", "base-seed1", "texture-32-seed1"} <= saved
@@ -148,7 +153,7 @@ def test_tiny_auto_check(sweep_dir, print_capture, body_model, gl):
     # and the choice: what is checked here is the per-scene loop, its sweeps, verdicts and report
     cap = str(print_capture.root)
     res = auto_check(out, "tiny", body_model, scenes=("plain", "print"), project_path={"plain": cap, "print": cap},
-                     points=["texture-32"])
+                     points=["texture-32"], ray=HERE)
     data = json.loads((out / "auto_check.json").read_text())
     assert [r["scene"] for r in data["table"]] == ["plain", "print"] == [r["scene"] for r in res["table"]]
     for row in data["table"]:
@@ -165,7 +170,7 @@ def test_tiny_auto_check(sweep_dir, print_capture, body_model, gl):
 
     # one scene on an existing capture (the path form): the same auto choice, its results reused
     again = auto_check(out, "tiny", body_model, scenes=("print",), project_path=str(print_capture.root),
-                       points=["texture-32"])
+                       points=["texture-32"], ray=HERE)
     sweep = json.loads((out / "print" / "pareto.json").read_text())
     assert [p["name"] for p in sweep["points"]] == ["base", "texture-32", "auto"]
     assert sweep["reused"] == ["base", "texture-32", "auto"]
@@ -179,7 +184,7 @@ def test_auto_check_with_seeds_judges_means(sweep_dir, print_capture, body_model
     # repeats measured beside them
     out = sweep_dir / "auto"
     res = auto_check(out, "tiny", body_model, scenes=("print",), project_path=str(print_capture.root),
-                     points=["texture-32"], seeds=2)
+                     points=["texture-32"], seeds=2, ray=HERE)
     means = res["scenes"]["print"]["means"]
     assert list(means) == ["base", "texture-32", "auto"]
     saved = {p.stem for p in (out / "print" / "points").glob("*.json")}

@@ -7,6 +7,9 @@ import pytest
 from morf.bench.stability import BREAKDOWN_DB, breaks_down_at, run_stability
 from morf.bench.stability_rows import StabilityPoint
 from morf.bench.train_eval import TrainEvaluation
+from morf.scale.ray_runtime import RayOptions
+
+HERE = RayOptions(in_process=True)  # trainings in this process: the series are checked here, Ray in tests/test_scale_ray.py
 
 
 def point(psnr_person, seed=0, diverged=False, **scores) -> StabilityPoint:
@@ -35,7 +38,7 @@ def stab_dir(tmp_path_factory):
 def test_tiny_stability_series(stab_dir, body_model, gl):
     out = stab_dir
     run_stability(out, "tiny", series=["misalignment", "coverage"], methods=["morf", "stylepeople"],
-                  model=body_model)
+                  model=body_model, ray=HERE)
     data = json.loads((out / "stability.json").read_text())
     assert {"series", "methods", "breakdown_rule", "charts", "machine"} <= set(data)
     for name in ("misalignment", "coverage"):
@@ -54,7 +57,8 @@ def test_tiny_stability_series(stab_dir, body_model, gl):
     for png in ("stability_psnr.png", "stability_temporal.png"):
         assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     stamps = {p.name: p.stat().st_mtime_ns for p in (out / "points").iterdir()}
-    run_stability(out, "tiny", series=["misalignment", "coverage"], methods=["morf", "stylepeople"], model=body_model)
+    run_stability(out, "tiny", series=["misalignment", "coverage"], methods=["morf", "stylepeople"], model=body_model,
+                  ray=HERE)
     assert {p.name: p.stat().st_mtime_ns for p in (out / "points").iterdir()} == stamps
 
 
@@ -116,7 +120,7 @@ def test_a_point_file_is_read_and_written_back_as_it_was():
 @pytest.mark.gl
 def test_tiny_stability_with_repeats(stab_dir, body_model, gl):
     out = stab_dir  # level 0 is the clean capture's training of the series above (seed 0), reused
-    run_stability(out, "tiny", series=["slide"], methods=["morf"], model=body_model, repeats=2)
+    run_stability(out, "tiny", series=["slide"], methods=["morf"], model=body_model, repeats=2, ray=HERE)
     data = json.loads((out / "stability.json").read_text())
     assert data["repeats"] == 2 and "seeds" in data["breakdown_rule"]
     assert sorted(p.name for p in (out / "points").iterdir() if p.name.startswith("slide-")) == [

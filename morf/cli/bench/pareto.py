@@ -37,14 +37,12 @@ def _auto_check(args, points: list[str] | None, ray) -> None:
     from morf.bench.auto_check import auto_check
     from morf.cli.bench.lists import comma_list
     from morf.errors import InputError
-    from morf.scale.ray_runtime import connect
 
     if args.workers is not None or args.cpus_per_task is not None:
         raise InputError("--workers and --cpus-per-task do not apply to --auto-check (its sweeps train with "
                          "the defaults); --address does")
-    connect(ray)  # the scenes' sweeps use this connection
     auto_check(Path(args.out), args.preset, scenes=comma_list(args.scenes), project_path=args.project, points=points,
-               seeds=args.seeds)
+               seeds=args.seeds, ray=ray)
 
 
 def run(args) -> int:

@@ -1,13 +1,24 @@
-"""``morf batch`` on a local Ray with two workers: three tiny captures, one broken (reported, the
-others finish), a second run that continues from what is done; how captures are found; and Ray
-staying out of every command that does not use it."""
+"""Ray, in one file so that one local Ray of two workers serves every test that needs it (the
+suite's workers take whole files; two files would each start a cluster, or wait on the other's):
+
+- ``morf batch``: three tiny captures, one broken (reported, the others finish), a second run that
+  continues from what is done; how captures are found;
+- a training task whose worker is killed mid-training: Ray starts it again, the training resumes
+  from its checkpoint and ends with the same avatar as a training nobody interrupted;
+- tasks in this process without Ray (``--address here``), and Ray staying out of every command
+  that does not use it."""
 
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import signal
 import subprocess
 import sys
+import threading
+import time
+from pathlib import Path
 
 import pytest
 
@@ -138,3 +149,91 @@ def test_without_ray_the_error_says_how_to_install_it(tmp_path, capsys, monkeypa
     rc = main(["batch", str(tmp_path / "caps")])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "morf-studio[ray]" in err[0], err
+
+
+def test_tasks_in_process_need_no_ray(tmp_path, capsys, monkeypatch):
+    import json
+
+    from morf.capture.project import CaptureProject
+    from morf.scale.ray_runtime import RayOptions
+    from morf.scale.tasks import Resources, Task, run_tasks
+
+    monkeypatch.setitem(sys.modules, "ray", None)  # as if the ray extra were not installed
+    seen = []
+    outs = run_tasks([Task("parse", json.loads, ("[1, 2]",), Resources(num_cpus=64)), Task("bad json", json.loads, ("{",)),
+                      Task("no project", CaptureProject.open, (str(tmp_path / "nowhere"),))],
+                     RayOptions(in_process=True), on_done=lambda o: seen.append(o.name))
+    assert seen == ["parse", "bad json", "no project"]
+    assert outs[0].ok and outs[0].value == [1, 2] and outs[0].node
+    assert outs[1].error.startswith("JSONDecodeError: Expecting property name")
+    assert outs[2].error == f"project folder not found: {tmp_path / 'nowhere'}" and outs[2].value is None
+
+    # through the command: a broken capture is a failed row, reported, with no Ray anywhere
+    (tmp_path / "caps" / "broken").mkdir(parents=True)
+    (tmp_path / "caps" / "broken" / "morf_project.json").write_text("{not json")
+    rc = main(["batch", str(tmp_path / "caps"), "--address", "here", "--until", "fit"])
+    out = capsys.readouterr().out
+    assert rc == 1 and "in this process, one after another" in out, out
+    data = json.loads((tmp_path / "caps" / "batch.json").read_text())
+    assert data["ray"]["address"] == "here" and data["failed"] == 1
+    assert data["captures"][0]["error"].startswith("morf run: error: damaged project manifest")
+
+
+def worker_pid(task_name: str) -> int | None:
+    """The process running the Ray task ``task_name``: Ray titles it ``ray::<task name>``."""
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                cmd = (d / "cmdline").read_bytes().split(b"\0")[0].decode(errors="replace")
+            except OSError:
+                continue
+            if cmd == f"ray::{task_name}":
+                return int(d.name)
+    return None
+
+
+@pytest.mark.slow
+def test_a_killed_training_resumes_from_its_checkpoint(tmp_path, tiny_capture_source, local_ray):
+    import torch
+
+    from morf.bench.pareto import Training, train_all
+    from morf.train.config import preset
+    from morf.train.run_dir import RunDir
+    from morf.train.trained_avatar import load_trained_avatar
+    from tests.conftest import copy_capture
+
+    project = copy_capture(tiny_capture_source, tmp_path / "cap")
+    # A checkpoint and a metrics line every step: the kill lands a quarter of the way, after step 6
+    # has been checkpointed, and the resume has 18 steps left to match the straight run.
+    cfg = preset("tiny", "morf", steps=24, checkpoint_minutes=0.0, log_every=1, inpaint_steps=2)
+    killed_run = RunDir(project.runs_dir / "killed")
+    kill: dict = {}
+
+    def killer():
+        deadline = time.monotonic() + 240
+        while time.monotonic() < deadline:
+            pid = worker_pid("cap/killed")
+            logged = killed_run.read_metrics()
+            if pid is not None and logged and logged[-1]["step"] >= 6:  # a quarter of the way, checkpointed
+                os.kill(pid, signal.SIGKILL)
+                kill.update(pid=pid, step=killed_run.load_checkpoint()["step"], done=killed_run.is_done)
+                return
+            time.sleep(0.02)
+
+    thread = threading.Thread(target=killer, daemon=True)
+    thread.start()
+    root = str(project.root)
+    trained = train_all([Training(root, cfg, "killed"), Training(root, cfg, "straight")], cpus_per_task=1)
+    thread.join(timeout=5)
+
+    assert kill and 5 <= kill["step"] < cfg.steps and not kill["done"], kill
+    print(f"killed worker {kill['pid']} of task cap/killed after step {kill['step']} of {cfg.steps}")
+    a, b = trained[(root, "killed")], trained[(root, "straight")]
+    assert a.ok and b.ok, (a.error, b.error)
+    assert f"resumed at step {kill['step']}" in killed_run.log_path.read_text()
+    assert "resumed" not in RunDir(project.runs_dir / "straight").log_path.read_text()
+    assert a.value.steps == b.value.steps == cfg.steps
+    ta = load_trained_avatar(killed_run.root).texture
+    tb = load_trained_avatar(project.runs_dir / "straight").texture
+    assert torch.allclose(ta, tb, atol=1e-5)
+    assert a.value.psnr_person == pytest.approx(b.value.psnr_person, abs=1e-4)
