@@ -38,8 +38,9 @@ class WebOptions:
         where the renderer's tail runs; timeout: seconds to wait for the page; crop: "" (the page's
         margin around the person), "off" (the whole frame) or a margin in pixels; proxy:
         onnxruntime-web in its worker; compare: "KEY:A,B", two settings of one page option measured
-        in turn (skin:cpu,gpu, canvas:2d,gl, overlap:on,off; "crop": the window against the whole
-        frame) instead of the bench; block: frames per turn of a comparison; played: a comparison
+        in turn (skin:cpu,gpu, canvas:2d,gl, overlap:on,off; graph:A,B two forms of the renderer
+        graph of :data:`morf.web.head_rewrite.GRAPH_FORMS`, on an avatar folder; "crop": the window
+        against the whole frame) instead of the bench; block: frames per turn of a comparison; played: a comparison
         of the frames as the page plays them (wall times only) instead of each stage waited for.
     """
 
@@ -64,6 +65,28 @@ def _web_folder(avatar: Path, tmp: Path) -> Path:
     from morf.web.build import build_web_folder
 
     return build_web_folder(avatar, tmp / "web", command="morf bench web").path
+
+
+def _graph_forms(opts: WebOptions, avatar: Path, tmp: Path) -> dict[str, Path]:
+    """For ``--compare graph:A,B``: the renderer graph in forms A and B (:data:`morf.web.head_rewrite.GRAPH_FORMS`,
+    from the graph the web export cuts) as files the page fetches from ``/graph/NAME.onnx``; {} otherwise."""
+    if not opts.compare.startswith("graph:"):
+        return {}
+    from morf.errors import InputError
+    from morf.playback.player import load_avatar
+    from morf.web.head_rewrite import GRAPH_FORMS
+    from morf.web.web_avatar import web_renderer
+
+    names = opts.compare.split(":", 1)[1].split(",")
+    if any(n not in GRAPH_FORMS for n in names) or (avatar / "player.json").is_file():
+        raise InputError(f"--compare graph:A,B takes an avatar folder (morf export) and forms of "
+                         f"{', '.join(GRAPH_FORMS)}, got {opts.compare!r} on {avatar}")
+    cut = web_renderer(load_avatar(avatar)).graph
+    out = {}
+    for name in names:
+        out[f"/graph/{name}.onnx"] = tmp / f"graph_{name}.onnx"
+        out[f"/graph/{name}.onnx"].write_bytes(GRAPH_FORMS[name](cut))
+    return out
 
 
 def _query(opts: WebOptions) -> str:
@@ -198,10 +221,11 @@ def run_web(opts: WebOptions) -> dict:
     if not avatar.is_dir():
         raise InputError(f"avatar folder not found: {avatar}")
     with tempfile.TemporaryDirectory(prefix="morf-bench-web-") as tmp:
+        extra = _graph_forms(opts, avatar, Path(tmp))
         folder = _web_folder(avatar, Path(tmp))
         load_before = os.getloadavg()
         t0 = time.monotonic()
-        page = run_page(folder, _query(opts), isolation=opts.isolation, timeout=opts.timeout)
+        page = run_page(folder, _query(opts), extra=extra, isolation=opts.isolation, timeout=opts.timeout)
         seconds = time.monotonic() - t0
         load_after = os.getloadavg()
         size = folder_bytes(folder)

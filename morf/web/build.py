@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from morf.io.outputs import claim_output_folder, staged_folder, write_record
+from morf.web.head_rewrite import rewrite_web_renderer
 from morf.web.libraries import ORT_VERSION, copy_libraries
 from morf.web.motions import motion_sources, write_motions
 from morf.web.paths import page_files
@@ -70,6 +71,7 @@ def build_web_folder(avatar_dir: str | os.PathLike, out: str | os.PathLike, moti
         entries = write_motions(sources, tmp / "motions", avatar.skeleton.num_bones,
                                 (avatar.manifest.get("body") or {}).get("shape"), command, motion_fps)
         doc = write_web_avatar(avatar, tmp / "avatar", entries, precision)
+        rewrite_web_renderer(tmp / "avatar")  # the head's 1 x 1 layers as convolutions (outputs the same)
         for f in page_files():
             shutil.copyfile(f, tmp / f.name)
         (tmp / "player.json").write_text(json.dumps({"onnxruntime_web": ORT_VERSION, "backends": backends,

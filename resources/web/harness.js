@@ -10,6 +10,8 @@
 //   ?report=N          plays as a user sees it for N frames, then posts what was shown
 //   ?bench=N&compare=crop  N frames, each stage waited for, the person's window and the whole frame
 //                      in turn frame by frame (the same load falls on both): per-stage times of each
+//   ?bench=N&compare=KEY:A,B  two settings of a player option (or graph:A,B, two forms of the renderer
+//                      graph) in turn, in blocks of `block` frames (played=1: as the page plays them)
 //   ?policy=[[fps, frames, ms], ...]  the adaptive size's decisions (adaptive.js) for those
 //                      measurements, starting at the largest size with the page's target
 import { OutputSize } from './adaptive.js';
@@ -95,7 +97,20 @@ async function compareCrop(app, n) {
   return { size: app.size, frames: n, margin, window: summary(runs.window), whole: summary(runs.whole) };
 }
 
-// Two settings of one player option (player.js, setOption), alternating in blocks of `block`
+// A player option (player.js, setOption), or the renderer graph's form: graph=NAME plays ./graph/NAME.onnx
+// (served beside the folder by `morf bench web --compare graph:A,B`).
+async function setOption(app, key, value) {
+  if (key !== 'graph') return app.player.setOption(key, value);
+  const renderer = app.player.renderer;
+  if (!renderer.graphs.has(value)) {
+    const response = await fetch(`./graph/${value}.onnx`);
+    if (!response.ok) throw new Error(`./graph/${value}.onnx: HTTP ${response.status}`);
+    renderer.addGraph(value, new Uint8Array(await response.arrayBuffer()));
+  }
+  renderer.useGraph(value);
+}
+
+// Two settings of one player option (player.js, setOption; or the renderer graph's form), alternating in blocks of `block`
 // frames (the same load falls on both): per-stage times of each, and the wall time per frame of
 // each block after its first frame (played: the frames as the page plays them, wall times only) (what a setting leaves to the browser's other threads, e.g. the
 // canvas's presentation, falls on the frames after it).
@@ -103,7 +118,7 @@ async function compareOption(app, n, key, values, block, timed, played) {
   const runs = Object.fromEntries(values.map((v) => [v, []])), walls = Object.fromEntries(values.map((v) => [v, []]));
   for (let b = 0; b < 2 * Math.ceil(n / block) + 2; b++) {
     const value = values[b % 2];
-    app.player.setOption(key, value);
+    await setOption(app, key, value);
     let start = 0;
     if (played) {  // as the page plays (player.play): the block's wall time alone, and the browser's CPU time
       await timePlayed(app, 1);

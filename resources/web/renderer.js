@@ -36,18 +36,29 @@ export async function loadRuntime(config, params) {
   return { ort, backend: pick.backend, threads: ort.env.wasm.numThreads, isolated, proxy: ort.env.wasm.proxy };
 }
 
-const KEPT_SESSIONS = 6;  // window shapes whose sessions stay open (each holds its own buffers)
+const KEPT_SESSIONS = 6;  // window shapes whose sessions stay open, per graph (each holds its own buffers)
 
 export class Renderer {
   constructor(runtime, graph, contract) {
     this.rt = runtime;
-    this.graph = graph;
+    this.graphs = new Map([['folder', graph]]);  // name -> ONNX bytes: the folder's, and others a comparison adds
+    this.graphName = 'folder';
     this.contract = contract;
-    this.sessions = new Map();  // "HxW" -> Promise<session>, the most recently used last
+    this.sessions = new Map();  // "NAME:HxW" -> Promise<session>, the most recently used last
   }
 
-  session(h, w) {  // one creation per shape, however many frames ask at once
-    const key = `${h}x${w}`;
+  get graph() { return this.graphs.get(this.graphName); }
+
+  // Another form of the same graph (the same inputs and outputs), e.g. for `morf bench web --compare graph:A,B`.
+  addGraph(name, bytes) { this.graphs.set(name, bytes); }
+
+  useGraph(name) {
+    if (!this.graphs.has(name)) throw new Error(`no renderer graph ${name}`);
+    this.graphName = name;
+  }
+
+  session(h, w) {  // one creation per graph and shape, however many frames ask at once
+    const key = `${this.graphName}:${h}x${w}`;
     let s = this.sessions.get(key);
     if (s) {
       this.sessions.delete(key);  // to the end: the most recently used
@@ -59,7 +70,7 @@ export class Renderer {
         executionProviders: [backend], graphOptimizationLevel: 'all', logSeverityLevel: 3,
         freeDimensionOverrides: { height: h, width: w },
       });
-      if (this.sessions.size >= KEPT_SESSIONS) {
+      if (this.sessions.size >= KEPT_SESSIONS * this.graphs.size) {
         const [oldest, old] = this.sessions.entries().next().value;
         this.sessions.delete(oldest);
         old.then((x) => x.release()).catch(() => {});
