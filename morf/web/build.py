@@ -71,7 +71,7 @@ def build_web_folder(avatar_dir: str | os.PathLike, out: str | os.PathLike, moti
         entries = write_motions(sources, tmp / "motions", avatar.skeleton.num_bones,
                                 (avatar.manifest.get("body") or {}).get("shape"), command, motion_fps)
         doc = write_web_avatar(avatar, tmp / "avatar", entries, precision)
-        rewrite_web_renderer(tmp / "avatar")  # the head's 1 x 1 layers as convolutions (outputs the same)
+        rewrite_web_renderer(tmp / "avatar")  # the head's and the fill's rewrites (outputs the same)
         for f in page_files():
             shutil.copyfile(f, tmp / f.name)
         (tmp / "player.json").write_text(json.dumps({"onnxruntime_web": ORT_VERSION, "backends": backends,

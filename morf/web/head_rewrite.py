@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from morf.web.graph_rewrite import _constant
+from morf.web.graph_rewrite import _constant, _prune, coverage_by_sign
 
 
 def _consumers(graph) -> dict[str, list]:
@@ -80,23 +80,6 @@ def _match(graph, producers: dict, consumers: dict, matmul):
         return None
     nodes = [first, matmul, *([add] if add is not None else []), last]
     return x, w, None if bias is None else np.ravel(bias), last.output[0], nodes
-
-
-def _prune(graph) -> None:
-    """Drop nodes whose outputs nothing reads (the shape arithmetic of replaced layers) and
-    initializers no node reads."""
-    outputs = {o.name for o in graph.output}
-    while True:
-        read = {i for n in graph.node for i in n.input} | outputs
-        dead = [n for n in graph.node if not any(o in read for o in n.output)]
-        if not dead:
-            break
-        for n in dead:
-            graph.node.remove(n)
-    read = {i for n in graph.node for i in n.input}
-    keep = [t for t in graph.initializer if t.name in read]
-    del graph.initializer[:]
-    graph.initializer.extend(keep)
 
 
 def matmul_as_conv(model_bytes: bytes) -> bytes:
@@ -207,13 +190,20 @@ def rewrite_head(model_bytes: bytes) -> bytes:
     return resize_before_conv(matmul_as_conv(model_bytes))
 
 
+def web_rewrites(model_bytes: bytes) -> bytes:
+    """What the web export does to the cut graph after the slice rewrite: :func:`rewrite_head`
+    and the fill's coverage test (:func:`morf.web.graph_rewrite.coverage_by_sign`)."""
+    return coverage_by_sign(rewrite_head(model_bytes))
+
+
 # The page's renderer graph in the forms `morf bench web --compare graph:A,B` plays in turn, each
-# from the graph the web export cut (and gave the slice rewrite of :mod:`morf.web.graph_rewrite`).
-GRAPH_FORMS = {"matmul": lambda b: b, "conv": matmul_as_conv, "fused": rewrite_head}
+# from the graph the web export cut (and gave the slice rewrite of :mod:`morf.web.graph_rewrite`):
+# as exported, the head's MatMuls as Conv, the head rewritten, and everything the web export does.
+GRAPH_FORMS = {"matmul": lambda b: b, "conv": matmul_as_conv, "fused": rewrite_head, "web": web_rewrites}
 
 
 def rewrite_web_renderer(avatar_folder: Path) -> None:
-    """Give a web folder's ``avatar/renderer.onnx`` the head rewrite (:func:`rewrite_head`) in
+    """Give a web folder's ``avatar/renderer.onnx`` the rewrites of :func:`web_rewrites` in
     place, and its size and sha256 in ``avatar.json`` with it; a graph without the pattern stays."""
     import hashlib
     import json
@@ -222,7 +212,7 @@ def rewrite_web_renderer(avatar_folder: Path) -> None:
 
     path = Path(avatar_folder) / "renderer.onnx"
     raw = path.read_bytes()
-    new = rewrite_head(raw)
+    new = web_rewrites(raw)
     if new == raw:
         return
     atomic_write_bytes(path, new)

@@ -142,9 +142,27 @@ async function compareOption(app, n, key, values, block, timed, played) {
   return { size: app.size, frames: n, key, block, timed, played, ...Object.fromEntries(values.map((v) => [v, summary(runs[v], walls[v])])) };
 }
 
+// profile=1: N frames, each stage waited for, with onnxruntime's profiler on; the console lines
+// it writes (its per-node events) come back as `profile`.
+async function profileFrames(app, n) {
+  const lines = [], kept = {};
+  for (const level of ['log', 'info', 'debug']) {
+    kept[level] = console[level];
+    console[level] = (...args) => { lines.push(args.join(' ')); };
+  }
+  try {
+    await timeFrames(app, n, true);
+    for (const s of app.player.renderer.sessions.values()) await (await s).endProfiling();
+  } finally {
+    Object.assign(console, kept);
+  }
+  return { profile: lines };
+}
+
 async function bench(app, params) {
   const n = Number(params.get('bench')) || 60;
   app.playing = false;
+  if (params.get('profile') === '1') return await profileFrames(app, n);
   const compare = params.get('compare');
   if (compare === 'crop') return { compare: await compareCrop(app, n) };
   if (compare) {  // compare=KEY:A,B (player.setOption), block=N frames each turn, untimed=1: stages not waited for

@@ -33,7 +33,9 @@ export async function loadRuntime(config, params) {
   // proxy=1: the renderer in its own worker, leaving the page's thread to the next frame's GL work.
   // Off by default: on a busy 2-core CPU it ran 1.5-2x slower (messages, copies, one more thread).
   ort.env.wasm.proxy = pick.backend === 'wasm' && params.get('proxy') === '1';
-  return { ort, backend: pick.backend, threads: ort.env.wasm.numThreads, isolated, proxy: ort.env.wasm.proxy };
+  // profile=1 (benchmarks): onnxruntime's per-node profiler in every session (its events go to the console)
+  const profile = params.get('profile') === '1';
+  return { ort, backend: pick.backend, threads: ort.env.wasm.numThreads, isolated, proxy: ort.env.wasm.proxy, profile };
 }
 
 const KEPT_SESSIONS = 6;  // window shapes whose sessions stay open, per graph (each holds its own buffers)
@@ -68,7 +70,7 @@ export class Renderer {
       // A copy of the graph: a proxied runtime takes over (transfers) the buffers it is given.
       s = ort.InferenceSession.create(this.graph.slice(), {
         executionProviders: [backend], graphOptimizationLevel: 'all', logSeverityLevel: 3,
-        freeDimensionOverrides: { height: h, width: w },
+        freeDimensionOverrides: { height: h, width: w }, enableProfiling: !!this.rt.profile,
       });
       if (this.sessions.size >= KEPT_SESSIONS * this.graphs.size) {
         const [oldest, old] = this.sessions.entries().next().value;

@@ -1,5 +1,5 @@
 """The web-only renderer graph rewrites (morf/web/graph_rewrite.py, morf/web/head_rewrite.py) keep the
-outputs: the slice rewrite bit for bit, the head rewrite to float rounding."""
+outputs: the slice and coverage rewrites bit for bit, the head rewrite to float rounding."""
 
 from __future__ import annotations
 
@@ -202,6 +202,73 @@ def test_the_web_folder_carries_the_rewritten_head(exported_avatar, tmp_path):
     write_web_avatar(load_avatar(exported_avatar), tmp_path, [])
     rewrite_web_renderer(tmp_path)
     graph = (tmp_path / "renderer.onnx").read_bytes()
-    assert "MatMul" not in [n.op_type for n in onnx.load_from_string(graph).graph.node]
+    ops = [n.op_type for n in onnx.load_from_string(graph).graph.node]
+    assert "MatMul" not in ops and "Sign" in ops
     entry = json.loads((tmp_path / "avatar.json").read_text())["files"]["renderer.onnx"]
     assert entry == {"bytes": len(graph), "sha256": hashlib.sha256(graph).hexdigest()}
+
+
+# ---- the fill's coverage test (morf/web/graph_rewrite.py: coverage_by_sign): bit-identical -------------
+
+def _coverage_graph(zero_point=128.0, width=1):
+    """raster (1, H, W, 16) uint8 -> colour bytes NCHW -> the exporter's coverage test of channel 0
+    (Slice -> Cast -> Sub -> Abs -> Greater -> Cast to float), and the colour bytes as float."""
+    from onnx import TensorProto, helper, numpy_helper
+
+    consts = [numpy_helper.from_array(np.array(v, t), n) for n, v, t in
+              (("c0", [0], np.int64), ("c3", [3], np.int64), ("ax3", [3], np.int64), ("s", [0], np.int64),
+               ("e", [width], np.int64), ("ax1", [1], np.int64), ("zp", zero_point, np.float32), ("zero", 0.0, np.float32))]
+    nodes = [helper.make_node("Slice", ["raster", "c0", "c3", "ax3"], ["colour_last"]),
+             helper.make_node("Transpose", ["colour_last"], ["colour_bytes"], perm=[0, 3, 1, 2]),
+             helper.make_node("Slice", ["colour_bytes", "s", "e", "ax1"], ["byte"]),
+             helper.make_node("Cast", ["byte"], ["value"], to=TensorProto.FLOAT),
+             helper.make_node("Sub", ["value", "zp"], ["off"]),
+             helper.make_node("Abs", ["off"], ["dist"]),
+             helper.make_node("Greater", ["dist", "zero"], ["covered_bool"]),
+             helper.make_node("Cast", ["covered_bool"], ["covered"], to=TensorProto.FLOAT),
+             helper.make_node("Cast", ["colour_bytes"], ["colour"], to=TensorProto.FLOAT)]
+    graph = helper.make_graph(nodes, "g", [helper.make_tensor_value_info("raster", TensorProto.UINT8, [1, "height", "width", 16])],
+                              [helper.make_tensor_value_info("covered", TensorProto.FLOAT, None),
+                               helper.make_tensor_value_info("colour", TensorProto.FLOAT, None)], consts)
+    return helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)]).SerializeToString()
+
+
+def test_coverage_by_sign_keeps_the_outputs():
+    import onnx
+
+    from morf.web.graph_rewrite import coverage_by_sign
+
+    raw = _coverage_graph()
+    new = coverage_by_sign(raw)
+    ops = [n.op_type for n in onnx.load_from_string(new).graph.node]
+    assert "Greater" not in ops and ops.count("Cast") == 1 and "Sign" in ops and "Gather" in ops, ops
+    rng = np.random.default_rng(0)
+    raster = rng.integers(0, 256, (1, 24, 40, 16), dtype=np.uint8)
+    raster[0, rng.random((24, 40)) < 0.5, 0] = 128  # half the pixels off the body
+    raster[0, 0, :3, 0] = (0, 127, 129)  # the bytes next to the zero point and the farthest one
+    want, got = _run(raw, {"raster": raster}), _run(new, {"raster": raster})
+    assert all(a.dtype == b.dtype and np.array_equal(a, b) for a, b in zip(want, got))
+    assert 0 < want[0].mean() < 1
+
+
+@pytest.mark.parametrize("kw", [{"zero_point": 127.5}, {"width": 2}])
+def test_coverage_by_sign_leaves_other_tests_alone(kw):
+    from morf.web.graph_rewrite import coverage_by_sign
+
+    raw = _coverage_graph(**kw)
+    assert coverage_by_sign(raw) == raw
+
+
+def test_coverage_by_sign_fires_on_the_exported_graph(exported_avatar):
+    import onnx
+
+    from morf.playback.player import load_avatar
+    from morf.web.graph_rewrite import coverage_by_sign
+    from morf.web.web_avatar import web_renderer
+
+    r = web_renderer(load_avatar(exported_avatar), "int8")
+    new = coverage_by_sign(r.graph)
+    assert [n.op_type for n in onnx.load_from_string(new).graph.node].count("Sign") == 1
+    raster = np.random.default_rng(1).integers(120, 137, (1, 128, 192, 16), dtype=np.uint8)
+    want, got = _run(r.graph, {r.contract["input"]: raster}), _run(new, {r.contract["input"]: raster})
+    assert all(np.array_equal(a, b) for a, b in zip(want, got))
