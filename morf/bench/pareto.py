@@ -126,8 +126,14 @@ def train_all(trainings, ray=None, workers: int | None = None, cpus_per_task: in
 
     if tasks:
         plural = lambda n, word: f"{n} {word}{'s' if n > 1 else ''}"  # noqa: E731
-        where = "in this process" if ray is not None and ray.in_process else "on Ray"
-        print(f"training {plural(len(tasks), 'run')} {where}, {plural(cpus, 'core')} each")
+        if ray is not None and ray.in_process:  # no more threads than this process runs (run_tasks)
+            import torch
+
+            threads = min(cpus, torch.get_num_threads())
+            print(f"training {plural(len(tasks), 'run')} in this process, one after another, "
+                  f"{plural(threads, 'thread')} each")
+        else:
+            print(f"training {plural(len(tasks), 'run')} on Ray, {plural(cpus, 'core')} each")
     return dict(zip(unique, run_tasks(tasks, ray, workers, report)))
 
 
