@@ -41,7 +41,9 @@ class WebOptions:
         in turn (skin:cpu,gpu, canvas:2d,gl, overlap:on,off; graph:A,B two forms of the renderer
         graph of :data:`morf.web.head_rewrite.GRAPH_FORMS`, on an avatar folder; "crop": the window
         against the whole frame) instead of the bench; block: frames per turn of a comparison; played: a comparison
-        of the frames as the page plays them (wall times only) instead of each stage waited for.
+        of the frames as the page plays them (wall times only) instead of each stage waited for;
+        profile: onnxruntime-web's per-node profiler over ``frames`` frames (each stage waited
+        for) instead of the bench: kernel milliseconds per run by operator and by node.
     """
 
     avatar: str
@@ -57,6 +59,7 @@ class WebOptions:
     compare: str = ""
     block: int = 1
     played: bool = False
+    profile: bool = False
 
 
 def _web_folder(avatar: Path, tmp: Path) -> Path:
@@ -96,6 +99,7 @@ def _query(opts: WebOptions) -> str:
     q += [] if opts.tail == "auto" else [f"tail={opts.tail}"]
     q += [f"crop={opts.crop}"] if opts.crop else []
     q += ["proxy=1"] if opts.proxy else []
+    q += ["profile=1"] if opts.profile else []
     if opts.compare:
         q += [f"compare={opts.compare}", f"block={opts.block}"] + (["played=1"] if opts.played else [])
     return "&".join(q)
@@ -103,8 +107,9 @@ def _query(opts: WebOptions) -> str:
 
 def _flags(opts: WebOptions) -> str:
     return (f"crop={opts.crop or 'the page default'}, proxy={'on' if opts.proxy else 'off'}, "
-            f"compare={opts.compare or 'none'}" + (f" (blocks of {opts.block}, {'played' if opts.played else 'each stage waited for'})"
-                                                   if opts.compare else "") + f"; page query ?{_query(opts)}")
+            + ("profile=on, " if opts.profile else "")
+            + f"compare={opts.compare or 'none'}" + (f" (blocks of {opts.block}, {'played' if opts.played else 'each stage waited for'})"
+                                                     if opts.compare else "") + f"; page query ?{_query(opts)}")
 
 
 def _cpu_between(marks: list[dict], start: str, end: str) -> dict | None:
@@ -170,10 +175,46 @@ def _compare_markdown(r: dict) -> str:
             + markdown_table(rows, ["", *names]))
 
 
+def profile_summary(lines: list[str], top: int = 15) -> dict:
+    """onnxruntime's profile events (the JSON lines its profiler wrote to the page's console) ->
+    runs, kernel ms per run in all, by operator and for the ``top`` nodes."""
+    import json
+    from collections import Counter
+
+    by_op, by_node, runs = Counter(), Counter(), 0
+    for line in lines:
+        line = line.strip().rstrip(",")
+        try:
+            e = json.loads(line) if line.startswith("{") else None
+        except ValueError:
+            continue
+        if e and e.get("cat") == "Node" and e.get("name", "").endswith("_kernel_time"):
+            by_op[e["args"]["op_name"]] += e["dur"] / 1000
+            by_node[f"{e['name'][:-12]} ({e['args']['op_name']})"] += e["dur"] / 1000
+        runs += bool(e) and e.get("name") == "model_run"
+    n = max(runs, 1)
+    return {"runs": runs, "node_ms": sum(by_op.values()) / n,
+            "by_op": {k: v / n for k, v in by_op.most_common()}, "by_node": {k: v / n for k, v in by_node.most_common(top)}}
+
+
+def _profile_markdown(r: dict) -> str:
+    from morf.bench.common import markdown_table
+
+    p = r["profile"]
+    rows = [{"": k, "ms a run": v, "share": f"{100 * v / p['node_ms']:.1f} %"} for k, v in [*p["by_op"].items()][:15]]
+    nodes = [{"": k, "ms a run": v, "share": f"{100 * v / p['node_ms']:.1f} %"} for k, v in p["by_node"].items()]
+    return (_header(r) + f"onnxruntime-web's profiler: {p['runs']} runs of the renderer, {p['node_ms']:.1f} ms of kernel "
+            f"time a run (the profiler's own timing; each stage waited for)\n\nBy operator:\n\n"
+            + markdown_table(rows, ["", "ms a run", "share"], "{:.2f}") + "\nThe most expensive nodes:\n\n"
+            + markdown_table(nodes, ["", "ms a run", "share"], "{:.2f}"))
+
+
 def _markdown(r: dict) -> str:
     from morf.bench.common import markdown_table
 
     env = r["page"]
+    if "profile" in r:
+        return _profile_markdown(r)
     if "compare" in env:
         return _compare_markdown(r)
     rows = [{"stage": s, "ms": env["stages_ms"][s], "share": f"{100 * env['shares'][s]:.0f} %"} for s in STAGES]
@@ -233,11 +274,14 @@ def run_web(opts: WebOptions) -> dict:
         raise InputError(f"the page failed: {page['error'].splitlines()[0]}")
     page.pop("requests", None)
     marks = page.pop("marks", [])
+    profile = profile_summary(page.pop("profile")) if "profile" in page else None
     result = {"avatar": str(avatar), "folder": str(folder), "folder_mb": size / 1e6, "frames": opts.frames,
               "flags": _flags(opts), "page": page, "machine": machine_info(), "load_before": load_before,
               "load_after": load_after, "seconds": round(seconds, 1), "marks": marks,
               "played_cpu": _cpu_between(marks, "played", "played_end"),
               "adaptive_cpu": _cpu_between(marks, "adaptive", "adaptive_end"), "compare_cpu": _cpu_by_setting(marks)}
+    if profile is not None:
+        result["profile"] = profile
     md = _markdown(result)
     path = write_results(opts.out, "web", result, md)
     print(md)

@@ -67,3 +67,29 @@ def test_bench_flags_reach_the_library_and_bad_ones_are_one_line(tmp_path, monke
         assert main(["bench", "web", str(tmp_path), "--out", str(tmp_path / "o"), flag, value]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and word in err[0] and "Traceback" not in err[0], err
+
+
+def test_bench_compares_two_forms_of_the_renderer_graph(tail_avatar, tail_web, tmp_path):
+    from morf.bench.web import WebOptions, run_web
+    from morf.errors import InputError
+
+    r = run_web(WebOptions(str(tail_avatar), str(tmp_path / "o"), size=256, frames=2, compare="graph:matmul,web", timeout=600))
+    c = r["page"]["compare"]
+    assert c["key"] == "graph" and r["page"]["messages"] == [], r["page"]
+    assert all(c[v]["renderer"]["best"] > 0 for v in ("matmul", "web"))
+    assert "matmul against web" in (tmp_path / "o" / "web.md").read_text()
+    with pytest.raises(InputError, match="graph:A,B takes an avatar folder"):  # a web folder has only its own form
+        run_web(WebOptions(str(tail_web.path), str(tmp_path / "p"), compare="graph:matmul,web"))
+    with pytest.raises(InputError, match="forms of matmul"):
+        run_web(WebOptions(str(tail_avatar), str(tmp_path / "q"), compare="graph:matmul,other"))
+
+
+def test_bench_profiles_the_renderer_per_node(tail_web, tmp_path):
+    from morf.bench.web import WebOptions, run_web
+
+    r = run_web(WebOptions(str(tail_web.path), str(tmp_path / "o"), size=256, frames=3, profile=True, timeout=600))
+    p = r["profile"]
+    assert p["runs"] >= 3 and p["node_ms"] > 0 and abs(sum(p["by_op"].values()) - p["node_ms"]) < 1e-6 * p["node_ms"] + 1e-9
+    assert "Sign" in p["by_op"] and any("Conv" in k for k in p["by_op"]), p["by_op"]  # the folder's rewritten graph ran
+    md = (tmp_path / "o" / "web.md").read_text()
+    assert "onnxruntime-web's profiler" in md and "profile=on" in md and "The most expensive nodes" in md
