@@ -97,9 +97,13 @@ async function compareCrop(app, n) {
   return { size: app.size, frames: n, margin, window: summary(runs.window), whole: summary(runs.whole) };
 }
 
-// A player option (player.js, setOption), or the renderer graph's form: graph=NAME plays ./graph/NAME.onnx
-// (served beside the folder by `morf bench web --compare graph:A,B`).
+// A player option (player.js, setOption), the renderer graph's form (graph=NAME plays ./graph/NAME.onnx,
+// served beside the folder by `morf bench web --compare graph:A,B`), or spin=on|off (renderer.js).
 async function setOption(app, key, value) {
+  if (key === 'spin') {  // spin:on,off: onnxruntime's idle threads spinning or sleeping (renderer.js)
+    app.player.renderer.spinning = value === 'on';
+    return;
+  }
   if (key !== 'graph') return app.player.setOption(key, value);
   const renderer = app.player.renderer;
   if (!renderer.graphs.has(value)) {

@@ -35,7 +35,10 @@ export async function loadRuntime(config, params) {
   ort.env.wasm.proxy = pick.backend === 'wasm' && params.get('proxy') === '1';
   // profile=1 (benchmarks): onnxruntime's per-node profiler in every session (its events go to the console)
   const profile = params.get('profile') === '1';
-  return { ort, backend: pick.backend, threads: ort.env.wasm.numThreads, isolated, proxy: ort.env.wasm.proxy, profile };
+  // spin=off: onnxruntime's idle threads sleep between kernels instead of spinning (on a 2-core
+  // machine the spinning competes with the software WebGL's threads)
+  const spinning = params.get('spin') !== 'off';
+  return { ort, backend: pick.backend, threads: ort.env.wasm.numThreads, isolated, proxy: ort.env.wasm.proxy, profile, spinning };
 }
 
 const KEPT_SESSIONS = 6;  // window shapes whose sessions stay open, per graph (each holds its own buffers)
@@ -45,6 +48,7 @@ export class Renderer {
     this.rt = runtime;
     this.graphs = new Map([['folder', graph]]);  // name -> ONNX bytes: the folder's, and others a comparison adds
     this.graphName = 'folder';
+    this.spinning = runtime.spinning !== false;  // onnxruntime's intra-op threads spin while idle (its default)
     this.contract = contract;
     this.sessions = new Map();  // "NAME:HxW" -> Promise<session>, the most recently used last
   }
@@ -60,7 +64,7 @@ export class Renderer {
   }
 
   session(h, w) {  // one creation per graph and shape, however many frames ask at once
-    const key = `${this.graphName}:${h}x${w}`;
+    const key = `${this.graphName}:${this.spinning ? 'spin' : 'sleep'}:${h}x${w}`;
     let s = this.sessions.get(key);
     if (s) {
       this.sessions.delete(key);  // to the end: the most recently used
@@ -71,8 +75,9 @@ export class Renderer {
       s = ort.InferenceSession.create(this.graph.slice(), {
         executionProviders: [backend], graphOptimizationLevel: 'all', logSeverityLevel: 3,
         freeDimensionOverrides: { height: h, width: w }, enableProfiling: !!this.rt.profile,
+        ...(this.spinning ? {} : { extra: { session: { intra_op: { allow_spinning: '0' } } } }),
       });
-      if (this.sessions.size >= KEPT_SESSIONS * this.graphs.size) {
+      if (this.sessions.size >= 2 * KEPT_SESSIONS * this.graphs.size) {  // both spinning settings
         const [oldest, old] = this.sessions.entries().next().value;
         this.sessions.delete(oldest);
         old.then((x) => x.release()).catch(() => {});
