@@ -9,7 +9,7 @@ export applies them after cutting the graph (the head's, :mod:`morf.web.head_rew
   from the NHWC raster first only those 3 channels are transposed: the whole 16-channel transpose
   disappears from the graph onnxruntime runs.
 - The colour fill's coverage test as ``Gather -> DequantizeLinear -> Abs -> Sign`` instead of a
-  strided ``Slice`` and element-wise ``Cast``s (:func:`coverage_by_sign`).
+  uint8 ``Slice`` and element-wise ``Cast``s (:func:`coverage_by_sign`).
 """
 
 from __future__ import annotations
@@ -132,8 +132,8 @@ def coverage_by_sign(model_bytes: bytes) -> bytes:
     point), written as ``Slice -> Cast -> Sub -> Abs -> Greater -> Cast`` over the full-resolution
     channel, into ``Gather -> DequantizeLinear(scale 1) -> Abs -> Sign``: the same 0.0 / 1.0 per
     pixel (``b - zp`` is exact in float32 for bytes, and ``Sign(|b - zp|)`` is 1 exactly where it is
-    not 0). In onnxruntime-web the strided uint8 ``Slice`` and the element-wise ``Cast`` were the
-    slow part (a byte at a time); ``Gather`` of one NCHW channel is one block copy, and the
+    not 0). In onnxruntime-web the uint8 ``Slice`` and the ``Cast`` were the slow part
+    (element by element); ``Gather`` of one NCHW channel is one block copy, and the
     dequantization is MLAS's vector loop. Returns the graph unchanged (the same bytes) when no such
     chain is in it."""
     import onnx
