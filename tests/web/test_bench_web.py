@@ -85,10 +85,11 @@ def test_bench_compares_two_forms_of_the_renderer_graph(tail_avatar, tail_web, t
 
 
 def test_bench_profiles_the_renderer_per_node(tail_web, tmp_path):
-    from morf.bench.web import WebOptions, run_web
+    from morf.cli.main import main
 
-    r = run_web(WebOptions(str(tail_web.path), str(tmp_path / "o"), size=256, frames=3, profile=True, timeout=600))
-    p = r["profile"]
+    assert main(["bench", "web", str(tail_web.path), "--out", str(tmp_path / "o"), "--size", "256", "--frames", "3",
+                 "--profile", "--timeout", "600"]) == 0
+    p = json.loads((tmp_path / "o" / "web.json").read_text())["profile"]
     assert p["runs"] >= 3 and p["node_ms"] > 0 and abs(sum(p["by_op"].values()) - p["node_ms"]) < 1e-6 * p["node_ms"] + 1e-9
     assert "Sign" in p["by_op"] and any("Conv" in k for k in p["by_op"]), p["by_op"]  # the folder's rewritten graph ran
     md = (tmp_path / "o" / "web.md").read_text()

@@ -19,8 +19,13 @@ def add_arguments(p) -> None:
     p.add_argument("--proxy", action="store_true", help="onnxruntime-web in its worker (the renderer beside the next frame's GL)")
     p.add_argument("--compare", default="", metavar="KEY:A,B",
                    help="two settings of a page option measured in turn instead of the bench: skin:cpu,gpu, "
-                        "canvas:2d,gl, overlap:on,off, or 'crop' (the person's window against the whole frame)")
+                        "canvas:2d,gl, overlap:on,off, spin:on,off (onnxruntime-web's idle threads spinning or "
+                        "sleeping), graph:A,B (two forms of the renderer graph, A and B from matmul, conv, fused, "
+                        "web; AVATAR an exported avatar folder), or 'crop' (the person's window against the whole frame)")
     p.add_argument("--block", type=int, default=1, help="frames per turn of --compare (default 1)")
+    p.add_argument("--profile", action="store_true",
+                   help="onnxruntime-web's per-node profile over --frames frames instead of the bench (kernel ms a "
+                        "run by operator and by node)")
     p.add_argument("--played", action="store_true",
                    help="--compare the frames as the page plays them (wall times) instead of each stage waited for")
 
@@ -30,5 +35,6 @@ def run(args) -> int:
 
     run_web(WebOptions(args.avatar, args.out, args.size, args.frames, isolation=not args.no_isolation,
                        threads=args.threads, tail=args.tail, timeout=args.timeout, crop=args.crop,
-                       proxy=args.proxy, compare=args.compare, block=args.block, played=args.played))
+                       proxy=args.proxy, compare=args.compare, block=args.block, played=args.played,
+                       profile=args.profile))
     return 0
