@@ -13,6 +13,9 @@ vertices in the rest pose.
 
 from __future__ import annotations
 
+import threading
+import weakref
+
 import numpy as np
 import torch
 
@@ -31,10 +34,31 @@ def vertex_normals_torch(vertices: torch.Tensor, faces: torch.Tensor) -> torch.T
     return n / n.norm(dim=-1, keepdim=True).clamp_min(1e-12)
 
 
+_NORMALS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()  # model -> {shape key: normals}
+_NORMALS_LOCK = threading.Lock()
+_NORMALS_KEPT = 4  # shapes remembered per model: a capture's one shape, a few in a batch of captures
+
+
 def rest_normals(model, shape: torch.Tensor) -> torch.Tensor:
-    """(1 or B, V, 3) outward normals of the shaped rest mesh (no gradient)."""
-    with torch.no_grad():
-        return vertex_normals_torch(model.rest(shape)["rest_vertices"], model.faces)
+    """(1 or B, V, 3) outward normals of the shaped rest mesh (no gradient; do not modify in place).
+
+    Remembered per model for the last few shapes: every frame drawn dressed needs them (training
+    data, hold-out and inpainting views, evaluation), and a capture has one shape."""
+    key = (str(shape.dtype), str(shape.device), tuple(shape.shape), shape.detach().cpu().numpy().tobytes())
+    with _NORMALS_LOCK:  # the studio trains in a worker thread while its panels draw
+        try:
+            kept = _NORMALS.setdefault(model, {})
+        except TypeError:  # a model that cannot be weakly referenced: computed each time
+            kept = {}
+        normals = kept.get(key)
+    if normals is None:
+        with torch.no_grad():
+            normals = vertex_normals_torch(model.rest(shape)["rest_vertices"], model.faces)
+        with _NORMALS_LOCK:
+            kept[key] = normals
+            while len(kept) > _NORMALS_KEPT:
+                kept.pop(next(iter(kept)))
+    return normals
 
 
 def proxy_edges(faces: np.ndarray | torch.Tensor) -> torch.Tensor:

@@ -32,6 +32,20 @@ def test_vertex_normals_point_outwards_on_a_tetrahedron():
     assert ((n * (v[0] - centre)).sum(-1) > 0).all()
 
 
+def test_rest_normals_are_remembered_per_shape(body_model):
+    with torch.no_grad():
+        fresh = lambda shape: vertex_normals_torch(body_model.rest(shape)["rest_vertices"], body_model.faces)  # noqa: E731
+    a = rest_normals(body_model, SHAPE)
+    assert rest_normals(body_model, SHAPE.clone()) is a  # the same shape by value: remembered
+    other = SHAPE + 0.1
+    b = rest_normals(body_model, other)
+    assert torch.equal(a, fresh(SHAPE)) and torch.equal(b, fresh(other)) and not torch.equal(a, b)
+    for k in range(5):  # a few shapes later the first is computed again, equal
+        rest_normals(body_model, SHAPE + 0.01 * (k + 1))
+    again = rest_normals(body_model, SHAPE)
+    assert again is not a and torch.equal(again, a)
+
+
 def test_body_normals_point_outwards(body_model):
     n = rest_normals(body_model, SHAPE)[0]
     rest = body_model.rest(SHAPE)["rest_vertices"][0]
