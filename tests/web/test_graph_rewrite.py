@@ -7,6 +7,15 @@ import numpy as np
 import pytest
 
 
+def _raster_model(nodes, outputs: list[str], consts) -> bytes:
+    """A model of ``nodes`` on a (1, H, W, 16) uint8 ``raster`` input with float ``outputs``."""
+    from onnx import TensorProto, helper
+
+    graph = helper.make_graph(nodes, "g", [helper.make_tensor_value_info("raster", TensorProto.UINT8, [1, "height", "width", 16])],
+                              [helper.make_tensor_value_info(o, TensorProto.FLOAT, None) for o in outputs], consts)
+    return helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)]).SerializeToString()
+
+
 def _graph(axes=(1,)):
     """raster (1, H, W, 16) uint8 -> NCHW transpose -> {a channel slice as float, the whole as float}."""
     from onnx import TensorProto, helper, numpy_helper
@@ -17,10 +26,7 @@ def _graph(axes=(1,)):
              helper.make_node("Slice", ["nchw", "starts", "ends", "axes", "steps"], ["colour_bytes"], name="colour"),
              helper.make_node("Cast", ["colour_bytes"], ["colour"], to=TensorProto.FLOAT),
              helper.make_node("Cast", ["nchw"], ["all"], to=TensorProto.FLOAT)]
-    graph = helper.make_graph(nodes, "g", [helper.make_tensor_value_info("raster", TensorProto.UINT8, [1, "height", "width", 16])],
-                              [helper.make_tensor_value_info("colour", TensorProto.FLOAT, None),
-                               helper.make_tensor_value_info("all", TensorProto.FLOAT, None)], consts)
-    return helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)]).SerializeToString()
+    return _raster_model(nodes, ["colour", "all"], consts)
 
 
 def test_slice_before_transpose_keeps_the_outputs():
@@ -227,10 +233,7 @@ def _coverage_graph(zero_point=128.0, width=1):
              helper.make_node("Greater", ["dist", "zero"], ["covered_bool"]),
              helper.make_node("Cast", ["covered_bool"], ["covered"], to=TensorProto.FLOAT),
              helper.make_node("Cast", ["colour_bytes"], ["colour"], to=TensorProto.FLOAT)]
-    graph = helper.make_graph(nodes, "g", [helper.make_tensor_value_info("raster", TensorProto.UINT8, [1, "height", "width", 16])],
-                              [helper.make_tensor_value_info("covered", TensorProto.FLOAT, None),
-                               helper.make_tensor_value_info("colour", TensorProto.FLOAT, None)], consts)
-    return helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)]).SerializeToString()
+    return _raster_model(nodes, ["covered", "colour"], consts)
 
 
 def test_coverage_by_sign_keeps_the_outputs():
