@@ -107,7 +107,7 @@ def train_all(trainings, ray=None, workers: int | None = None, cpus_per_task: in
     ``cpus_per_task`` cores each (None: all of this machine's);
     {(root, run): Outcome}. A training that raised is an outcome with an error; the others go on."""
     from morf.scale.ray_runtime import resources_for
-    from morf.scale.tasks import Task, run_tasks
+    from morf.scale.tasks import Task, run_tasks, threads_here
 
     unique: dict[tuple[str, str], Training] = {}
     for t in trainings:
@@ -126,10 +126,8 @@ def train_all(trainings, ray=None, workers: int | None = None, cpus_per_task: in
 
     if tasks:
         plural = lambda n, word: f"{n} {word}{'s' if n > 1 else ''}"  # noqa: E731
-        if ray is not None and ray.in_process:  # no more threads than this process runs (run_tasks)
-            import torch
-
-            threads = min(cpus, torch.get_num_threads())
+        if ray is not None and ray.in_process:
+            threads = threads_here(tasks[0].resources)
             print(f"training {plural(len(tasks), 'run')} in this process, one after another, "
                   f"{plural(threads, 'thread')} each")
         else:

@@ -53,7 +53,7 @@ class RayOptions:
     @property
     def where(self) -> str:
         """For results files: the cluster's address, "local" (a local Ray) or "here" (in process)."""
-        return "here" if self.in_process else self.cluster_address or "local"
+        return HERE if self.in_process else self.cluster_address or "local"
 
 
 @dataclass(frozen=True)

@@ -121,6 +121,21 @@ def run_tasks(tasks: Sequence[Task], options: RayOptions | None = None, workers:
     return outcomes  # type: ignore[return-value]
 
 
+def threads_here(resources: Resources) -> int:
+    """Torch threads a task gets in this process: its CPUs, but no more than the process runs."""
+    import torch
+
+    return max(1, min(torch.get_num_threads(), int(resources.num_cpus)))
+
+
+def _error_line(e: BaseException) -> str:
+    """One line for an exception a task's function raised: a MorfError's own message, else its
+    type and the first line of its text."""
+    if isinstance(e, MorfError):
+        return str(e)
+    return f"{type(e).__name__}: {e}".splitlines()[0]
+
+
 def _run_here(tasks: Sequence[Task], on_done: Callable[[Outcome], None] | None) -> list[Outcome]:
     """The tasks one after another in this process (no Ray), each on its CPUs' worth of torch
     threads but no more than this process runs already; an exception the function raises is its
@@ -133,13 +148,11 @@ def _run_here(tasks: Sequence[Task], on_done: Callable[[Outcome], None] | None) 
     threads = torch.get_num_threads()
     for t in tasks:
         t0 = time.perf_counter()
-        torch.set_num_threads(max(1, min(threads, int(t.resources.num_cpus))))
+        torch.set_num_threads(threads_here(t.resources))
         try:
             out = Outcome(t.name, value=t.fn(*t.args), seconds=time.perf_counter() - t0, node=socket.gethostname())
         except Exception as e:  # noqa: BLE001 -- every failure of a task is its outcome
-            first = (str(e).splitlines() or [""])[0]
-            out = Outcome(t.name, error=str(e) if isinstance(e, MorfError) else f"{type(e).__name__}: {first}",
-                          seconds=time.perf_counter() - t0)
+            out = Outcome(t.name, error=_error_line(e), seconds=time.perf_counter() - t0)
         finally:
             torch.set_num_threads(threads)
         outcomes.append(out)
@@ -166,10 +179,8 @@ def _why(e: Exception, retries: int) -> str:
 
     if isinstance(e, rx.RayTaskError):
         cause = getattr(e, "cause", None)
-        if isinstance(cause, MorfError):
-            return str(cause)
         if cause is not None:
-            return f"{type(cause).__name__}: {cause}".splitlines()[0]
+            return _error_line(cause)
     if isinstance(e, (rx.WorkerCrashedError, rx.NodeDiedError, rx.OutOfMemoryError)):
         return (f"its worker died {retries + 1} times (killed, out of memory, or its node was lost): "
                 f"{type(e).__name__}")
