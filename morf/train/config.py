@@ -43,6 +43,11 @@ class TrainConfig:
     # plain mean over every frame that sees a texel, which blends frames misaligned by the fit's
     # error into a ghosted face; morf.train.inpaint.project_rgb_texture).
     colour_facing_power: float = 0.0
+    # Passes of flow alignment before that projection (0: none): each pass warps every frame onto
+    # the current projection as seen from it (optical flow, clamped to the fit's error) and
+    # projects again, so frames the fit misaligns by a few pixels stop blurring each other's
+    # detail (morf.train.colour_align). Needs ``renderer.rgb_skip``; ignored without it.
+    colour_align_passes: int = 0
     batch_size: int = 4  # images per step
     steps: int = 3000  # optimisation steps of the main stage
     texture_channels: int = 16  # C of the neural texture
@@ -210,6 +215,8 @@ class TrainConfig:
             (self.zoom_resolution >= 0, f"zoom_resolution must be 0 (none) or a positive number of pixels, got "
                                         f"{self.zoom_resolution}"),
             (self.colour_facing_power >= 0, f"colour_facing_power must be >= 0, got {self.colour_facing_power}"),
+            (self.colour_align_passes >= 0, f"colour_align_passes must be 0 (plain projection) or a number of "
+                                            f"alignment passes, got {self.colour_align_passes}"),
             (self.detail_every >= 0, f"detail_every must be 0 (none) or a number of steps, got {self.detail_every}"),
             (self.batch_size >= 1, f"batch size must be at least 1 image per step, got {self.batch_size}"),
             (self.steps >= min_steps, f"steps must be at least 1, got {self.steps}: a run without training steps "

@@ -88,16 +88,21 @@ def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fi
     atlas = body_uv_atlas(model, cfg.texture_size, cfg.texture_size)
     fs = pf.frames
     if cfg.renderer.rgb_skip:  # channels 0-2 are colour: the frames projected; the rest spectral
-        from morf.train.floor_texture import floor_texture
+        from morf.train.colour_align import aligned_floor_texture
 
         source = zoom if cfg.colour_from_zoom else fs
         # the floor's colours (step 0 = floor), unless weighted towards the frames that face a texel
-        rgb = floor_texture(source, atlas.covered, cfg.texture_dilate, facing_power=cfg.colour_facing_power)[0][:3]
+        # or aligned to one another first (0 passes: exactly the floor's projection)
+        projected, _, aligned = aligned_floor_texture(source, atlas.covered, cfg.colour_align_passes,
+                                                      cfg.texture_dilate, facing_power=cfg.colour_facing_power)
+        rgb = projected[:3]
         spec = spectral_texture(model, cfg.texture_channels - 3, cfg.texture_size, cfg.texture_size,
                                 cfg.texture_dilate)
         tex = torch.from_numpy(np.concatenate([rgb, spec], axis=0))
         notes.append(f"texture channels 0-2: the training frames at {source.resolution} px projected (colour); "
                      "the renderer adds a residual")
+        if cfg.colour_align_passes:
+            notes.append(f"texture channels 0-2: {aligned.describe()}")
     else:
         tex = torch.from_numpy(spectral_texture(model, cfg.texture_channels, cfg.texture_size, cfg.texture_size,
                                                 cfg.texture_dilate))
