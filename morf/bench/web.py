@@ -141,6 +141,14 @@ def _cpu_by_setting(marks: list[dict]) -> dict:
     return out
 
 
+def _mesh_line(env: dict) -> str:
+    """Which mesh the page drew last, and why (its level of detail on software WebGL)."""
+    line = f"mesh {env.get('mesh')} ({env.get('triangles')} triangles"
+    if env.get("mesh_choice") == "auto" and env.get("pixels_per_metre") is not None:
+        line += f"; the page's choice at the last frame's {env['pixels_per_metre']:.0f} pixels a metre"
+    return line + ")"
+
+
 def _header(r: dict) -> str:
     env = r["page"]
     return (f"# The avatar in a web page\n\n"
@@ -148,7 +156,7 @@ def _header(r: dict) -> str:
             f"WebGL: {env['webgl']}; onnxruntime-web {env['backend']}, {env['threads']} thread(s), "
             f"cross-origin isolated: {env['isolated']}; renderer {env['renderer']['precision']} "
             f"({env['renderer']['mode']}), tail in {env.get('tail')}, skinning on the {env.get('skin')}, "
-            f"canvas {env.get('display')}\n\nFlags: {r['flags']}\n\n"
+            f"canvas {env.get('display')}, {_mesh_line(env)}\n\nFlags: {r['flags']}\n\n"
             f"Load average while it ran: {r['load_before'][0]:.1f} before, {r['load_after'][0]:.1f} after "
             f"(1 min; 2 cores: above 2 other processes share the CPU)\n\n"
             f"The browser's CPU time: {env['browser_cpu_s']:.1f} s in all ({r['seconds']:.0f} s wall, the page's "

@@ -9,7 +9,9 @@ Layout (format "morf-web-avatar", version 1)::
                       trained scale, the motions, and size + sha256 of every file
       texture.bin     (Ht, Wt, 16) uint8 neural texture, row 0 = top of the atlas (zero point 128)
       mesh.bin        rest vertices (Vr, 3) f32, uvs (Vr, 2) f32, bone weights (Vr, 8) f32,
-                      bone indices (Vr, 8) u8 (u16 past 255 bones), faces (F, 3) u32; offsets in avatar.json
+                      bone indices (Vr, 8) u8 (u16 past 255 bones), faces (F, 3) u32, and the faces
+                      of the lighter levels (Fl, 3) u32 over the same vertices (:mod:`morf.web.light_mesh`:
+                      what the page draws on software WebGL); offsets in avatar.json
       renderer.onnx   the int8 renderer (fp32 where the export measured int8 far from it), cut
                       before its full-resolution tail when the avatar folder has one (and with the
                       web-only rewrites of :mod:`morf.web.graph_rewrite`): the page's
@@ -35,9 +37,11 @@ from morf.export.avatar_folder import ExportedAvatar, int8_check_db, sha256_of
 from morf.playback.graph_outputs import cut_graph, keep_outputs
 from morf.playback.native_tail import spec_for
 from morf.web.graph_rewrite import slice_before_transpose
+from morf.web.light_mesh import LightMesh, light_meshes
 
 FORMAT = "morf-web-avatar"
 VERSION = 1
+LEVEL_NAMES = ("light", "lighter")  # the names of morf.web.light_mesh.LEVELS_M's levels in the page
 INT8_MIN_PSNR_DB = 30.0  # as morf play: below it the int8 renderer is visibly off, and fp32 plays instead
 
 
@@ -87,7 +91,7 @@ def web_renderer(avatar: ExportedAvatar, precision: str = "auto") -> WebRenderer
     return WebRenderer(slice_before_transpose(lean if lean is not None else raw), precision, "image", contract)
 
 
-def _mesh_bytes(avatar: ExportedAvatar) -> tuple[bytes, dict]:
+def _mesh_bytes(avatar: ExportedAvatar, levels: dict[str, LightMesh]) -> tuple[bytes, dict]:
     """mesh.bin and its layout: {array: {"offset", "type", "shape"}}, every array 4-byte aligned."""
     m = avatar.mesh
     index_type = np.uint8 if avatar.skeleton.num_bones <= 256 else np.uint16
@@ -97,6 +101,8 @@ def _mesh_bytes(avatar: ExportedAvatar) -> tuple[bytes, dict]:
         "bone_weights": np.ascontiguousarray(m.bone_weights, np.float32),
         "bone_indices": np.ascontiguousarray(m.bone_indices, index_type),
         "faces": np.ascontiguousarray(m.faces, np.uint32),
+        # the levels' faces in the full mesh's vertex numbers
+        **{f"faces_{name}": np.ascontiguousarray(lm.kept[lm.mesh.faces], np.uint32) for name, lm in levels.items()},
     }
     parts, layout, offset = [], {}, 0
     for name, a in arrays.items():
@@ -126,7 +132,8 @@ def write_web_avatar(avatar: ExportedAvatar, folder: Path, motions: list[dict], 
     folder.mkdir(parents=True, exist_ok=True)
     tex = avatar.texture
     (folder / "texture.bin").write_bytes(np.ascontiguousarray(tex.data, np.uint8).tobytes())
-    mesh, layout = _mesh_bytes(avatar)
+    levels = dict(zip(LEVEL_NAMES, light_meshes(avatar.mesh, avatar.skeleton.names, avatar.skeleton.parents)))
+    mesh, layout = _mesh_bytes(avatar, levels)
     (folder / "mesh.bin").write_bytes(mesh)
     renderer = web_renderer(avatar, precision)
     (folder / "renderer.onnx").write_bytes(renderer.graph)
@@ -141,7 +148,10 @@ def write_web_avatar(avatar: ExportedAvatar, folder: Path, motions: list[dict], 
         "texture": {"file": "texture.bin", "height": int(tex.data.shape[0]), "width": int(tex.data.shape[1]),
                     "channels": int(tex.data.shape[2]), "zero_point": 128},
         "mesh": {"file": "mesh.bin", "vertices": avatar.mesh.num_vertices, "faces": int(avatar.mesh.faces.shape[0]),
-                 "arrays": layout},
+                 "arrays": layout, "levels": [
+                     {"name": name, "array": f"faces_{name}", "faces": int(lm.mesh.faces.shape[0]),
+                      "vertices": int(len(lm.kept)), "max_error_mm": round(lm.max_error_m * 1000, 3)}
+                     for name, lm in levels.items()]},
         "skeleton": _skeleton(avatar),
         "renderer": {"file": "renderer.onnx", "precision": renderer.precision, **renderer.contract},
         "trained_scale": manifest.get("trained_scale"),

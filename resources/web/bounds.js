@@ -31,13 +31,15 @@ export class BodyBox {
   // rows: Float32Array(J * 12), the top three rows of each skinning matrix; cam: pinhole
   // (fx, fy, cx, cy, R row-major, t). Returns [x0, y0, x1, y1] in pixels (rows top first), or
   // null when a vertex is at or behind the camera (the whole frame is then used). skinned: the
-  // whole render mesh already skinned (Float32Array, 3 per vertex), whose subset is then only projected.
-  box(rows, cam, skinned = null) {
-    const { rest, weights, bones, count } = this, R = cam.R, t = cam.t, p = this.point;
+  // render mesh already skinned (Float32Array, 3 per vertex) at the vertices ``used`` (Uint32Array:
+  // those the drawn faces use), which are then only projected, every STRIDE-th of them.
+  box(rows, cam, skinned = null, used = null) {
+    const { rest, weights, bones } = this, R = cam.R, t = cam.t, p = this.point;
+    const count = skinned ? Math.ceil(used.length / STRIDE) : this.count;
     let x0 = Infinity, y0 = Infinity, x1 = -Infinity, y1 = -Infinity;
     for (let i = 0; i < count; i++) {
       if (skinned) {
-        const v = 3 * STRIDE * i;
+        const v = 3 * used[STRIDE * i];
         p[0] = skinned[v]; p[1] = skinned[v + 1]; p[2] = skinned[v + 2];
       } else {
         skinVertex(p, 0, rows, rest, weights, bones, i);

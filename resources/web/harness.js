@@ -42,7 +42,8 @@ function environment(app) {
     backend: app.runtime.backend, threads: app.runtime.threads, isolated: app.runtime.isolated, proxy: app.runtime.proxy,
     renderer: { mode: app.doc.renderer.mode, precision: app.doc.renderer.precision },
     tail: app.doc.renderer.mode === 'tail' ? (app.player.tailOnCpu ? 'js' : 'webgl') : null,
-    skin: app.player.raster.skin, display: app.player.compositor.canvas2d ? '2d' : 'gl', frames_drawn: app.player.framesDrawn,
+    skin: app.player.raster.skin, mesh: app.player.raster.meshKind, mesh_choice: app.player.meshChoice,
+    pixels_per_metre: app.player.pixelsPerMetre ?? null, triangles: app.player.raster.indexCount / 3, display: app.player.compositor.canvas2d ? '2d' : 'gl', frames_drawn: app.player.framesDrawn,
   };
 }
 

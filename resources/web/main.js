@@ -2,7 +2,7 @@
 // picker, play / pause, an fps readout, and a smaller output where the device cannot hold 30 fps.
 // Query parameters: size=N (fix the output side), start=N (start there, then adapt), adapt=0 (keep
 // the size), crop=off|N (the renderer on the whole frame, or N pixels around the person), motion=NAME, frame=K
-// and pause=1 (show one frame), threads=N, backend=wasm|webgpu, tail=js|webgl, skin=cpu|gpu, canvas=2d|gl, proxy=1,
+// and pause=1 (show one frame), threads=N, backend=wasm|webgpu, tail=js|webgl, skin=cpu|gpu, mesh=full|light|lighter|auto, canvas=2d|gl, proxy=1,
 // target=FPS; bench=N, check=1, report=N run
 // the checks of harness.js (tests and `morf bench web`).
 import { loadRuntime } from './renderer.js';

@@ -15,6 +15,19 @@ import { BodyBox, CropWindow } from './bounds.js';
 // frame instead of 0.6, the renderer 2x faster, the body 38-40 dB from the whole frame's image
 // instead of 40-41 (docs/web.md); past 16 pixels the whole frame's image is the background within 1 level.
 export const CROP_MARGIN = 32;
+// A lighter level of the mesh (morf/web/light_mesh.py) is drawn while its largest error stays under
+// this many pixels: the demo avatar's 4 mm level is about 0.8 px at a full-body 640 px view, its
+// page frames 35.7-38.1 dB from the Python player's over the body; zoomed closer the full mesh is drawn.
+export const LOD_PIXELS = 1.5;
+const REACH = 0.3;  // metres a hand or the head may come nearer the camera than the body's centre
+
+// The mean rest vertex of the render mesh (posed by bone 0 it places the body for levelOfDetail).
+function restCentre(avatar) {
+  const a = avatar.doc.mesh.arrays.rest_vertices, n = a.shape[0];
+  const rest = new Float32Array(avatar.mesh, a.offset, 3 * n), c = [0, 0, 0];
+  for (let v = 0; v < n; v++) for (let k = 0; k < 3; k++) c[k] += rest[3 * v + k] / n;
+  return c;
+}
 
 async function fetchBytes(url) {
   const r = await fetch(url);
@@ -49,6 +62,13 @@ export class Player {
     this.glRenderer = String(gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
     const query = new URLSearchParams(location.search), software = /swiftshader|llvmpipe|softpipe|software/i.test(this.glRenderer);
     this.raster = new NeuralRaster(gl, avatar, query.get('skin') || (software ? 'cpu' : 'gpu'));
+    // A lighter mesh where triangles cost CPU time (software WebGL): per frame the coarsest level
+    // whose error stays under LOD_PIXELS at the scale the body is drawn ("auto"); a GPU draws the
+    // full mesh for free.
+    this.levels = (avatar.doc.mesh.levels || []).slice().sort((a, b) => b.max_error_mm - a.max_error_mm);
+    this.meshChoice = query.get('mesh') || (software && this.levels.length ? 'auto' : 'full');
+    this.restCentre = restCentre(avatar);
+    if (this.meshChoice !== 'auto') this.raster.setMesh(this.meshChoice);
     const wanted = query.get('tail');
     this.tailOnCpu = wanted ? wanted === 'js' : software;
     this.compositor = new Compositor(gl, avatar.doc.renderer, this.tailOnCpu);
@@ -66,19 +86,23 @@ export class Player {
     if (!this.window || this.window.margin !== this.cropMargin) {
       this.window = new CropWindow(this.avatar.doc.size_multiple || 32, this.cropMargin);
     }
-    const skinned = this.raster.skin === 'cpu' ? this.raster.skinned.positions : null;  // skinned already: projected only
-    return this.window.choose(this.cropMargin < 0 ? null : this.bodyBox.box(this.rows, camera, skinned), this.size);
+    const sk = this.raster.skin === 'cpu' ? this.raster.skinned : null;  // skinned already: projected only
+    const box = this.cropMargin < 0 ? null : this.bodyBox.box(this.rows, camera, sk && sk.positions, sk && sk.used);
+    return this.window.choose(box, this.size);
   }
 
-  // A setting the harness compares A/B (compare=KEY:A,B): skin (cpu | gpu: raster.js), cull (cpu |
-  // gl: raster.js), overlap
-  // (on | off: play()), path (gl | js: the three at once, the GL way or the software-WebGL way), canvas
+  // A setting the harness compares A/B (compare=KEY:A,B): skin (cpu | gpu: raster.js), mesh (full |
+  // light: raster.js), cull (cpu | gl: raster.js), overlap (on | off: play()), path (gl | js: the three at once, the GL way or the software-WebGL way), canvas
   // (2d | gl: where an image made in JavaScript is shown; both canvases are then on the page).
   setOption(key, value) {
     if (key === 'path') {  // all of them: "gl" as the page ran before (skin gpu, canvas gl, overlap off), "js" as now
       for (const [k, gl, js] of [['skin', 'gpu', 'cpu'], ['canvas', 'gl', '2d'], ['overlap', 'off', 'on']]) this.setOption(k, value === 'gl' ? gl : js);
     } else if (key === 'skin') this.raster.setSkin(value);
     else if (key === 'cull') this.raster.cull = value === 'gl' ? 'gl' : 'cpu';
+    else if (key === 'mesh') {
+      this.meshChoice = value;
+      if (value !== 'auto') this.raster.setMesh(value);
+    }
     else if (key === 'overlap') this.overlap = value === 'on';
     else if (key === 'canvas') {
       if (value === '2d' && !this.canvas2d) throw new Error('no 2D canvas on this page (?canvas=gl)');
@@ -90,6 +114,19 @@ export class Player {
     this.raster.resize(size);
     this.compositor.resize(size);
     this.size = size;
+  }
+
+  // The coarsest level whose largest error, at the scale the body is drawn (pixels per metre at its
+  // centre's depth less an arm's reach), stays under LOD_PIXELS; "full" closer up (a zoom).
+  levelOfDetail(camera) {
+    const r = this.rows, c = this.restCentre, R = camera.R, t = camera.t;  // rows of bone 0: the body's place
+    const X = r[0] * c[0] + r[1] * c[1] + r[2] * c[2] + r[3];
+    const Y = r[4] * c[0] + r[5] * c[1] + r[6] * c[2] + r[7];
+    const Z = r[8] * c[0] + r[9] * c[1] + r[10] * c[2] + r[11];
+    const depth = R[6] * X + R[7] * Y + R[8] * Z + t[2] - REACH;
+    this.pixelsPerMetre = depth > 0.05 ? camera.fx / depth : Infinity;
+    const level = this.levels.find((l) => (l.max_error_mm / 1000) * this.pixelsPerMetre <= LOD_PIXELS);
+    return level ? level.name : 'full';
   }
 
   // A frame's GL work: bone matrices, skinning + neural rasterization, read-back. Returns the frame's
@@ -104,6 +141,7 @@ export class Player {
     const t0 = performance.now();
     this.framesDrawn = (this.framesDrawn || 0) + 1;
     this.skeleton.boneRows(frame, this.rows);
+    if (this.meshChoice === 'auto') this.raster.setMesh(this.levelOfDetail(camera));
     this.raster.uploadBones(this.rows);
     const crop = this.crop(camera);
     this.lastCrop = crop;

@@ -97,10 +97,17 @@ export class NeuralRaster {
       return b;
     };
     this.arrays = arrays;
-    this.mesh = avatar.mesh;
     this.buffers = Object.fromEntries(['rest_vertices', 'uvs', 'bone_weights', 'bone_indices'].map((k) => [k, buffer(k)]));
     this.faces = buffer('faces', gl.ELEMENT_ARRAY_BUFFER);
     this.indexCount = arrays.faces.shape[0] * 3;
+    // The triangles drawn: "full" (the render mesh) or a lighter level (fewer triangles over the same
+    // vertices, morf/web/light_mesh.py; doc.mesh.levels): software WebGL's raster follows the triangle count.
+    const list = (name) => new Uint32Array(avatar.mesh, arrays[name].offset, arrays[name].shape[0] * 3);
+    this.faceLists = { full: list('faces') };
+    for (const level of doc.mesh.levels || []) this.faceLists[level.name] = list(level.array);
+    this.maxIndexCount = this.indexCount;
+    this.mesh = avatar.mesh;
+    this.meshKind = 'full';
     this.pipelines = {};
     this.setSkin(skin);
     const t = doc.texture;
@@ -131,6 +138,24 @@ export class NeuralRaster {
     this.skin = skin;
     if (!this.pipelines[skin]) this.pipelines[skin] = this.pipeline(skin);
     Object.assign(this, this.pipelines[skin]);
+    this.setMesh(this.meshKind);
+  }
+
+  // mesh: 'full' or the name of one of the folder's lighter levels.
+  setMesh(kind) {
+    if (kind === this.meshKind && this.meshSet === this.skin) return;
+    this.meshSet = this.skin;
+    const faces = this.faceLists[kind];
+    if (!faces) throw new Error(`mesh=${kind}: this avatar folder's meshes are ${Object.keys(this.faceLists).join(', ')}`);
+    this.meshKind = kind;
+    this.indexCount = faces.length;
+    const gl = this.gl;
+    gl.bindVertexArray(null);  // the element binding belongs to the bound vertex array: change none
+    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, this.faces);
+    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, faces, gl.STATIC_DRAW);
+    for (const p of Object.values(this.pipelines)) {
+      if (p.skinned) p.skinned.faces = faces;
+    }
   }
 
   pipeline(skin) {
@@ -151,10 +176,10 @@ export class NeuralRaster {
     if (skin === 'cpu') {
       skinned = new SkinnedVertices(arrays, this.mesh);
       skinned.front = gl.createBuffer();  // the faces facing the camera, chosen in JavaScript each frame
-      skinned.faces = new Uint32Array(this.mesh, arrays.faces.offset, this.indexCount);
-      skinned.kept = new Uint32Array(this.indexCount);
+      skinned.faces = this.faceLists[this.meshKind];
+      skinned.kept = new Uint32Array(this.maxIndexCount);
       gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, skinned.front);
-      gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, this.indexCount * 4, gl.STREAM_DRAW);
+      gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, this.maxIndexCount * 4, gl.STREAM_DRAW);
       skinned.buffer = gl.createBuffer();
       gl.bindBuffer(gl.ARRAY_BUFFER, skinned.buffer);
       gl.bufferData(gl.ARRAY_BUFFER, skinned.positions.byteLength, gl.STREAM_DRAW);
@@ -299,9 +324,25 @@ class SkinnedVertices {
     this.positions = new Float32Array(3 * n);
   }
 
+  // The vertices the drawn faces use (the light mesh leaves more than half of them out): only those
+  // are skinned and projected.
+  set faces(faces) {
+    this.faceList = faces;
+    const seen = new Uint8Array(this.n);
+    for (let i = 0; i < faces.length; i++) seen[faces[i]] = 1;
+    this.used = Uint32Array.from({ length: this.n }, (_, v) => v).filter((v) => seen[v]);
+    this.allSet = false;
+    this.uploaded = false;
+  }
+
+  get faces() { return this.faceList; }
+
   skin(rows) {
-    const { rest, weights, bones, positions: out, n } = this;
-    for (let v = 0; v < n; v++) skinVertex(out, 3 * v, rows, rest, weights, bones, v);
+    const { rest, weights, bones, positions: out, used } = this;
+    for (let i = 0; i < used.length; i++) {
+      const v = used[i];
+      skinVertex(out, 3 * v, rows, rest, weights, bones, v);
+    }
     return out;
   }
 
@@ -315,11 +356,12 @@ class SkinnedVertices {
   // flip: positive area in normalized device coordinates); one with a vertex at or behind the eye, or
   // an area under about a pixel, is left to GL to decide.
   frontFaces(m) {
-    const p = this.positions, n = this.n, faces = this.faces, kept = this.kept;
+    const p = this.positions, n = this.n, faces = this.faces, kept = this.kept, used = this.used;
     if (!this.ndc || this.ndc.length !== 3 * n) this.ndc = new Float32Array(3 * n);
     const ndc = this.ndc;
     this.allSet = false;
-    for (let v = 0; v < n; v++) {
+    for (let i = 0; i < used.length; i++) {
+      const v = used[i];
       const X = p[3 * v], Y = p[3 * v + 1], Z = p[3 * v + 2];
       const w = m[3] * X + m[7] * Y + m[11] * Z + m[15];
       ndc[3 * v] = (m[0] * X + m[4] * Y + m[8] * Z + m[12]) / w;

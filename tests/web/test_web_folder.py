@@ -51,6 +51,13 @@ def test_folder_holds_the_page_the_libraries_and_the_avatar(folder, tiny_avatar)
     assert np.array_equal(array("faces"), av.mesh.faces)
     assert np.array_equal(array("bone_indices"), av.mesh.bone_indices)
     assert np.array_equal(array("bone_weights"), av.mesh.bone_weights.astype(np.float32))
+    from morf.web.light_mesh import light_meshes
+
+    levels = light_meshes(av.mesh, av.skeleton.names, av.skeleton.parents)
+    assert [lv["name"] for lv in doc["mesh"]["levels"]] == ["light", "lighter"]
+    for lv, want in zip(doc["mesh"]["levels"], levels):  # each level's faces over the full mesh's vertices
+        assert np.array_equal(array(lv["array"]), want.kept[want.mesh.faces]) and lv["faces"] == len(want.mesh.faces)
+        assert lv["max_error_mm"] == pytest.approx(want.max_error_m * 1000, abs=1e-3)
     tex = np.frombuffer((root / "avatar" / "texture.bin").read_bytes(), np.uint8)
     assert np.array_equal(tex.reshape(av.texture.data.shape), av.texture.data)
     assert doc["renderer"]["mode"] == "image"  # the coverage renderer has no tail

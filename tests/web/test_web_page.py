@@ -40,6 +40,30 @@ def _frames(num_bones: int, size: int, count: int = 2, seed: int = 3):
     return out
 
 
+def _drawn(avatar, mesh: str):
+    """The exported avatar with the mesh the page drew (``mesh``: "full" or a level of the web
+    folder's, morf/web/light_mesh.py)."""
+    import dataclasses
+
+    from morf.export.avatar_folder import load_exported_avatar
+    from morf.web.light_mesh import light_meshes
+    from morf.web.web_avatar import LEVEL_NAMES
+
+    a = load_exported_avatar(avatar)
+    if mesh == "full":
+        return a
+    levels = light_meshes(a.mesh, a.skeleton.names, a.skeleton.parents)
+    return dataclasses.replace(a, mesh=levels[LEVEL_NAMES.index(mesh)].mesh)
+
+
+def _faces(folder, mesh: str) -> int:
+    """The triangle count of ``mesh`` in the web folder's avatar.json."""
+    import json
+
+    doc = json.loads((folder.path / "avatar" / "avatar.json").read_text())["mesh"]
+    return doc["faces"] if mesh == "full" else next(lv["faces"] for lv in doc["levels"] if lv["name"] == mesh)
+
+
 def _python_frames(avatar, frames, size, precision):
     """The Python player's images and the body's pixels (the raster's coverage) of ``frames``, with
     the renderer the page runs (``precision``: the web folder plays fp32 where the export measured
@@ -66,13 +90,18 @@ def test_page_loads_without_console_errors_and_plays_a_motion(tiny_web):
     assert (np.abs(img.astype(int) - 255).max(-1) > 8).mean() > 0.01  # a body on the white background
 
 
-def test_frame_matches_the_python_player_whole_graph(tiny_web, tiny_avatar):
+@pytest.mark.parametrize("mesh", ["full", "auto"])
+def test_frame_matches_the_python_player_whole_graph(tiny_web, tiny_avatar, mesh):
+    """With the full mesh, and with the page's own choice on software WebGL at these full-body
+    views: a lighter level (each against the Python player drawing the same mesh)."""
     from morf.web.check import page_frames, psnr
 
     size = 256
     frames = _frames(104, size)
-    page, info = page_frames(tiny_web.path, frames)
-    want, person = _python_frames(tiny_avatar, frames, size, tiny_web.precision)
+    page, info = page_frames(tiny_web.path, frames, query="" if mesh == "auto" else f"mesh={mesh}")
+    assert (info["mesh"] == "full") == (mesh == "full"), info["mesh"]
+    assert info["triangles"] == _faces(tiny_web, info["mesh"])
+    want, person = _python_frames(_drawn(tiny_avatar, info["mesh"]), frames, size, tiny_web.precision)
     assert info["messages"] == [] and info["renderer"]["mode"] == "image"
     for a, b, m, w in zip(page, want, person, info["windows"]):
         assert m.sum() > 2000
@@ -92,7 +121,7 @@ def test_webgpu_frame_matches_the_python_player(tiny_avatar, tmp_path):
     folder = build_web_folder(tiny_avatar, tmp_path / "gpu", webgpu=True)
     size = 256
     frames = _frames(104, size)
-    page, info = page_frames(folder.path, frames, query="backend=webgpu", webgpu=True, timeout=300)
+    page, info = page_frames(folder.path, frames, query="backend=webgpu&mesh=full", webgpu=True, timeout=300)
     if info["backend"] != "webgpu":
         pytest.skip("this Chromium offers the page no WebGPU adapter")
     want, person = _python_frames(tiny_avatar, frames, size, folder.precision)
@@ -116,11 +145,14 @@ def test_raster_renderer_and_tail_match_the_python_player(tail_web, tail_avatar)
 
     size = 128
     frames = _frames(104, size)
-    # software WebGL skins on the CPU (with the JavaScript tail); the GPU's vertex-shader skinning with the passes
-    for tail, skin in (("js", "cpu"), ("webgl", "gpu")):
-        page, info = page_frames(tail_web.path, frames, query=f"tail={tail}&skin={skin}", rasters=True)
+    # software WebGL skins on the CPU (with the JavaScript tail, a lighter level at these views); the
+    # GPU's vertex-shader skinning with the passes and the full mesh
+    for tail, skin, mesh in (("js", "cpu", "auto"), ("webgl", "gpu", "full")):
+        page, info = page_frames(tail_web.path, frames, query=f"tail={tail}&skin={skin}&mesh={mesh}", rasters=True)
         assert info["messages"] == [] and info["renderer"]["mode"] == "tail" and info["tail"] == tail
-        with Player(tail_avatar, size=size, precision=tail_web.precision, raster="gl") as p:
+        assert (info["mesh"] == "full") == (mesh == "full"), info["mesh"]
+        drawn = _drawn(tail_avatar, info["mesh"])
+        with Player(drawn, size=size, precision=tail_web.precision, raster="gl") as p:
             for (r, t, c), image, raster in zip(frames, page, info["rasters"]):
                 want = p.rasterize(r, t, c).reshape(size, size, 16).astype(np.int16)
                 body = want[..., 0] != 128
