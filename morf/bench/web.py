@@ -142,11 +142,17 @@ def _cpu_by_setting(marks: list[dict]) -> dict:
 
 
 def _mesh_line(env: dict) -> str:
-    """Which mesh the page drew last, and why (its level of detail on software WebGL)."""
-    line = f"mesh {env.get('mesh')} ({env.get('triangles')} triangles"
-    if env.get("mesh_choice") == "auto" and env.get("pixels_per_metre") is not None:
-        line += f"; the page's choice at the last frame's {env['pixels_per_metre']:.0f} pixels a metre"
-    return line + ")"
+    """How the page chooses its mesh."""
+    return ("mesh: the page's level of detail" if env.get("mesh_choice") == "auto"
+            else f"mesh {env.get('mesh_choice') or env.get('mesh')}")
+
+
+def _drawn(mesh: dict | None) -> str:
+    """The mesh a part of the bench drew (the level the page chose at the body's scale)."""
+    if not mesh:
+        return "mesh n/a"
+    scale = f" at {mesh['pixels_per_metre']:.0f} pixels a metre" if mesh.get("pixels_per_metre") else ""
+    return f"mesh {mesh['drawn']} ({mesh['triangles']} triangles{scale})"
 
 
 def _header(r: dict) -> str:
@@ -241,12 +247,12 @@ def _markdown(r: dict) -> str:
             f"**{env['size']} x {env['size']}: {env['fps']:.1f} fps end to end** as the page plays "
             f"({env['ms_per_frame']:.1f} ms a frame, {r['frames']} frames; the renderer proxied to a worker: "
             f"{env.get('proxy')}); one frame after another: {env['sequential_fps']:.1f} fps; with each stage waited "
-            f"for: {env['staged_fps']:.1f} fps\n\n" + cpu_line +
+            f"for: {env['staged_fps']:.1f} fps; {_drawn(env.get('mesh_drawn'))}\n\n" + cpu_line +
             f"The person's window ({where}): "
             f"{100 * win['share']:.0f} % of the frame on average; shapes {shapes or 'n/a'}\n\n"
             + markdown_table(rows, ["stage", "ms", "share"], "{:.1f}") +
             f"\nAdaptive size: **{adaptive['size']} x {adaptive['size']}: {adaptive['fps']:.1f} fps** "
-            f"(steps: {steps}); settled because: {adaptive.get('why', 'n/a')}\n\n"
+            f"(steps: {steps}); settled because: {adaptive.get('why', 'n/a')}; {_drawn(adaptive.get('mesh_drawn'))}\n\n"
             f"Web folder: {r['folder_mb']:.2f} MB ({r['folder']})\n")
 
 

@@ -192,10 +192,11 @@ async function bench(app, params) {
   await mark('played');
   const played = await timePlayed(app, n);
   await mark('played_end');
+  const mesh = meshNow(app);
   const total = STAGES.reduce((a, s) => a + staged.stages_ms[s], 0);
   const shares = Object.fromEntries(STAGES.map((s) => [s, staged.stages_ms[s] / total]));
   const result = { size: app.size, frames: n, ...played, sequential_fps: sequential.fps, staged_fps: staged.fps,
-                   stages_ms: staged.stages_ms, parts_ms: staged.parts_ms, shares, fine, proxy: app.runtime.proxy,
+                   stages_ms: staged.stages_ms, parts_ms: staged.parts_ms, shares, fine, proxy: app.runtime.proxy, mesh_drawn: mesh,
                    window: { margin: app.player.cropMargin, share: staged.window_share, shapes: staged.window_shapes } };
   if (params.get('noadapt')) return result;
   // The adaptive size: what the page picks from the rate it measures while playing, then the rate there.
@@ -217,7 +218,14 @@ async function bench(app, params) {
   await mark('adaptive');
   const adaptive = await timePlayed(app, n);
   await mark('adaptive_end');
-  return { ...result, adaptive: { size: app.size, steps, why, ...adaptive } };
+  return { ...result, adaptive: { size: app.size, steps, why, ...adaptive, mesh_drawn: meshNow(app) } };
+}
+
+// The mesh the last frame drew, its triangles and the scale behind the page's choice.
+function meshNow(app) {
+  const p = app.player;
+  return { drawn: p.raster.meshKind, triangles: p.raster.indexCount / 3, choice: p.meshChoice,
+           pixels_per_metre: p.pixelsPerMetre ?? null };
 }
 
 async function check(app) {
