@@ -48,8 +48,8 @@ class TrainConfig:
     # projects again, so frames the fit misaligns by a few pixels stop blurring each other's
     # detail (morf.train.colour_align). Needs ``renderer.rgb_skip``; ignored without it. Off in
     # every preset: on the synthetic capture 2 passes sharpened the head, hands and shirt print
-    # (HF ratio and shift-tolerant SSIM up) but cost 0.45 dB person PSNR (docs/avatar.md,
-    # "Flow-aligned colour projection").
+    # (HF ratio and shift-tolerant SSIM up) but cost 0.45 dB person PSNR; on a real clip every
+    # score but the HF ratio held or rose (docs/avatar.md, "Flow-aligned colour projection").
     colour_align_passes: int = 0
     batch_size: int = 4  # images per step
     steps: int = 3000  # optimisation steps of the main stage
