@@ -97,6 +97,7 @@ def test_detail_preset_is_the_cpu_preset_with_detail():
     assert det.renderer == cpu.renderer and det.resolution == cpu.resolution  # the same playback graph
     assert det.texture_size > cpu.texture_size and det.zoom_resolution >= 640
     assert det.detail_every and det.colour_from_zoom and det.w_mask_bce > 0
+    assert det.colour_align_passes == 2 and cpu.colour_align_passes == 0  # aligned colour: the detail preset only
 
 
 def _two_views_of_one_texel(colours, facings) -> FrameSet:
