@@ -13,8 +13,19 @@ from morf.train.config import preset as train_preset
 
 
 def _demo_rows():
-    return [(f"demo {name}", p.synth, {}, p.fit, p.train, {"steps": p.train_steps} if p.train_steps else {})
+    return [(f"demo {name}", p.synth, {}, p.fit, p.train,
+             {**({"steps": p.train_steps} if p.train_steps else {}), **dict(p.train_set)})
             for name, p in presets.presets_of("demo").items()]
+
+
+def test_demo_train_settings_reach_the_train_config():
+    """What ``morf demo`` passes as ``--set`` reads back as the preset's typed values."""
+    from morf.train.config import preset as train_preset
+
+    p = presets.preset("demo", "quick")
+    assert p.train_set and p.train_set_args()[0] == "--set"
+    cfg = train_preset(p.train).with_settings(list(p.train_set_args()[1::2]))
+    assert all(getattr(cfg, k) == v for k, v in p.train_set)
 
 
 def _stability_rows():

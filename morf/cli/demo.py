@@ -76,6 +76,7 @@ def run(args) -> int:
     train = ("train", str(project), "--preset", preset.train, "--name", name)
     if preset.train_steps:
         train += ("--steps", str(preset.train_steps))
+    train += preset.train_set_args()
     # --force: the demo folder is the demo's own (check_demo_folder), so its video is replaced on a re-run
     animate = ("animate", str(project), "--motion", str(motion), "--out", str(root / "animation.mp4"),
                "--size", str(preset.size), "--max-frames", str(preset.max_frames), "--camera", "follow", "--force")
