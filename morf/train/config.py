@@ -46,10 +46,11 @@ class TrainConfig:
     # Passes of flow alignment before that projection (0: none): each pass warps every frame onto
     # the current projection as seen from it (optical flow, clamped to the fit's error) and
     # projects again, so frames the fit misaligns by a few pixels stop blurring each other's
-    # detail (morf.train.colour_align). Needs ``renderer.rgb_skip``; ignored without it. Off in
-    # every preset: on the synthetic capture 2 passes sharpened the head, hands and shirt print
-    # (HF ratio and shift-tolerant SSIM up) but cost 0.45 dB person PSNR; on a real clip every
-    # score but the HF ratio held or rose (docs/avatar.md, "Flow-aligned colour projection").
+    # detail (morf.train.colour_align). Needs ``renderer.rgb_skip``; ignored without it. Two
+    # passes in the ``detail`` preset and in ``morf demo``, none in ``cpu``: on the synthetic capture
+    # they sharpened the head, hands and shirt print (HF ratio and shift-tolerant SSIM up) but cost
+    # 0.45 dB person PSNR; on a real clip every score but the HF ratio held or rose (docs/avatar.md,
+    # "Flow-aligned colour projection").
     colour_align_passes: int = 0
     batch_size: int = 4  # images per step
     steps: int = 3000  # optimisation steps of the main stage
