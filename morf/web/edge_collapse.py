@@ -31,6 +31,7 @@ class EdgeCollapse:
         self.q, self.movable, self.weights = quadrics.copy(), movable, weights
         self.max_weight_change, self.multiplier = max_weight_change, multiplier
         self.alive = np.ones(len(faces), bool)
+        self.face_count = len(faces)  # alive faces, kept in step with ``alive``
         self.vf: list[set[int]] = [set() for _ in range(len(points))]
         for f, tri in enumerate(self.faces):
             for i in tri:
@@ -41,10 +42,6 @@ class EdgeCollapse:
         self.heap: list[tuple[float, int, int, int, int]] = []
         for u in np.flatnonzero(movable):
             self._push_from(int(u))
-
-    @property
-    def face_count(self) -> int:
-        return int(self.alive.sum())
 
     def neighbours(self, u: int) -> set[int]:
         return {int(i) for f in self.vf[u] for i in self.faces[f]} - {u}
@@ -97,6 +94,7 @@ class EdgeCollapse:
 
     def _collapse(self, u: int, v: int) -> None:
         shared = self.vf[u] & self.vf[v]
+        self.face_count -= len(shared)
         for f in shared:
             self.alive[f] = False
             for i in self.faces[f]:
