@@ -152,7 +152,7 @@ def _drawn(mesh: dict | None) -> str:
     if not mesh:
         return "mesh n/a"
     scale = f" at {mesh['pixels_per_metre']:.0f} pixels a metre" if mesh.get("pixels_per_metre") else ""
-    return f"mesh {mesh['drawn']} ({mesh['triangles']} triangles{scale})"
+    return f"mesh {mesh['mesh']} ({mesh['triangles']} triangles{scale})"
 
 
 def _header(r: dict) -> str:

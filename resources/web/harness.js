@@ -42,8 +42,8 @@ function environment(app) {
     backend: app.runtime.backend, threads: app.runtime.threads, isolated: app.runtime.isolated, proxy: app.runtime.proxy,
     renderer: { mode: app.doc.renderer.mode, precision: app.doc.renderer.precision },
     tail: app.doc.renderer.mode === 'tail' ? (app.player.tailOnCpu ? 'js' : 'webgl') : null,
-    skin: app.player.raster.skin, mesh: app.player.raster.meshKind, mesh_choice: app.player.meshChoice,
-    pixels_per_metre: app.player.pixelsPerMetre ?? null, triangles: app.player.raster.indexCount / 3, display: app.player.compositor.canvas2d ? '2d' : 'gl', frames_drawn: app.player.framesDrawn,
+    skin: app.player.raster.skin, ...meshNow(app), display: app.player.compositor.canvas2d ? '2d' : 'gl',
+    frames_drawn: app.player.framesDrawn,
   };
 }
 
@@ -221,10 +221,11 @@ async function bench(app, params) {
   return { ...result, adaptive: { size: app.size, steps, why, ...adaptive, mesh_drawn: meshNow(app) } };
 }
 
-// The mesh the last frame drew, its triangles and the scale behind the page's choice.
+// The mesh the last frame drew, its triangles, and how the page chooses (mesh_choice "auto": by the
+// scale the body is drawn at, pixels_per_metre).
 function meshNow(app) {
   const p = app.player;
-  return { drawn: p.raster.meshKind, triangles: p.raster.indexCount / 3, choice: p.meshChoice,
+  return { mesh: p.raster.meshKind, triangles: p.raster.indexCount / 3, mesh_choice: p.meshChoice,
            pixels_per_metre: p.pixelsPerMetre ?? null };
 }
 

@@ -92,8 +92,9 @@ export class Player {
   }
 
   // A setting the harness compares A/B (compare=KEY:A,B): skin (cpu | gpu: raster.js), mesh (full |
-  // light: raster.js), cull (cpu | gl: raster.js), overlap (on | off: play()), path (gl | js: the three at once, the GL way or the software-WebGL way), canvas
-  // (2d | gl: where an image made in JavaScript is shown; both canvases are then on the page).
+  // light | lighter | auto: raster.js), cull (cpu | gl: raster.js), overlap (on | off: play()), path
+  // (gl | js: the three at once, the GL way or the software-WebGL way), canvas (2d | gl: where an
+  // image made in JavaScript is shown; both canvases are then on the page).
   setOption(key, value) {
     if (key === 'path') {  // all of them: "gl" as the page ran before (skin gpu, canvas gl, overlap off), "js" as now
       for (const [k, gl, js] of [['skin', 'gpu', 'cpu'], ['canvas', 'gl', '2d'], ['overlap', 'off', 'on']]) this.setOption(k, value === 'gl' ? gl : js);

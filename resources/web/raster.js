@@ -138,13 +138,12 @@ export class NeuralRaster {
     this.skin = skin;
     if (!this.pipelines[skin]) this.pipelines[skin] = this.pipeline(skin);
     Object.assign(this, this.pipelines[skin]);
-    this.setMesh(this.meshKind);
   }
 
-  // mesh: 'full' or the name of one of the folder's lighter levels.
+  // mesh: 'full' or the name of one of the folder's lighter levels. A pipeline made later starts from
+  // the current one (pipeline()), so only a change of level re-uploads the faces.
   setMesh(kind) {
-    if (kind === this.meshKind && this.meshSet === this.skin) return;
-    this.meshSet = this.skin;
+    if (kind === this.meshKind) return;
     const faces = this.faceLists[kind];
     if (!faces) throw new Error(`mesh=${kind}: this avatar folder's meshes are ${Object.keys(this.faceLists).join(', ')}`);
     this.meshKind = kind;
