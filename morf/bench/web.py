@@ -7,7 +7,7 @@ frame t's renderer overlapping frame t+1's GL work where onnxruntime-web runs in
 the fps, N frames one after another the sequential fps, N more with each stage waited for the
 stages' times and shares
 (skinning: bone matrices + upload; raster: GPU skinning + neural rasterization; readback;
-renderer: onnxruntime-web; composite: tail + composite + canvas). Then the page picks its
+renderer: onnxruntime-web; composite: the colour fill + tail + composite + canvas). Then the page picks its
 adaptive size from the rate it measures, as it does for a user, and the fps there is measured.
 The report names the threads, the ORT backend, whether the page was cross-origin isolated, the
 WebGL renderer, the folder's size, and the load average of the machine while it ran (other
@@ -39,7 +39,8 @@ class WebOptions:
         margin around the person), "off" (the whole frame) or a margin in pixels; proxy:
         onnxruntime-web in its worker; compare: "KEY:A,B", two settings of one page option measured
         in turn (skin:cpu,gpu, canvas:2d,gl, overlap:on,off; graph:A,B two forms of the renderer
-        graph of :data:`morf.web.head_rewrite.GRAPH_FORMS`, on an avatar folder; "crop": the window
+        graph of :data:`morf.web.head_rewrite.GRAPH_FORMS` (the colour fill in the graph) or
+        :data:`SHIPPED_FORM` (the fill in the page), on an avatar folder; "crop": the window
         against the whole frame) instead of the bench; block: frames per turn of a comparison; played: a comparison
         of the frames as the page plays them (wall times only) instead of each stage waited for;
         profile: onnxruntime-web's per-node profiler over ``frames`` frames (each stage waited
@@ -77,19 +78,25 @@ def _graph_forms(opts: WebOptions, avatar: Path, tmp: Path) -> dict[str, Path]:
         return {}
     from morf.errors import InputError
     from morf.playback.player import load_avatar
-    from morf.web.head_rewrite import GRAPH_FORMS
+    from morf.web.head_rewrite import GRAPH_FORMS, web_rewrites
     from morf.web.web_avatar import web_renderer
 
     names = opts.compare.split(":", 1)[1].split(",")
-    if any(n not in GRAPH_FORMS for n in names) or (avatar / "player.json").is_file():
+    if any(n not in (*GRAPH_FORMS, SHIPPED_FORM) for n in names) or (avatar / "player.json").is_file():
         raise InputError(f"--compare graph:A,B takes an avatar folder (morf export) and forms of "
-                         f"{', '.join(GRAPH_FORMS)}, got {opts.compare!r} on {avatar}")
-    cut = web_renderer(load_avatar(avatar)).graph
+                         f"{', '.join((*GRAPH_FORMS, SHIPPED_FORM))}, got {opts.compare!r} on {avatar}")
+    exported = load_avatar(avatar)
+    cut = web_renderer(exported, page_fill=False).graph  # the forms keep the colour fill in the graph
     out = {}
     for name in names:
         out[f"/graph/{name}.onnx"] = tmp / f"graph_{name}.onnx"
-        out[f"/graph/{name}.onnx"].write_bytes(GRAPH_FORMS[name](cut))
+        form = GRAPH_FORMS[name](cut) if name in GRAPH_FORMS else web_rewrites(web_renderer(exported).graph)
+        out[f"/graph/{name}.onnx"].write_bytes(form)
     return out
+
+
+# --compare graph:...: the graph the web folder ships (every rewrite, the colour fill in the page where it can be)
+SHIPPED_FORM = "shipped"
 
 
 def _query(opts: WebOptions) -> str:
@@ -189,9 +196,9 @@ def _compare_markdown(r: dict) -> str:
             + markdown_table(rows, ["", *names]))
 
 
-def profile_summary(lines: list[str], top: int = 15) -> dict:
+def profile_summary(lines: list[str]) -> dict:
     """onnxruntime's profile events (the JSON lines its profiler wrote to the page's console) ->
-    runs, kernel ms per run in all, by operator and for the ``top`` nodes."""
+    runs, kernel ms per run in all, by operator and by node (every node, the costliest first)."""
     import json
     from collections import Counter
 
@@ -208,7 +215,7 @@ def profile_summary(lines: list[str], top: int = 15) -> dict:
         runs += bool(e) and e.get("name") == "model_run"
     n = max(runs, 1)
     return {"runs": runs, "node_ms": sum(by_op.values()) / n,
-            "by_op": {k: v / n for k, v in by_op.most_common()}, "by_node": {k: v / n for k, v in by_node.most_common(top)}}
+            "by_op": {k: v / n for k, v in by_op.most_common()}, "by_node": {k: v / n for k, v in by_node.most_common()}}
 
 
 def _profile_markdown(r: dict) -> str:
@@ -216,7 +223,7 @@ def _profile_markdown(r: dict) -> str:
 
     p = r["profile"]
     rows = [{"": k, "ms a run": v, "share": f"{100 * v / p['node_ms']:.1f} %"} for k, v in [*p["by_op"].items()][:15]]
-    nodes = [{"": k, "ms a run": v, "share": f"{100 * v / p['node_ms']:.1f} %"} for k, v in p["by_node"].items()]
+    nodes = [{"": k, "ms a run": v, "share": f"{100 * v / p['node_ms']:.1f} %"} for k, v in list(p["by_node"].items())[:15]]
     return (_header(r) + f"onnxruntime-web's profiler: {p['runs']} runs of the renderer, {p['node_ms']:.1f} ms of kernel "
             f"time a run (the profiler's own timing; each stage waited for)\n\nBy operator:\n\n"
             + markdown_table(rows, ["", "ms a run", "share"], "{:.2f}") + "\nThe most expensive nodes:\n\n"
@@ -233,6 +240,8 @@ def _markdown(r: dict) -> str:
         return _compare_markdown(r)
     rows = [{"stage": s, "ms": env["stages_ms"][s], "share": f"{100 * env['shares'][s]:.0f} %"} for s in STAGES]
     rows.append({"stage": "(of composite: the canvas)", "ms": env["parts_ms"]["show"], "share": ""})
+    if env["parts_ms"].get("fill"):
+        rows.append({"stage": "(of composite: the colour fill)", "ms": env["parts_ms"]["fill"], "share": ""})
     adaptive = env["adaptive"]
     steps = "; ".join(f"{s['from']} px at {s['fps']:.1f} fps -> {s['to']} px" for s in adaptive["steps"]) or "none"
     win = env["window"]

@@ -22,14 +22,16 @@ def camera_json(camera) -> dict:
 
 def page_frames(folder: str | Path, frames: list[tuple[np.ndarray, np.ndarray, object]], background=(255, 255, 255),
                 timeout: float = 180.0, isolation: bool = True, query: str = "",
-                rasters: bool = False, webgpu: bool = False) -> tuple[list[np.ndarray], dict]:
+                rasters: bool = False, webgpu: bool = False, outputs: bool = False) -> tuple[list[np.ndarray], dict]:
     """The page's images of (rotvecs (J, 3), transl (3,), camera) frames, each (H, W, 3) uint8 at its
     camera's size, and the rest of what the page posted (environment, console messages). ``query``:
     more of the page's parameters (``tail=js``). ``rasters``: also the renderer input the page read
     back for each frame, as ``info["rasters"]`` ((H, W, 16) uint8 each; the renderer then runs on
     the whole frame, not the person's window). ``info["windows"]``: the window each frame's renderer
-    ran on ({x, y, w, h}). ``webgpu``: offer the page WebGPU (the query's ``backend=webgpu`` picks it)."""
-    request = {"background": [float(v) for v in background], "raster": rasters, "frames": [
+    ran on ({x, y, w, h}). ``webgpu``: offer the page WebGPU (the query's ``backend=webgpu`` picks it).
+    ``outputs`` (with ``rasters``): also the renderer's outputs as the tail got them, the colour fill the
+    page computed included, as ``info["outputs"]`` ({name: float32 array} per frame)."""
+    request = {"background": [float(v) for v in background], "raster": rasters, "outputs": outputs, "frames": [
         {"pose": [float(v) for v in np.concatenate([np.asarray(r, np.float64).reshape(-1), np.asarray(t, np.float64)])],
          "camera": camera_json(c), "size": int(c.width)} for r, t, c in frames]}
     with tempfile.TemporaryDirectory(prefix="morf-web-check-") as tmp:
@@ -39,13 +41,16 @@ def page_frames(folder: str | Path, frames: list[tuple[np.ndarray, np.ndarray, o
                           isolation=isolation, webgpu=webgpu)
     if "error" in result:
         raise RuntimeError(f"the page failed: {result['error']}")
-    images, result["rasters"] = [], []
+    images, result["rasters"], result["outputs"] = [], [], []
     result["windows"] = [item.get("window") for item in result["images"]]
     for item in result.pop("images"):
         s = item["size"]
         images.append(np.frombuffer(base64.b64decode(item["rgba"]), np.uint8).reshape(s, s, 4)[..., :3].copy())
         if rasters:
             result["rasters"].append(np.frombuffer(base64.b64decode(item["raster"]), np.uint8).reshape(s, s, 16).copy())
+        if outputs and "outputs" in item:
+            result["outputs"].append({k: np.frombuffer(base64.b64decode(t["data"]), np.float32).reshape(t["dims"]).copy()
+                                      for k, t in item["outputs"].items() if t["type"] == "float32"})
     return images, result
 
 

@@ -16,7 +16,9 @@ Layout (format "morf-web-avatar", version 1)::
                       before its full-resolution tail when the avatar folder has one (and with the
                       web-only rewrites of :mod:`morf.web.graph_rewrite`): the page's
                       WebGL pass plays the tail (:mod:`morf.export.compiled_tail`), as the native
-                      player's compiled pass does; otherwise the whole graph up to the composited image
+                      player's compiled pass does, and the page computes the colour fill's pyramid
+                      (:mod:`morf.web.page_fill`, ``fill_levels`` in the tail's spec; the graph then
+                      has the head as its one output); otherwise the whole graph up to the composited image
 
 The page does what :class:`morf.playback.player.Player` does per frame: bone matrices from the
 pose (the same forward kinematics as :class:`morf.export.skeleton.SkinningSkeleton`), skinning in
@@ -38,6 +40,7 @@ from morf.playback.graph_outputs import cut_graph, keep_outputs
 from morf.playback.native_tail import spec_for
 from morf.web.graph_rewrite import slice_before_transpose
 from morf.web.light_mesh import LightMesh, light_meshes
+from morf.web.page_fill import without_fill
 
 FORMAT = "morf-web-avatar"
 VERSION = 1
@@ -62,10 +65,12 @@ class WebRenderer:
     contract: dict
 
 
-def web_renderer(avatar: ExportedAvatar, precision: str = "auto") -> WebRenderer:
+def web_renderer(avatar: ExportedAvatar, precision: str = "auto", page_fill: bool = True) -> WebRenderer:
     """The graph for the page: cut before the tail where the manifest has the tail's spec, else
     the whole graph with ``image`` as its only output. ``precision``: "int8", "fp32", or "auto"
-    (int8 unless the export measured it under 30 dB from fp32)."""
+    (int8 unless the export measured it under 30 dB from fp32). ``page_fill``: the colour fill
+    left to the page where it can compute it (:mod:`morf.web.page_fill`); False keeps it in the
+    graph (the page then uses the graph's)."""
     if precision == "auto":
         quality = int8_check_db(avatar.manifest)
         precision = "fp32" if quality is not None and quality < INT8_MIN_PSNR_DB else "int8"
@@ -78,8 +83,14 @@ def web_renderer(avatar: ExportedAvatar, precision: str = "auto") -> WebRenderer
         # (SwiftShader) the head stage's 80 texel reads per half-resolution pixel cost more than the
         # graph's own layers in onnxruntime-web.
         spec = dataclasses.replace(spec, head_stage=None)
-        contract = {"mode": "tail", "input": renderer["input"], "outputs": list(spec.cut), "tail": spec.to_dict()}
-        return WebRenderer(slice_before_transpose(cut_graph(raw, spec.cut)), precision, "tail", contract)
+        # The colour fill's pyramid in the page (morf/web/page_fill.py), where it matches the graph's.
+        graph, fill_levels = cut_graph(raw, spec.cut), None
+        if page_fill:
+            graph, fill_levels = without_fill(graph, spec, avatar.size_multiple)
+        outputs = [name for name in spec.cut if fill_levels is None or name != spec.fill]
+        contract = {"mode": "tail", "input": renderer["input"], "outputs": outputs,
+                    "tail": {**spec.to_dict(), "fill_levels": fill_levels}}
+        return WebRenderer(slice_before_transpose(graph), precision, "tail", contract)
     if avatar.input_layout != "nhwc" or "composite" not in renderer:
         from morf.errors import InputError
 

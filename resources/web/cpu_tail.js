@@ -4,7 +4,7 @@
 // SwiftShader a full-resolution pass with texel loops costs more than this loop (the Python
 // player's reason for its compiled tail on the CPU, too).
 
-function taps(n) {  // 2x bilinear, half-pixel centres, clamped: per output index (a, b, weight of b)
+export function taps(n) {  // 2x bilinear, half-pixel centres, clamped: per output index (a, b, weight of b)
   const a = new Int32Array(2 * n), b = new Int32Array(2 * n), f = new Float32Array(2 * n);
   for (let x = 0; x < 2 * n; x++) {
     const s = Math.min(Math.max((x + 0.5) / 2 - 0.5, 0), n - 1), i = Math.floor(s);

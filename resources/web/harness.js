@@ -17,7 +17,7 @@
 import { OutputSize } from './adaptive.js';
 
 const STAGES = ['skinning', 'raster', 'readback', 'renderer', 'composite'];
-const PARTS = ['show'];  // parts of a stage: the canvas pass of "composite"
+const PARTS = ['show', 'fill'];  // parts of a stage: the canvas pass and the colour fill of "composite"
 
 // A mark the server stamps with the time and the browser's CPU seconds (morf/web/server.py).
 async function mark(name) {

@@ -6,6 +6,7 @@
 import { Skeleton } from './skeleton.js';
 import { NeuralRaster, loadRasterShader } from './raster.js';
 import { Compositor } from './tail.js';
+import { ColourFill } from './fill.js';
 import { Renderer } from './renderer.js';
 import { viewProjection } from './camera.js';
 import { BodyBox, CropWindow } from './bounds.js';
@@ -73,6 +74,9 @@ export class Player {
     this.tailOnCpu = wanted ? wanted === 'js' : software;
     this.compositor = new Compositor(gl, avatar.doc.renderer, this.tailOnCpu);
     this.renderer = new Renderer(runtime, avatar.graph, avatar.doc.renderer);
+    // The colour fill's pyramid where the export took it out of the graph (morf/web/page_fill.py)
+    const tail = avatar.doc.renderer.tail;
+    this.fill = tail && tail.fill_levels ? new ColourFill(tail) : null;
     this.rows = new Float32Array(this.skeleton.J * 12);
     this.bodyBox = new BodyBox(avatar.doc, avatar.mesh);
     const crop = new URLSearchParams(location.search).get('crop');  // crop=off: the whole frame; crop=N: N pixels' margin
@@ -174,6 +178,11 @@ export class Player {
   finish(prepared, outputs, background, { timed = false, canvasSize = 0, box = [0, 0, 1, 1] } = {}) {
     const t0 = performance.now();
     const crop = prepared.crop;
+    if (this.fill && !(this.fill.spec.fill in outputs)) {  // in JavaScript while the GL draws the next frame (play's overlap)
+      const fill = outputs[this.fill.spec.fill] = this.fill.run(prepared.bytes, crop.w, crop.h);
+      this.timings.fill = performance.now() - t0;
+      if (this.keepOutputs) this.lastOutputs[this.fill.spec.fill] = { ...fill, data: fill.data.slice() };
+    }
     if (this.compositor.cpu) this.compositor.composeCpu(prepared.bytes, outputs, background, crop);
     else if (this.avatar.doc.renderer.mode === 'tail') this.compositor.composeTail(prepared.attachment, outputs, background, crop);
     else this.compositor.composeImage(outputs.image, background, crop);
@@ -183,7 +192,8 @@ export class Player {
     if (canvasSize) this.compositor.show(canvasSize, box);
     if (timed) this.compositor.sync(!!canvasSize);
     const t2 = performance.now();
-    // composite: the tail, the composite and the canvas; of it, "show" is the canvas alone
+    // composite: the colour fill, the tail, the composite and the canvas; of it, "fill" is the
+    // colour fill's pyramid and "show" the canvas alone
     this.timings.composite = t2 - t0;
     this.timings.show = t2 - t1;
   }

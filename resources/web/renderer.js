@@ -96,6 +96,6 @@ export class Renderer {
     if (this.contract.mode === 'image') {
       feeds[this.contract.background] = new ort.Tensor('float32', Float32Array.from(background), [1, 3, 1, 1]);
     }
-    return await session.run(feeds, this.contract.outputs);
+    return await session.run(feeds);  // every output of the graph (a compared graph may carry the colour fill)
   }
 }

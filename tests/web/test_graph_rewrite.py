@@ -208,9 +208,14 @@ def test_the_web_folder_carries_the_rewritten_head(exported_avatar, tmp_path):
     write_web_avatar(load_avatar(exported_avatar), tmp_path, [])
     rewrite_web_renderer(tmp_path)
     graph = (tmp_path / "renderer.onnx").read_bytes()
-    ops = [n.op_type for n in onnx.load_from_string(graph).graph.node]
-    assert "MatMul" not in ops and "Sign" in ops
-    entry = json.loads((tmp_path / "avatar.json").read_text())["files"]["renderer.onnx"]
+    model = onnx.load_from_string(graph)
+    ops = [n.op_type for n in model.graph.node]
+    # the head rewritten; the colour fill (and with it its coverage test) left to the page
+    doc = json.loads((tmp_path / "avatar.json").read_text())
+    head = doc["renderer"]["tail"]["head"]
+    assert "MatMul" not in ops and "Sign" not in ops and [o.name for o in model.graph.output] == [head]
+    assert doc["renderer"]["outputs"] == [head] and doc["renderer"]["tail"]["fill_levels"] == 6
+    entry = doc["files"]["renderer.onnx"]
     assert entry == {"bytes": len(graph), "sha256": hashlib.sha256(graph).hexdigest()}
 
 
@@ -263,15 +268,23 @@ def test_coverage_by_sign_leaves_other_tests_alone(kw):
 
 
 def test_coverage_by_sign_fires_on_the_exported_graph(exported_avatar):
+    """On the cut graph with its colour fill, as the web export keeps it where the page cannot
+    compute the fill (morf/web/page_fill.py)."""
+    import dataclasses
+
     import onnx
 
+    from morf.playback.graph_outputs import cut_graph
+    from morf.playback.native_tail import spec_for
     from morf.playback.player import load_avatar
-    from morf.web.graph_rewrite import coverage_by_sign
-    from morf.web.web_avatar import web_renderer
+    from morf.web.graph_rewrite import coverage_by_sign, slice_before_transpose
 
-    r = web_renderer(load_avatar(exported_avatar), "int8")
-    new = coverage_by_sign(r.graph)
+    avatar = load_avatar(exported_avatar)
+    spec = dataclasses.replace(spec_for(avatar.manifest, "int8"), head_stage=None)
+    graph = slice_before_transpose(cut_graph(avatar.renderer_path("int8").read_bytes(), spec.cut))
+    new = coverage_by_sign(graph)
     assert [n.op_type for n in onnx.load_from_string(new).graph.node].count("Sign") == 1
     raster = np.random.default_rng(1).integers(120, 137, (1, 128, 192, 16), dtype=np.uint8)
-    want, got = _run(r.graph, {r.contract["input"]: raster}), _run(new, {r.contract["input"]: raster})
+    name = avatar.manifest["renderer"]["input"]
+    want, got = _run(graph, {name: raster}), _run(new, {name: raster})
     assert all(np.array_equal(a, b) for a, b in zip(want, got))

@@ -34,7 +34,7 @@ def test_folder_holds_the_page_the_libraries_and_the_avatar(folder, tiny_avatar)
     from morf.export.avatar_folder import load_exported_avatar
 
     root = folder.path
-    for name in ("index.html", "main.js", "player.js", "raster.js", "tail.js", "cpu_tail.js", "player.json",
+    for name in ("index.html", "main.js", "player.js", "raster.js", "tail.js", "cpu_tail.js", "fill.js", "player.json",
                  "lib/ort.wasm.min.mjs", "lib/ort-wasm-simd-threaded.mjs", "lib/ort-wasm-simd-threaded.wasm.gz",
                  "avatar/avatar.json", "avatar/texture.bin", "avatar/mesh.bin", "avatar/renderer.onnx"):
         assert (root / name).is_file(), name

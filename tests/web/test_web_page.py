@@ -140,16 +140,25 @@ def test_raster_renderer_and_tail_match_the_python_player(tail_web, tail_avatar)
     frames of a random renderer are no fair check: it turns the few pixels where two rasterizers
     break a tie on a texture seam differently into streaks; the trained demo avatar's frames agree
     at 41-43 dB over the person, docs/web.md.)"""
+    import json
+
     from morf.playback.player import Player
     from morf.web.check import page_frames
+    from morf.web.page_fill import fill_pyramid
 
     size = 128
     frames = _frames(104, size)
     # software WebGL skins on the CPU (with the JavaScript tail, a lighter level at these views); the
     # GPU's vertex-shader skinning with the passes and the full mesh
+    spec = json.loads((tail_web.path / "avatar" / "avatar.json").read_text())["renderer"]["tail"]
+    assert spec["fill_levels"] == 6  # the page computes the colour fill (morf/web/page_fill.py)
     for tail, skin, mesh in (("js", "cpu", "auto"), ("webgl", "gpu", "full")):
-        page, info = page_frames(tail_web.path, frames, query=f"tail={tail}&skin={skin}&mesh={mesh}", rasters=True)
+        page, info = page_frames(tail_web.path, frames, query=f"tail={tail}&skin={skin}&mesh={mesh}", rasters=True,
+                                 outputs=True)
         assert info["messages"] == [] and info["renderer"]["mode"] == "tail" and info["tail"] == tail
+        for raster, outputs in zip(info["rasters"], info["outputs"]):  # the page's fill, the Python one's
+            want = fill_pyramid(raster, spec["colour_scale"], spec["zero_point"], spec["coverage_channel"], 6)
+            assert np.abs(outputs[spec["fill"]][0] - want).max() <= 1e-5
         assert (info["mesh"] == "full") == (mesh == "full"), info["mesh"]
         drawn = _drawn(tail_avatar, info["mesh"])
         with Player(drawn, size=size, precision=tail_web.precision, raster="gl") as p:

@@ -21,7 +21,8 @@ def add_arguments(p) -> None:
                    help="two settings of a page option measured in turn instead of the bench: skin:cpu,gpu, "
                         "canvas:2d,gl, overlap:on,off, spin:on,off (onnxruntime-web's idle threads spinning or "
                         "sleeping), graph:A,B (two forms of the renderer graph, A and B from matmul, conv, fused, "
-                        "web; AVATAR an exported avatar folder), or 'crop' (the person's window against the whole frame)")
+                        "web, each with the colour fill in the graph, and shipped, the folder's own graph with the "
+                        "fill in the page; AVATAR an exported avatar folder), or 'crop' (the person's window against the whole frame)")
     p.add_argument("--block", type=int, default=1, help="frames per turn of --compare (default 1)")
     p.add_argument("--profile", action="store_true",
                    help="onnxruntime-web's per-node profile over --frames frames instead of the bench (kernel ms a "
