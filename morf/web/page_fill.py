@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from morf.export.compiled_tail import _up_reference as up_bilinear_2x
+
 COVERAGE_FLOOR = 1e-4  # push_pull_fill's floor on a level's coverage before dividing by it
 PROBE_SHAPE = (256, 384)  # the test raster: both sides divisible by 2**7
 MAX_LEVELS = 7
@@ -28,22 +30,6 @@ MATCH_ATOL = 1e-4
 def _halve(p: np.ndarray) -> np.ndarray:
     """(C, H, W) with even sides -> (C, H/2, W/2): the 2x2 mean."""
     return 0.25 * (p[:, 0::2, 0::2] + p[:, 1::2, 0::2] + p[:, 0::2, 1::2] + p[:, 1::2, 1::2])
-
-
-def _taps(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """2x bilinear upsampling of ``n`` samples (half-pixel centres, edges clamped): per output
-    index the two source indices and the second one's weight."""
-    s = np.clip((np.arange(2 * n) + 0.5) / 2 - 0.5, 0, n - 1)
-    a = np.floor(s).astype(np.int64)
-    return a, np.minimum(a + 1, n - 1), (s - a).astype(np.float32)
-
-
-def _up2(p: np.ndarray) -> np.ndarray:
-    """(C, h, w) -> (C, 2h, 2w), bilinear."""
-    ya, yb, fy = _taps(p.shape[1])
-    xa, xb, fx = _taps(p.shape[2])
-    rows = p[:, ya] * (1 - fy)[None, :, None] + p[:, yb] * fy[None, :, None]
-    return rows[:, :, xa] * (1 - fx) + rows[:, :, xb] * fx
 
 
 def fill_pyramid(raster: np.ndarray, colour_scale, zero_point: int, coverage_channel: int, levels: int) -> np.ndarray:
@@ -62,7 +48,7 @@ def fill_pyramid(raster: np.ndarray, colour_scale, zero_point: int, coverage_cha
     for col, cov in zip(reversed(cols[:-1]), reversed(covs[:-1])):
         a = np.minimum(cov * 4, 1.0)
         own = np.concatenate([col / np.maximum(cov, COVERAGE_FLOOR), np.ones_like(cov)])
-        acc = a * own + (1 - a) * _up2(acc)
+        acc = a * own + (1 - a) * up_bilinear_2x(acc)
     return acc.astype(np.float32)
 
 
