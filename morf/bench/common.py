@@ -55,6 +55,18 @@ def machine_info() -> dict:
     return info
 
 
+def host_loop_ms(repeats: int = 5) -> float:
+    """The best of ``repeats`` timings (ms) of a fixed single-threaded Python loop: how fast this
+    host runs right now, written beside benchmark numbers taken minutes apart on a shared machine
+    (the same code's times move by a third there as the host's speed moves; lower is faster)."""
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        sum(range(2_000_000))
+        best = min(best, time.perf_counter() - t0)
+    return round(1000 * best, 1)
+
+
 def markdown_table(rows: list[dict], columns: list[str], floatfmt: str = "{:.3g}") -> str:
     """A Markdown table of ``rows`` (dicts) with the given column order."""
     def fmt(v):

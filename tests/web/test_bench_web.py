@@ -22,6 +22,8 @@ def test_bench_reports_window_canvas_cpu_adaptive_reason_and_flags(tail_web, tmp
     assert sum(shapes.values()) == 4 and all("x" in k for k in shapes), shapes
     assert f"shapes {next(iter(shapes))}" in md or next(iter(shapes)) in md
     assert "(of composite: the canvas)" in md and page["parts_ms"]["show"] >= 0
+    assert "(of composite: the colour fill)" in md and page["parts_ms"]["fill"] > 0  # fill.js ran
+    assert all(ms > 0 for ms in r["host_loop_ms"]) and "The host's speed: a fixed Python loop took" in md
     cpu = r["played_cpu"]  # marks around the played frames: the browser's CPU time in them, per process kind
     assert cpu and cpu["cpu_s"] > 0 and cpu["by_process"].get("renderer", 0) > 0, cpu
     assert "The browser's CPU time while it played" in md and "renderer" in md
@@ -78,6 +80,10 @@ def test_bench_compares_two_forms_of_the_renderer_graph(tail_avatar, tail_web, t
     assert c["key"] == "graph" and r["page"]["messages"] == [], r["page"]
     assert all(c[v]["renderer"]["best"] > 0 for v in ("matmul", "web"))
     assert "matmul against web" in (tmp_path / "o" / "web.md").read_text()
+    # the colour fill in the graph against the folder's own graph (the fill in the page)
+    r = run_web(WebOptions(str(tail_avatar), str(tmp_path / "s"), size=256, frames=2, compare="graph:web,shipped", timeout=600))
+    c = r["page"]["compare"]
+    assert r["page"]["messages"] == [] and all(c[v]["renderer"]["best"] > 0 for v in ("web", "shipped"))
     with pytest.raises(InputError, match="graph:A,B takes an avatar folder"):  # a web folder has only its own form
         run_web(WebOptions(str(tail_web.path), str(tmp_path / "p"), compare="graph:matmul,web"))
     with pytest.raises(InputError, match="forms of matmul"):
