@@ -294,7 +294,9 @@ def run_web(opts: WebOptions) -> dict:
         t0 = time.monotonic()
         page = run_page(folder, _query(opts), extra=extra, isolation=opts.isolation, timeout=opts.timeout)
         seconds = time.monotonic() - t0
-        load_after, loop_after = os.getloadavg(), host_loop_ms()
+        load_after = os.getloadavg()
+        time.sleep(1.0)  # the browser's processes gone first
+        loop_after = host_loop_ms()
         size = folder_bytes(folder)
     if "error" in page:
         raise InputError(f"the page failed: {page['error'].splitlines()[0]}")
