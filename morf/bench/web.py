@@ -127,7 +127,10 @@ def _cpu_between(marks: list[dict], start: str, end: str) -> dict | None:
     wall = m[end]["time"] - m[start]["time"]
     by = {k: m[end]["cpu"].get(k, 0.0) - v for k, v in m[start]["cpu"].items()}
     cpu = sum(by.values())
-    return {"cpu_s": cpu, "wall_s": wall, "cores": cpu / wall if wall > 0 else None, "by_process": by}
+    out = {"cpu_s": cpu, "wall_s": wall, "cores": cpu / wall if wall > 0 else None, "by_process": by}
+    if m[start].get("threads") and m[end].get("threads"):  # threads started in between count from 0
+        out["by_thread"] = {k: v - m[start]["threads"].get(k, 0.0) for k, v in m[end]["threads"].items()}
+    return out
 
 
 def _cpu_by_setting(marks: list[dict]) -> dict:
@@ -255,6 +258,11 @@ def _markdown(r: dict) -> str:
                 f"({cpu['cores']:.2f} cores busy on average; " + ", ".join(
                     f"{k} {1000 * v / r['frames']:.1f}" for k, v in sorted(cpu["by_process"].items(), key=lambda kv: -kv[1])
                     if v > 0) + ")\n\n" if cpu else "")
+    if cpu and cpu.get("by_thread"):
+        busiest = sorted(cpu["by_thread"].items(), key=lambda kv: -kv[1])[:6]
+        cpu_line += ("Its busiest threads (ms a frame; \"renderer DedicatedWorker\": the page's workers, "
+                     "onnxruntime-web's thread pool among them, whose idle threads spin; \"gpu-process Thread<N>\": "
+                     "SwiftShader's): " + ", ".join(f"{k} {1000 * v / r['frames']:.1f}" for k, v in busiest if v > 0) + "\n\n")
     return (_header(r) +
             f"**{env['size']} x {env['size']}: {env['fps']:.1f} fps end to end** as the page plays "
             f"({env['ms_per_frame']:.1f} ms a frame, {r['frames']} frames; the renderer proxied to a worker: "

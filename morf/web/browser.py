@@ -81,15 +81,11 @@ def group_cpu_seconds(pgid: int) -> float | None:
     return None if by is None else sum(by.values())
 
 
-def group_cpu_by_process(pgid: int) -> dict[str, float] | None:
-    """:func:`group_cpu_seconds` per kind of Chromium process ("renderer": the page's JavaScript and
-    WASM; "gpu-process": WebGL, i.e. SwiftShader; "browser", "utility", ...), summed over processes
-    of a kind; None where there is no /proc."""
-    proc = Path("/proc")
-    if not proc.is_dir():
-        return None
-    ticks, by = os.sysconf("SC_CLK_TCK"), {}
-    for d in proc.iterdir():
+def _group_processes(pgid: int):
+    """(/proc/PID, kind, CPU seconds) of the live processes of process group ``pgid``; kind: the
+    Chromium process type ("renderer", "gpu-process", ...; "browser" for the main process)."""
+    ticks = os.sysconf("SC_CLK_TCK")
+    for d in Path("/proc").iterdir():
         if not d.name.isdigit():
             continue
         try:
@@ -101,8 +97,43 @@ def group_cpu_by_process(pgid: int) -> dict[str, float] | None:
             continue
         # Chromium rewrites its children's titles: the arguments may be NUL- or space-separated
         found = re.search(rb"--type=([\w-]+)", cmdline)
-        kind = found.group(1).decode() if found else "browser"
-        by[kind] = by.get(kind, 0.0) + (int(fields[11]) + int(fields[12])) / ticks
+        yield d, found.group(1).decode() if found else "browser", (int(fields[11]) + int(fields[12])) / ticks
+
+
+def group_cpu_by_process(pgid: int) -> dict[str, float] | None:
+    """:func:`group_cpu_seconds` per kind of Chromium process ("renderer": the page's JavaScript and
+    WASM; "gpu-process": WebGL, i.e. SwiftShader; "browser", "utility", ...), summed over processes
+    of a kind; None where there is no /proc."""
+    if not Path("/proc").is_dir():
+        return None
+    by: dict[str, float] = {}
+    for _, kind, seconds in _group_processes(pgid):
+        by[kind] = by.get(kind, 0.0) + seconds
+    return by
+
+
+def group_cpu_by_thread(pgid: int) -> dict[str, float] | None:
+    """CPU seconds per "KIND THREAD" of the group's processes: the thread's name ("main" for a
+    process's first thread; same-named threads of a kind summed: "renderer DedicatedWorker" are the
+    page's workers, onnxruntime-web's thread pool among them; "gpu-process Thread<00>" SwiftShader's);
+    None where there is no /proc."""
+    if not Path("/proc").is_dir():
+        return None
+    ticks, by = os.sysconf("SC_CLK_TCK"), {}
+    for d, kind, _ in _group_processes(pgid):
+        try:
+            tasks = list((d / "task").iterdir())
+        except OSError:
+            continue
+        for t in tasks:
+            try:
+                stat = (t / "stat").read_text()
+            except OSError:
+                continue
+            fields = stat.rsplit(")", 1)[1].split()
+            name = "main" if t.name == d.name else stat[stat.index("(") + 1:stat.rindex(")")]
+            key = f"{kind} {name}"
+            by[key] = by.get(key, 0.0) + (int(fields[11]) + int(fields[12])) / ticks
     return by
 
 
@@ -158,6 +189,7 @@ def run_page(folder: str | Path, query: str, extra: dict[str, Path] | None = Non
     try:
         def started(pgid: int) -> None:
             server.cpu_probe = lambda: group_cpu_by_process(pgid)
+            server.thread_probe = lambda: group_cpu_by_thread(pgid)
 
         cpu = browse_until(f"{server.url}index.html?{query}", server.posted, timeout, chromium, log,
                            BROWSER_FLAGS + (WEBGPU_FLAGS if webgpu else ()), started)

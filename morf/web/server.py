@@ -31,7 +31,8 @@ class WebServer(ThreadingHTTPServer):
     Event set on each post), ``log`` (the requests, "METHOD path status"), ``marks`` (the page's
     posts to ``/mark?name=NAME``: name, monotonic seconds and ``cpu_probe()``'s CPU seconds then, so
     that a measurement's own CPU time can be told from the page's loading), ``cpu_probe`` (a
-    callable giving the browser's CPU seconds so far per kind of process, or None)."""
+    callable giving the browser's CPU seconds so far per kind of process, or None), ``thread_probe``
+    (the same per thread, recorded in each mark as ``threads``)."""
 
     daemon_threads = True
 
@@ -45,6 +46,7 @@ class WebServer(ThreadingHTTPServer):
         self.log: list[str] = []
         self.marks: list[dict] = []
         self.cpu_probe = None
+        self.thread_probe = None  # the same per thread (morf.web.browser.group_cpu_by_thread)
         super().__init__((host, port), _Handler)
 
     @property
@@ -84,7 +86,9 @@ class _Handler(SimpleHTTPRequestHandler):
         if self.server.accept_results and url.path == "/mark":  # taken before answering: the page waits for it
             probe = self.server.cpu_probe
             name = parse_qs(url.query).get("name", [""])[0]
-            self.server.marks.append({"name": name, "time": time.monotonic(), "cpu": probe() if probe else None})
+            threads = self.server.thread_probe
+            self.server.marks.append({"name": name, "time": time.monotonic(), "cpu": probe() if probe else None,
+                                      "threads": threads() if threads else None})
         ok = self.server.accept_results and url.path in ("/result", "/mark")
         self.send_response(204 if ok else 404)
         self.end_headers()

@@ -26,6 +26,7 @@ def test_bench_reports_window_canvas_cpu_adaptive_reason_and_flags(tail_web, tmp
     assert all(ms > 0 for ms in r["host_loop_ms"]) and "The host's speed: a fixed Python loop took" in md
     cpu = r["played_cpu"]  # marks around the played frames: the browser's CPU time in them, per process kind
     assert cpu and cpu["cpu_s"] > 0 and cpu["by_process"].get("renderer", 0) > 0, cpu
+    assert cpu["by_thread"].get("renderer main", 0) > 0 and "Its busiest threads" in md, cpu["by_thread"]
     assert "The browser's CPU time while it played" in md and "renderer" in md
     assert "settled because: " in md and page["adaptive"]["why"], page["adaptive"]
     assert "Flags: crop=the page default, proxy=off, compare=none" in md
