@@ -35,8 +35,9 @@ export async function loadRuntime(config, params) {
   ort.env.wasm.proxy = pick.backend === 'wasm' && params.get('proxy') === '1';
   // profile=1 (benchmarks): onnxruntime's per-node profiler in every session (its events go to the console)
   const profile = params.get('profile') === '1';
-  // spin=off: onnxruntime's idle threads sleep between kernels instead of spinning (on a 2-core
-  // machine the spinning competes with the software WebGL's threads)
+  // spin=off: the session option that lets onnxruntime's idle threads sleep instead of spinning (on
+  // a 2-core machine the spinning competes with the software WebGL's threads). onnxruntime-web 1.30
+  // does not read it: its sessions share a global pool created without spin control (docs/web.md).
   const spinning = params.get('spin') !== 'off';
   return { ort, backend: pick.backend, threads: ort.env.wasm.numThreads, isolated, proxy: ort.env.wasm.proxy, profile, spinning };
 }
