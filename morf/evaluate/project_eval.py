@@ -358,7 +358,7 @@ def format_table(result: EvalResult) -> str:
         lines.append(f"{key}: {t.title}, {len(t.frame_ids)} frames"
                      + (", poses refined against the frames (--refine-poses)" if result.poses == "refined" else ""))
         lines.append(f"  {'run':<24} {'px':>5} {'PSNR':>7} {'person':>7} {'SSIM':>6} {'person':>6} {'flicker':>8}"
-                     + f" {'maskIoU':>7}" + (f" {'LPIPS':>6} {'person':>6}" if lpips else ""))
+                     + f" {'warp':>7} {'maskIoU':>7}" + (f" {'LPIPS':>6} {'person':>6}" if lpips else ""))
         for name in result.scored_runs(key):
             m = result.runs[name].targets[key]
 
@@ -367,8 +367,12 @@ def format_table(result: EvalResult) -> str:
 
             lines.append(f"  {name:<24} {m.resolution:>5} {f('psnr', '7.2f'):>7} {f('psnr_person', '7.2f'):>7} "
                          f"{f('ssim', '6.3f'):>6} {f('ssim_person', '6.3f'):>6} {f('temporal', '8.4f'):>8}"
-                         f" {f('mask_iou', '7.3f'):>7}"
+                         f" {f('warp_flicker', '7.4f'):>7} {f('mask_iou', '7.3f'):>7}"
                          + (f" {f('lpips', '6.3f'):>6} {f('lpips_person', '6.3f'):>6}" if lpips else ""))
+        real = next((result.runs[n].targets[key].warp_flicker_real for n in result.scored_runs(key)
+                     if result.runs[n].targets[key].warp_flicker_real is not None), None)
+        if real is not None:  # the same real frames for every run
+            lines.append(f"  (warp: flicker that forgives a steady misregistration; the real frames' own: {real:.4f})")
         lines += _detail_lines(result, key)
     for name, why in result.skipped.items():
         lines.append(f"skipped {name}: {why}")

@@ -33,7 +33,10 @@ class TargetScores:
             (:mod:`morf.evaluate.detail_eval`), plus ``resolution`` and ``max_shift`` (None: not
             scored; then left out of :meth:`to_dict`);
         mask_iou: mean IoU of the rendered mask (probability > 0.5) and the real person mask
-            (:mod:`morf.evaluate.silhouette`; None: not scored, then left out of :meth:`to_dict`).
+            (:mod:`morf.evaluate.silhouette`; None: not scored, then left out of :meth:`to_dict`);
+        warp_flicker, warp_flicker_real: the temporal warping error of the render and of the real
+            frames (:mod:`morf.evaluate.warp_flicker`: flicker that forgives a steady misregistration;
+            the real frames' own is the measure's floor); None: not scored, then left out.
     """
 
     psnr: float | None
@@ -50,6 +53,8 @@ class TargetScores:
     refined_l1: tuple[float, float] | None = None
     detail: dict | None = None
     mask_iou: float | None = None
+    warp_flicker: float | None = None
+    warp_flicker_real: float | None = None
 
     @staticmethod
     def of(scores, lpips: dict | None, resolution: int, trained_on: int | None = None,
@@ -63,7 +68,9 @@ class TargetScores:
                             scores.frames, lp.get("lpips"), lp.get("lpips_person"), resolution, trained_on,
                             None if refined_l1 is None else tuple(refined_l1),
                             None if detail is None else {k: _finite(v) for k, v in detail.items()},
-                            None if mask_iou is None else _finite(float(mask_iou)))
+                            None if mask_iou is None else _finite(float(mask_iou)),
+                            *((None, None) if getattr(scores, "warp_flicker", None) is None
+                              else (_finite(scores.warp_flicker[0]), _finite(scores.warp_flicker[1]))))
 
     def metric(self, key: str) -> float | None:
         """A score by name (psnr, psnr_person, ssim, ssim_person, temporal, lpips, lpips_person, or
@@ -84,6 +91,8 @@ class TargetScores:
             d["detail"] = dict(self.detail)
         if self.mask_iou is not None:
             d["mask_iou"] = self.mask_iou
+        if self.warp_flicker is not None:
+            d["warp_flicker"], d["warp_flicker_real"] = self.warp_flicker, self.warp_flicker_real
         return d
 
     @staticmethod
@@ -91,7 +100,7 @@ class TargetScores:
         return TargetScores(d["psnr"], d["ssim"], d["psnr_person"], d["ssim_person"], d["temporal"],
                             tuple(d["background"]), d["frames"], d["lpips"], d["lpips_person"], d["resolution"],
                             d.get("trained_on"), None if d.get("refined_l1") is None else tuple(d["refined_l1"]),
-                            d.get("detail"), d.get("mask_iou"))
+                            d.get("detail"), d.get("mask_iou"), d.get("warp_flicker"), d.get("warp_flicker_real"))
 
 
 @dataclass(frozen=True)

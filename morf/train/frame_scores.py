@@ -15,6 +15,8 @@ class FrameScores:
             truth mask); each the mean over the frames of its finite values, None if there are none.
         temporal: flicker of the frames in order (NaN with fewer than two frames).
         background: the flat colour (r, g, b) both were composited over; frames: the frame count.
+        warp_flicker: (render, real) temporal warping errors of the frames in order
+            (:mod:`morf.evaluate.warp_flicker`; None: not scored).
     """
 
     psnr: float | None
@@ -24,8 +26,9 @@ class FrameScores:
     temporal: float
     background: tuple[float, ...]
     frames: int
+    warp_flicker: tuple[float, float] | None = None
 
     def to_dict(self) -> dict:
         return {"psnr": self.psnr, "ssim": self.ssim, "psnr_person": self.psnr_person,
                 "ssim_person": self.ssim_person, "temporal": self.temporal, "background": list(self.background),
-                "frames": self.frames}
+                "frames": self.frames, **({} if self.warp_flicker is None else {"warp_flicker": list(self.warp_flicker)})}

@@ -160,4 +160,15 @@ def evaluate_frames(avatar, frames, background: str = "capture", ordered: bool =
     return FrameScores(summarize(p_all), summarize(s_all), summarize(p_person), summarize(s_person),
                        temporal_flicker(torch.stack(preds), torch.stack(gts), torch.stack(masks))
                        if ordered else float("nan"),
-                       tuple(round(float(c), 4) for c in colour), frames.num_frames)
+                       tuple(round(float(c), 4) for c in colour), frames.num_frames,
+                       _warp_flicker(preds, gts, masks) if ordered else None)
+
+
+def _warp_flicker(preds: list, gts: list, masks: list) -> tuple[float, float] | None:
+    """:func:`morf.evaluate.warp_flicker.warping_errors` of (3, H, W) tensors (None on images under 32 px)."""
+    from morf.evaluate.warp_flicker import warping_errors
+
+    if min(gts[0].shape[-2:]) < 32:
+        return None
+    hwc = [np.stack([t.permute(1, 2, 0).numpy() for t in seq]) for seq in (preds, gts)]
+    return warping_errors(hwc[0], hwc[1], np.stack([m[0].numpy() for m in masks]))
