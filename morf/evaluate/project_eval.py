@@ -372,7 +372,7 @@ def format_table(result: EvalResult) -> str:
         real = next((result.runs[n].targets[key].warp_flicker_real for n in result.scored_runs(key)
                      if result.runs[n].targets[key].warp_flicker_real is not None), None)
         if real is not None:  # the same real frames for every run
-            lines.append(f"  (warp: flicker that forgives a steady misregistration; the real frames' own: {real:.4f})")
+            lines.append(f"  (warp: flicker that forgives a steady misregistration; the real frames' own, for scale: {real:.4f})")
         lines += _detail_lines(result, key)
     for name, why in result.skipped.items():
         lines.append(f"skipped {name}: {why}")

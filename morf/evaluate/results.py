@@ -36,7 +36,7 @@ class TargetScores:
             (:mod:`morf.evaluate.silhouette`; None: not scored, then left out of :meth:`to_dict`);
         warp_flicker, warp_flicker_real: the temporal warping error of the render and of the real
             frames (:mod:`morf.evaluate.warp_flicker`: flicker that forgives a steady misregistration;
-            the real frames' own is the measure's floor); None: not scored, then left out.
+            the real frames' own for scale); None: not scored, then left out.
     """
 
     psnr: float | None

@@ -11,7 +11,9 @@ absolute difference between frame t+1 and the warped frame t, over the real pers
 is consistent forwards and backwards (the usual occlusion test). A constant offset between render
 and real, or a texture a steady pixel off, costs nothing; texels that swim or pop from one frame
 to the next do. The real frames' own warping error (flow errors, light changes, the person's own
-cloth motion) is reported beside it as the measure's floor.
+cloth motion) is reported beside it for scale: what the flow cannot explain in the real video. It
+is no strict floor: a render smoother than the video (no sensor noise, no cloth swinging) can
+score under it.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The flicker that forgives misregistration (morf/evaluate/warp_flicker.py): a render a steady few
 pixels off the real frames scores as steady (where the plain flicker charges its detail), a render
-whose texture pops from frame to frame does not, and the real frames' own error is the floor."""
+whose texture pops from frame to frame does not, and a render equal to the real frames scores as they do."""
 
 from __future__ import annotations
 
