@@ -35,7 +35,7 @@ class TargetScores:
         mask_iou: mean IoU of the rendered mask (probability > 0.5) and the real person mask
             (:mod:`morf.evaluate.silhouette`; None: not scored, then left out of :meth:`to_dict`);
         warp_flicker, warp_flicker_real: the temporal warping error of the render and of the real
-            frames (:mod:`morf.evaluate.warp_flicker`: flicker that forgives a steady misregistration;
+            frames (:mod:`morf.avatar.warp_flicker`: flicker that forgives a steady misregistration;
             the real frames' own for scale); None: not scored, then left out.
     """
 

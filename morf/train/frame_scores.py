@@ -16,7 +16,7 @@ class FrameScores:
         temporal: flicker of the frames in order (NaN with fewer than two frames).
         background: the flat colour (r, g, b) both were composited over; frames: the frame count.
         warp_flicker: (render, real) temporal warping errors of the frames in order
-            (:mod:`morf.evaluate.warp_flicker`; None: not scored).
+            (:mod:`morf.avatar.warp_flicker`; None: not scored).
     """
 
     psnr: float | None

@@ -165,8 +165,8 @@ def evaluate_frames(avatar, frames, background: str = "capture", ordered: bool =
 
 
 def _warp_flicker(preds: list, gts: list, masks: list) -> tuple[float, float] | None:
-    """:func:`morf.evaluate.warp_flicker.warping_errors` of (3, H, W) tensors (None on images under 32 px)."""
-    from morf.evaluate.warp_flicker import warping_errors
+    """:func:`morf.avatar.warp_flicker.warping_errors` of (3, H, W) tensors (None on images under 32 px)."""
+    from morf.avatar.warp_flicker import warping_errors
 
     if min(gts[0].shape[-2:]) < 32:
         return None

@@ -37,5 +37,7 @@ def test_train_project_end_to_end(tiny_capture, body_model, tmp_path, monkeypatc
     hold = build_holdout_frames(tiny_capture, body_model, av.camera, av.shape.numpy())
     m = evaluate_frames(av, hold)
     assert m.frames == 4 and np.isfinite(m.psnr) and 0 <= m.ssim <= 1 and np.isfinite(m.temporal)
-    assert list(m.to_dict()) == ["psnr", "ssim", "psnr_person", "ssim_person", "temporal", "background", "frames"]
+    # the warping-error flicker only where the frames are large enough for optical flow (32 px and up)
+    assert list(m.to_dict()) == ["psnr", "ssim", "psnr_person", "ssim_person", "temporal", "background", "frames",
+                                 *([] if m.warp_flicker is None else ["warp_flicker"])]
     assert m.to_dict()["background"] == list(m.background) and len(m.background) == 3

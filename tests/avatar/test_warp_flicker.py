@@ -1,4 +1,4 @@
-"""The flicker that forgives misregistration (morf/evaluate/warp_flicker.py): a render a steady few
+"""The flicker that forgives misregistration (morf/avatar/warp_flicker.py): a render a steady few
 pixels off the real frames scores as steady (where the plain flicker charges its detail), a render
 whose texture pops from frame to frame does not, and a render equal to the real frames scores as they do."""
 
@@ -31,7 +31,7 @@ def test_a_steady_offset_costs_little_and_popping_texels_cost_much():
     import torch
 
     from morf.avatar.metrics import temporal_flicker
-    from morf.evaluate.warp_flicker import warping_errors
+    from morf.avatar.warp_flicker import warping_errors
 
     def both(renders, reals, masks):
         plain = temporal_flicker(*(torch.from_numpy(a).permute(0, 3, 1, 2) for a in (renders, reals)),
@@ -49,7 +49,7 @@ def test_a_steady_offset_costs_little_and_popping_texels_cost_much():
 
 
 def test_too_short_or_empty_sequences_give_none():
-    from morf.evaluate.warp_flicker import warping_errors
+    from morf.avatar.warp_flicker import warping_errors
 
     renders, reals, masks = _scene(frames=2)
     assert warping_errors(renders[:1], reals[:1], masks[:1]) is None
