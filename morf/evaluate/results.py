@@ -69,7 +69,7 @@ class TargetScores:
                             None if refined_l1 is None else tuple(refined_l1),
                             None if detail is None else {k: _finite(v) for k, v in detail.items()},
                             None if mask_iou is None else _finite(float(mask_iou)),
-                            *((None, None) if getattr(scores, "warp_flicker", None) is None
+                            *((None, None) if scores.warp_flicker is None
                               else (_finite(scores.warp_flicker[0]), _finite(scores.warp_flicker[1]))))
 
     def metric(self, key: str) -> float | None:

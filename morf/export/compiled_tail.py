@@ -192,7 +192,7 @@ class TailShader:
         return self(raster, head, fill, background, out=out)
 
 
-def _up_reference(t: np.ndarray) -> np.ndarray:
+def up_bilinear_2x(t: np.ndarray) -> np.ndarray:
     """(C, h, w) -> (C, 2h, 2w) bilinear, half-pixel centres, clamped edges (float64)."""
     h, w = t.shape[1:]
 
@@ -209,7 +209,7 @@ def _up_reference(t: np.ndarray) -> np.ndarray:
 
 def reference_head(stage: HeadStage, low: np.ndarray, skip: np.ndarray) -> np.ndarray:
     """:meth:`TailShader.head` in plain numpy (float64)."""
-    h = _up_reference(low[0].astype(np.float64)) + (skip[0].astype(np.float64) - stage.skip_zero_point) * stage.skip_scale
+    h = up_bilinear_2x(low[0].astype(np.float64)) + (skip[0].astype(np.float64) - stage.skip_zero_point) * stage.skip_scale
     h = np.where(h < 0, h * stage.alpha, h)
     out = np.einsum("kc,chw->khw", np.asarray(stage.weight), h) + np.asarray(stage.bias)[:, None, None]
     return out[None].astype(np.float32)
@@ -221,7 +221,7 @@ def reference_tail(spec: TailSpec, raster: np.ndarray, head: np.ndarray, fill: n
     import scipy.ndimage as ndi
 
     b = raster[0].astype(np.float64)
-    hd, fl = _up_reference(head[0].astype(np.float64)), _up_reference(fill[0].astype(np.float64))
+    hd, fl = up_bilinear_2x(head[0].astype(np.float64)), up_bilinear_2x(fill[0].astype(np.float64))
     covered = raster[0, :, :, spec.coverage_channel] != spec.zero_point
     tex = (b[:, :, :3] - spec.zero_point) * np.asarray(spec.colour_scale)
     colour = tex + np.where(covered, 0.0, 1.0)[..., None] * (fl[:3] / np.maximum(fl[3], spec.weight_min)).transpose(1, 2, 0)

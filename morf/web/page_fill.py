@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from morf.export.compiled_tail import _up_reference as up_bilinear_2x
+from morf.export.compiled_tail import up_bilinear_2x
 
 COVERAGE_FLOOR = 1e-4  # push_pull_fill's floor on a level's coverage before dividing by it
 PROBE_SHAPE = (256, 384)  # the test raster: both sides divisible by 2**7
@@ -52,7 +52,7 @@ def fill_pyramid(raster: np.ndarray, colour_scale, zero_point: int, coverage_cha
     return acc.astype(np.float32)
 
 
-def probe_raster(zero_point: int, seed: int = 0) -> np.ndarray:
+def probe_raster(zero_point: int, coverage_channel: int = 0, seed: int = 0) -> np.ndarray:
     """A test raster: a few covered rectangles of random bytes (the coverage channel never at the
     zero point there) on the zero point, with wide empty stretches between them, so that fills of
     different reach differ."""
@@ -61,7 +61,8 @@ def probe_raster(zero_point: int, seed: int = 0) -> np.ndarray:
     raster = np.full((h, w, 16), zero_point, np.uint8)
     for y0, x0, y1, x1 in ((20, 30, 90, 70), (150, 200, 230, 240), (40, 300, 60, 370)):
         block = rng.integers(0, 256, (y1 - y0, x1 - x0, 16), dtype=np.uint8)
-        block[..., 0][block[..., 0] == zero_point] = zero_point + 1
+        mark = block[..., coverage_channel]
+        mark[mark == zero_point] = zero_point + 1
         raster[y0:y1, x0:x1] = block
     return raster
 
@@ -75,7 +76,7 @@ def fill_levels_of(graph: bytes, spec) -> int | None:
     options = ort.SessionOptions()
     options.log_severity_level = 3
     session = ort.InferenceSession(graph, options, providers=["CPUExecutionProvider"])
-    raster = probe_raster(spec.zero_point)
+    raster = probe_raster(spec.zero_point, spec.coverage_channel)
     (got,) = session.run([spec.fill], {session.get_inputs()[0].name: raster[None]})
     got = np.asarray(got, np.float32)[0]
     for levels in range(1, MAX_LEVELS + 1):

@@ -55,7 +55,7 @@ def test_without_fill_drops_the_output_and_keeps_the_head(cut):
     graph, spec = cut
     new, levels = without_fill(graph, spec, size_multiple=64)
     assert levels == 6 and len(new) < len(graph)
-    raster = probe_raster(spec.zero_point, seed=2)
+    raster = probe_raster(spec.zero_point, spec.coverage_channel, seed=2)
     (before,) = _run(graph, [spec.head], raster)
     (after,) = _run(new, [spec.head], raster)
     assert np.array_equal(before, after)
