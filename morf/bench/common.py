@@ -67,6 +67,25 @@ def host_loop_ms(repeats: int = 5) -> float:
     return round(1000 * best, 1)
 
 
+def cpu_ticks() -> tuple[int, int] | None:
+    """(steal, all) ticks of this machine's CPUs so far (Linux /proc/stat; None elsewhere): the time
+    the hypervisor gave the virtual CPUs to other guests, and all time. Between two readings, the
+    steal share says how much of the host the benchmark did not get (multi-threaded work loses the
+    most: a thread waits for the one that was stolen from)."""
+    try:
+        fields = [int(v) for v in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]]
+    except (OSError, ValueError):
+        return None
+    return (fields[7] if len(fields) > 7 else 0), sum(fields[:8])
+
+
+def steal_share(before: tuple[int, int] | None, after: tuple[int, int] | None) -> float | None:
+    """The share of CPU time stolen between two :func:`cpu_ticks` readings (None: unknown)."""
+    if before is None or after is None or after[1] <= before[1]:
+        return None
+    return round((after[0] - before[0]) / (after[1] - before[1]), 4)
+
+
 def markdown_table(rows: list[dict], columns: list[str], floatfmt: str = "{:.3g}") -> str:
     """A Markdown table of ``rows`` (dicts) with the given column order."""
     def fmt(v):

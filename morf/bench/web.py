@@ -176,7 +176,9 @@ def _header(r: dict) -> str:
             f"Load average while it ran: {r['load_before'][0]:.1f} before, {r['load_after'][0]:.1f} after "
             f"(1 min; 2 cores: above 2 other processes share the CPU)\n\n"
             + (f"The host's speed: a fixed Python loop took {r['host_loop_ms'][0]} ms before and "
-               f"{r['host_loop_ms'][1]} ms after (morf.bench.common.host_loop_ms; lower is faster)\n\n"
+               f"{r['host_loop_ms'][1]} ms after (morf.bench.common.host_loop_ms; lower is faster)"
+               + (f"; the hypervisor took {100 * r['steal_share']:.1f} % of the CPU time while it ran (steal)"
+                  if r.get("steal_share") is not None else "") + "\n\n"
                if r.get("host_loop_ms") else "")
             + f"The browser's CPU time: {env['browser_cpu_s']:.1f} s in all ({r['seconds']:.0f} s wall, the page's "
             f"loading included)\n\n")
@@ -278,7 +280,7 @@ def _markdown(r: dict) -> str:
 
 def run_web(opts: WebOptions) -> dict:
     """Play the avatar in headless Chromium and write web.json and web.md; returns web.json's content."""
-    from morf.bench.common import host_loop_ms, machine_info, write_results
+    from morf.bench.common import cpu_ticks, host_loop_ms, machine_info, steal_share, write_results
     from morf.errors import InputError
     from morf.web.browser import missing_browser, run_page
     from morf.web.build import folder_bytes
@@ -299,9 +301,9 @@ def run_web(opts: WebOptions) -> dict:
         extra = _graph_forms(opts, avatar, Path(tmp))
         folder = _web_folder(avatar, Path(tmp))
         load_before, loop_before = os.getloadavg(), host_loop_ms()
-        t0 = time.monotonic()
+        t0, ticks = time.monotonic(), cpu_ticks()
         page = run_page(folder, _query(opts), extra=extra, isolation=opts.isolation, timeout=opts.timeout)
-        seconds = time.monotonic() - t0
+        seconds, steal = time.monotonic() - t0, steal_share(ticks, cpu_ticks())
         load_after = os.getloadavg()
         time.sleep(1.0)  # the browser's processes gone first
         loop_after = host_loop_ms()
@@ -313,7 +315,7 @@ def run_web(opts: WebOptions) -> dict:
     profile = profile_summary(page.pop("profile")) if "profile" in page else None
     result = {"avatar": str(avatar), "folder": str(folder), "folder_mb": size / 1e6, "frames": opts.frames,
               "flags": _flags(opts), "page": page, "machine": machine_info(), "load_before": load_before,
-              "host_loop_ms": [loop_before, loop_after],
+              "host_loop_ms": [loop_before, loop_after], "steal_share": steal,
               "load_after": load_after, "seconds": round(seconds, 1), "marks": marks,
               "played_cpu": _cpu_between(marks, "played", "played_end"),
               "adaptive_cpu": _cpu_between(marks, "adaptive", "adaptive_end"), "compare_cpu": _cpu_by_setting(marks)}

@@ -24,6 +24,7 @@ def test_bench_reports_window_canvas_cpu_adaptive_reason_and_flags(tail_web, tmp
     assert "(of composite: the canvas)" in md and page["parts_ms"]["show"] >= 0
     assert "(of composite: the colour fill)" in md and page["parts_ms"]["fill"] > 0  # fill.js ran
     assert all(ms > 0 for ms in r["host_loop_ms"]) and "The host's speed: a fixed Python loop took" in md
+    assert r["steal_share"] is None or (0 <= r["steal_share"] <= 1 and "(steal)" in md)
     cpu = r["played_cpu"]  # marks around the played frames: the browser's CPU time in them, per process kind
     assert cpu and cpu["cpu_s"] > 0 and cpu["by_process"].get("renderer", 0) > 0, cpu
     assert cpu["by_thread"].get("renderer main", 0) > 0 and "Its busiest threads" in md, cpu["by_thread"]
