@@ -81,23 +81,33 @@ def group_cpu_seconds(pgid: int) -> float | None:
     return None if by is None else sum(by.values())
 
 
+def _stat_fields(stat: str) -> list[str]:
+    """The fields of a /proc stat line after the name: state, ppid, pgrp, ..., utime (index 11),
+    stime (12)."""
+    return stat.rsplit(")", 1)[1].split()
+
+
+def _cpu_seconds(fields: list[str]) -> float:
+    """utime + stime of :func:`_stat_fields`, in seconds."""
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def _group_processes(pgid: int):
     """(/proc/PID, kind, CPU seconds) of the live processes of process group ``pgid``; kind: the
     Chromium process type ("renderer", "gpu-process", ...; "browser" for the main process)."""
-    ticks = os.sysconf("SC_CLK_TCK")
     for d in Path("/proc").iterdir():
         if not d.name.isdigit():
             continue
         try:
-            fields = (d / "stat").read_text().rsplit(")", 1)[1].split()
-            if int(fields[2]) != pgid:  # fields after the name: state, ppid, pgrp, ..., utime (12), stime (13)
+            fields = _stat_fields((d / "stat").read_text())
+            if int(fields[2]) != pgid:
                 continue
             cmdline = (d / "cmdline").read_bytes()
         except (OSError, ValueError):
             continue
         # Chromium rewrites its children's titles: the arguments may be NUL- or space-separated
         found = re.search(rb"--type=([\w-]+)", cmdline)
-        yield d, found.group(1).decode() if found else "browser", (int(fields[11]) + int(fields[12])) / ticks
+        yield d, found.group(1).decode() if found else "browser", _cpu_seconds(fields)
 
 
 def group_cpu_by_process(pgid: int) -> dict[str, float] | None:
@@ -119,7 +129,7 @@ def group_cpu_by_thread(pgid: int) -> dict[str, float] | None:
     None where there is no /proc."""
     if not Path("/proc").is_dir():
         return None
-    ticks, by = os.sysconf("SC_CLK_TCK"), {}
+    by: dict[str, float] = {}
     for d, kind, _ in _group_processes(pgid):
         try:
             tasks = list((d / "task").iterdir())
@@ -130,10 +140,9 @@ def group_cpu_by_thread(pgid: int) -> dict[str, float] | None:
                 stat = (t / "stat").read_text()
             except OSError:
                 continue
-            fields = stat.rsplit(")", 1)[1].split()
             name = "main" if t.name == d.name else stat[stat.index("(") + 1:stat.rindex(")")]
             key = f"{kind} {name}"
-            by[key] = by.get(key, 0.0) + (int(fields[11]) + int(fields[12])) / ticks
+            by[key] = by.get(key, 0.0) + _cpu_seconds(_stat_fields(stat))
     return by
 
 

@@ -13,6 +13,8 @@ export class ColourFill {
     this.spec = spec;
     this.levels = spec.fill_levels;
     this.W = this.H = 0;
+    this.tapsOf = new Map();  // side -> its 2x taps
+    this.lineBuffer = new Float32Array(0);
   }
 
   resize(W, H) {
@@ -113,14 +115,13 @@ export class ColourFill {
   }
 
   taps(n) {  // the 2x taps of a side, kept per side
-    this.tapsOf = this.tapsOf || new Map();
     let t = this.tapsOf.get(n);
     if (!t) { t = taps(n); this.tapsOf.set(n, t); }
     return t;
   }
 
   line(n) {  // a row buffer of at least n values
-    if (!this.lineBuffer || this.lineBuffer.length < n) this.lineBuffer = new Float32Array(n);
+    if (this.lineBuffer.length < n) this.lineBuffer = new Float32Array(n);
     return this.lineBuffer;
   }
 }
