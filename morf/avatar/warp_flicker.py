@@ -21,9 +21,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-
-def _grey(rgb01: np.ndarray) -> np.ndarray:
-    return cv2.cvtColor((np.clip(rgb01, 0, 1) * 255 + 0.5).astype(np.uint8), cv2.COLOR_RGB2GRAY)
+from morf.io.images import grey_uint8
 
 
 def _remap(image: np.ndarray, flow: np.ndarray) -> np.ndarray:
@@ -52,7 +50,7 @@ def warping_errors(renders: np.ndarray, reals: np.ndarray, masks: np.ndarray) ->
     dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
     out_r, out_g = [], []
     for t in range(len(reals) - 1):
-        g0, g1 = _grey(reals[t]), _grey(reals[t + 1])
+        g0, g1 = grey_uint8(reals[t]), grey_uint8(reals[t + 1])
         back, fwd = dis.calc(g1, g0, None), dis.calc(g0, g1, None)
         region = consistent(back, fwd) & (masks[t + 1] > 0.5)
         if not region.any():

@@ -1,4 +1,5 @@
-"""Image files: RGB uint8 in, RGB uint8 out (OpenCV underneath, which speaks BGR)."""
+"""Image files: RGB uint8 in, RGB uint8 out (OpenCV underneath, which speaks BGR); and the grey
+form of an RGB image that OpenCV's optical flow reads."""
 
 from __future__ import annotations
 
@@ -10,6 +11,11 @@ import numpy as np
 
 from morf.errors import InputError
 from morf.io.atomic import atomic_path
+
+
+def grey_uint8(rgb01: np.ndarray) -> np.ndarray:
+    """(H, W, 3) RGB float in [0, 1] -> (H, W) uint8 grey (clipped, rounded), as DIS optical flow reads it."""
+    return cv2.cvtColor((np.clip(rgb01, 0, 1) * 255 + 0.5).astype(np.uint8), cv2.COLOR_RGB2GRAY)
 
 
 def read_image(path: str | os.PathLike, *, grayscale: bool = False) -> np.ndarray:

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from morf.io.images import grey_uint8
 from morf.train.frames import UV_SCALE, FrameSet
 
 MAX_FLOW_SHARE = 0.01  # flow clamp as a share of the frame side: 6.4 px at 640 px, 2.6 px at 256 px
@@ -64,10 +65,6 @@ def sample_colour(rgb: np.ndarray, uv: np.ndarray, uv_mask: np.ndarray) -> np.nd
     return out * uv_mask[..., None]
 
 
-def _grey(rgb01: np.ndarray) -> np.ndarray:
-    return cv2.cvtColor((np.clip(rgb01, 0, 1) * 255 + 0.5).astype(np.uint8), cv2.COLOR_RGB2GRAY)
-
-
 def frame_flow(render: np.ndarray, real: np.ndarray, region: np.ndarray, max_flow: float,
                dis=None) -> tuple[np.ndarray, np.ndarray]:
     """Dense flow from ``render`` to ``real`` inside ``region``: real(p + flow(p)) ~ render(p).
@@ -89,7 +86,7 @@ def frame_flow(render: np.ndarray, real: np.ndarray, region: np.ndarray, max_flo
     box = region[y0:y1, x0:x1]
     a = np.where(box[..., None], render[y0:y1, x0:x1], real[y0:y1, x0:x1])
     dis = dis or cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
-    f = dis.calc(_grey(a), _grey(real[y0:y1, x0:x1]), None)
+    f = dis.calc(grey_uint8(a), grey_uint8(real[y0:y1, x0:x1]), None)
     length = np.linalg.norm(f, axis=-1)
     scale = np.minimum(1.0, max_flow / np.maximum(length, 1e-6))
     flow[y0:y1, x0:x1] = f * scale[..., None] * box[..., None]
