@@ -86,12 +86,14 @@ def choose_floor_size(frames: FrameSet, min_facing: float = 0.3) -> FloorSize:
     return FloorSize(size, {s: round(v, 4) for s, v in shares.items()})
 
 
-def floor_texture(frames: FrameSet, covered: np.ndarray, dilate: int = 4,
-                  min_facing: float = 0.3, facing_power: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def floor_texture(frames: FrameSet, covered: np.ndarray, dilate: int = 4, min_facing: float = 0.3,
+                  facing_power: float = 0.0, bilinear: bool = False,
+                  prior_count: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """The floor's (4, S, S) float32 texture for an (S, S) atlas coverage, and the (S, S) seen map.
 
     Channels 0-2: every texel hit by a pixel holds the mean colour of its pixels, weighted by
-    facing ** ``facing_power`` (:func:`morf.train.inpaint.project_rgb_texture`, exactly); every other texel of the UV islands,
+    facing ** ``facing_power`` (:func:`morf.train.inpaint.project_rgb_texture`, exactly, with its
+    ``bilinear`` and ``prior_count``; the floor itself keeps their defaults); every other texel of the UV islands,
     pinholes between hit texels included, is filled from its neighbours (Telea); the islands are
     then grown ``dilate`` texels so bilinear lookups at seams never blend in black. Channel 3: 1
     everywhere (the coverage, once sampled). The seen map is the hit map with pinholes closed
@@ -100,7 +102,7 @@ def floor_texture(frames: FrameSet, covered: np.ndarray, dilate: int = 4,
     from morf.train.inpaint import close_seen, fill_unseen, project_rgb_texture
 
     size = covered.shape[0]
-    rgb, hit = project_rgb_texture(frames, size, min_facing, facing_power)
+    rgb, hit = project_rgb_texture(frames, size, min_facing, facing_power, bilinear, prior_count)
     islands = covered | hit
     filled = fill_unseen(rgb, hit, islands)
     filled, _ = dilate_texture(filled, islands, dilate)

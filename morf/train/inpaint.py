@@ -36,8 +36,8 @@ def projected_texels(frames: FrameSet, i: int, size: int, min_facing: float = 0.
     return ok, row, col
 
 
-def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3,
-                        facing_power: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3, facing_power: float = 0.0,
+                        bilinear: bool = False, prior_count: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Average the training frames' colours per texel (pixels as in :func:`projected_texels`).
 
     ``facing_power`` p > 0 weights each pixel by its facing |cos| ** p instead of equally. The
@@ -47,25 +47,37 @@ def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3,
     each frame sees the surface keeps the few frames that see it best, so the colour is sharp where
     some frame saw it well (p = 0: the plain mean).
 
+    ``bilinear`` shares each pixel among the four texels around its UV, and ``prior_count`` > 0
+    draws a texel seen by few pixels towards its neighbourhood (:mod:`morf.train.texel_splat`);
+    the defaults are the plain nearest-texel mean.
+
     Returns:
         rgb: (size, size, 3) float32 in [0, 1] (0 where unseen); seen: (size, size) bool.
     """
+    from morf.train.texel_splat import shrunk_means, texel_weights
+
     acc = np.zeros((size * size, 3), np.float64)
     cnt = np.zeros(size * size, np.float64)
     for i in range(frames.num_frames):
-        ok, row, col = projected_texels(frames, i, size, min_facing)
+        ok = frames.uv_mask[i] & frames.masks[i] & (frames.facing[i] >= int(round(min_facing * 255)))
         if not ok.any():
             continue
-        lin = row * size + col
-        w = (frames.facing[i][ok].astype(np.float64) / 255) ** facing_power if facing_power else None
-        cnt += np.bincount(lin, weights=w, minlength=size * size)
+        facing = (frames.facing[i][ok].astype(np.float64) / 255) ** facing_power if facing_power else None
         rgb = frames.images[i][ok].astype(np.float64) / 255
-        for c in range(3):
-            acc[:, c] += np.bincount(lin, weights=rgb[:, c] if w is None else rgb[:, c] * w, minlength=size * size)
+        for lin, w in texel_weights(frames.uv[i][ok], size, bilinear):
+            w = facing if w is None else (w if facing is None else w * facing)
+            cnt += np.bincount(lin, weights=w, minlength=size * size)
+            for c in range(3):
+                acc[:, c] += np.bincount(lin, weights=rgb[:, c] if w is None else rgb[:, c] * w,
+                                         minlength=size * size)
     seen = cnt > 0  # facing >= min_facing > 0: a seen texel's weight is positive
-    rgb = np.zeros_like(acc)
-    rgb[seen] = acc[seen] / cnt[seen, None]
-    return rgb.reshape(size, size, 3).astype(np.float32), seen.reshape(size, size)
+    out = np.zeros_like(acc)
+    if prior_count > 0:
+        shrunk = shrunk_means(acc.reshape(size, size, 3), cnt.reshape(size, size), prior_count).reshape(-1, 3)
+        out[seen] = shrunk[seen]
+    else:
+        out[seen] = acc[seen] / cnt[seen, None]
+    return out.reshape(size, size, 3).astype(np.float32), seen.reshape(size, size)
 
 
 def close_seen(seen: np.ndarray, radius: int = 2) -> np.ndarray:

@@ -94,12 +94,17 @@ def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fi
         # the floor's colours (step 0 = floor), unless weighted towards the frames that face a texel
         # or aligned to one another first (0 passes: exactly the floor's projection)
         projected, _, aligned = aligned_floor_texture(source, atlas.covered, cfg.colour_align_passes,
-                                                      cfg.texture_dilate, facing_power=cfg.colour_facing_power)
+                                                      cfg.texture_dilate, facing_power=cfg.colour_facing_power,
+                                                      bilinear=cfg.colour_bilinear,
+                                                      prior_count=cfg.colour_prior_count)
         rgb = projected[:3]
         spec = spectral_texture(model, cfg.texture_channels - 3, cfg.texture_size, cfg.texture_size,
                                 cfg.texture_dilate)
         tex = torch.from_numpy(np.concatenate([rgb, spec], axis=0))
-        notes.append(f"texture channels 0-2: the training frames at {source.resolution} px projected (colour); "
+        how = "".join([", each pixel shared among four texels" if cfg.colour_bilinear else "",
+                       f", texels few pixels saw drawn to their neighbourhood ({cfg.colour_prior_count:g} pixels)"
+                       if cfg.colour_prior_count else ""])
+        notes.append(f"texture channels 0-2: the training frames at {source.resolution} px projected (colour{how}); "
                      "the renderer adds a residual")
         if cfg.colour_align_passes:
             notes.append(f"texture channels 0-2: {aligned.describe()}")

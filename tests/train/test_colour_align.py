@@ -97,3 +97,23 @@ def test_training_with_aligned_colour_notes_it(tiny_capture_source, body_model, 
     res = train_project(project, cfg, "aligned", fits_source="ground-truth", model=body_model)
     log = (res.run_dir / "train.log").read_text()
     assert "colour aligned by optical flow over 1 pass(es)" in log
+
+
+@pytest.mark.slow
+@pytest.mark.gl
+def test_morf_train_takes_the_splat_and_the_prior_and_notes_them(tiny_capture, tmp_path, monkeypatch):
+    """``morf train --set colour_bilinear=true --set colour_prior_count=4``: the run's config keeps
+    both, and its log says how the colour was projected."""
+    import json
+
+    from morf.cli.main import main
+
+    monkeypatch.setenv("MORF_CACHE_DIR", str(tmp_path / "cache"))
+    root = str(tiny_capture.root)
+    assert main(["train", root, "--preset", "tiny", "--steps", "2", "--name", "splat", "--fits", "ground-truth",
+                 "--set", "inpaint_steps=0", "--set", "colour_bilinear=true", "--set", "colour_prior_count=4"]) == 0
+    run = tiny_capture.root / "runs" / "splat"
+    cfg = json.loads((run / "config.json").read_text())
+    assert cfg["colour_bilinear"] is True and cfg["colour_prior_count"] == 4
+    log = (run / "train.log").read_text()
+    assert "each pixel shared among four texels" in log and "drawn to their neighbourhood (4 pixels)" in log

@@ -98,6 +98,9 @@ def test_detail_preset_is_the_cpu_preset_with_detail():
     assert det.texture_size > cpu.texture_size and det.zoom_resolution >= 640
     assert det.detail_every and det.colour_from_zoom and det.w_mask_bce > 0
     assert det.colour_align_passes == 2 and cpu.colour_align_passes == 0  # aligned colour: the detail preset only
+    # the projection without the speckle: both presets (the tiny one keeps the plain mean)
+    assert cpu.colour_bilinear and det.colour_bilinear and cpu.colour_prior_count == det.colour_prior_count > 0
+    assert not PRESETS["tiny"].colour_bilinear and PRESETS["tiny"].colour_prior_count == 0
 
 
 def _two_views_of_one_texel(colours, facings) -> FrameSet:
