@@ -18,7 +18,7 @@ import numpy as np
 import torch
 
 from morf.avatar.texture import sample_texture
-from morf.train.frames import UV_SCALE, FrameSet
+from morf.train.frames import FrameSet
 
 
 def projected_texels(frames: FrameSet, i: int, size: int, min_facing: float = 0.3):
@@ -29,11 +29,18 @@ def projected_texels(frames: FrameSet, i: int, size: int, min_facing: float = 0.
     Returns:
         ok: (H, W) bool projecting pixels; row, col: (P,) int64 texel of each, in ``ok`` order.
     """
-    ok = frames.uv_mask[i] & frames.masks[i] & (frames.facing[i] >= int(round(min_facing * 255)))
-    uv = frames.uv[i][ok].astype(np.float64) / UV_SCALE
-    col = np.clip((uv[:, 0] * size).astype(np.int64), 0, size - 1)
-    row = np.clip(((1 - uv[:, 1]) * size).astype(np.int64), 0, size - 1)
+    from morf.train.texel_splat import texel_weights
+
+    ok = projecting_pixels(frames, i, min_facing)
+    (lin, _), = texel_weights(frames.uv[i][ok], size, bilinear=False)
+    row, col = np.divmod(lin, size)
     return ok, row, col
+
+
+def projecting_pixels(frames: FrameSet, i: int, min_facing: float = 0.3) -> np.ndarray:
+    """(H, W) bool: the pixels of frame ``i`` inside the person mask and the mesh coverage whose
+    surface faces the camera (|cos| >= ``min_facing``)."""
+    return frames.uv_mask[i] & frames.masks[i] & (frames.facing[i] >= int(round(min_facing * 255)))
 
 
 def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3, facing_power: float = 0.0,
@@ -59,7 +66,7 @@ def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3, fa
     acc = np.zeros((size * size, 3), np.float64)
     cnt = np.zeros(size * size, np.float64)
     for i in range(frames.num_frames):
-        ok = frames.uv_mask[i] & frames.masks[i] & (frames.facing[i] >= int(round(min_facing * 255)))
+        ok = projecting_pixels(frames, i, min_facing)
         if not ok.any():
             continue
         facing = (frames.facing[i][ok].astype(np.float64) / 255) ** facing_power if facing_power else None
