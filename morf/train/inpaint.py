@@ -19,6 +19,7 @@ import torch
 
 from morf.avatar.texture import sample_texture
 from morf.train.frames import FrameSet
+from morf.train.texel_splat import shrunk_means, texel_weights
 
 
 def projected_texels(frames: FrameSet, i: int, size: int, min_facing: float = 0.3):
@@ -29,8 +30,6 @@ def projected_texels(frames: FrameSet, i: int, size: int, min_facing: float = 0.
     Returns:
         ok: (H, W) bool projecting pixels; row, col: (P,) int64 texel of each, in ``ok`` order.
     """
-    from morf.train.texel_splat import texel_weights
-
     ok = projecting_pixels(frames, i, min_facing)
     (lin, _), = texel_weights(frames.uv[i][ok], size, bilinear=False)
     row, col = np.divmod(lin, size)
@@ -61,8 +60,6 @@ def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3, fa
     Returns:
         rgb: (size, size, 3) float32 in [0, 1] (0 where unseen); seen: (size, size) bool.
     """
-    from morf.train.texel_splat import shrunk_means, texel_weights
-
     acc = np.zeros((size * size, 3), np.float64)
     cnt = np.zeros(size * size, np.float64)
     for i in range(frames.num_frames):
