@@ -26,6 +26,7 @@ import numpy as np
 
 from morf.io.images import grey_uint8
 from morf.train.frames import UV_SCALE, FrameSet
+from morf.train.texel_splat import Projection
 
 MAX_FLOW_SHARE = 0.01  # flow clamp as a share of the frame side: 6.4 px at 640 px, 2.6 px at 256 px
 REGION_MARGIN = 16  # pixels around the person's box that the flow is estimated on
@@ -128,14 +129,13 @@ def align_frames(frames: FrameSet, rgb: np.ndarray, max_flow: float,
 
 
 def aligned_floor_texture(frames: FrameSet, covered: np.ndarray, passes: int, dilate: int = 4,
-                          min_facing: float = 0.3, facing_power: float = 0.0, max_flow: float | None = None,
-                          bilinear: bool = False,
-                          prior_count: float = 0.0) -> tuple[np.ndarray, np.ndarray, ColourAlignment]:
+                          min_facing: float = 0.3, how: Projection = Projection(),
+                          max_flow: float | None = None) -> tuple[np.ndarray, np.ndarray, ColourAlignment]:
     """:func:`morf.train.floor_texture.floor_texture` from frames aligned to their own projection.
 
     Pass 0 is the plain projection; each of ``passes`` further passes warps the original frames
     onto the previous pass's texture (:func:`align_frames`) and projects them again with the same
-    weights (``facing_power``, ``bilinear``, ``prior_count``: :func:`morf.train.inpaint.project_rgb_texture`).
+    projection ``how`` (:func:`morf.train.inpaint.project_rgb_texture`).
     ``max_flow`` (default ``MAX_FLOW_SHARE`` of the frame side) clamps the flow.
     Returns the (4, S, S) float32 texture, the (S, S) seen map and a :class:`ColourAlignment`.
     """
@@ -144,11 +144,11 @@ def aligned_floor_texture(frames: FrameSet, covered: np.ndarray, passes: int, di
     if passes < 0:
         raise ValueError(f"passes must be >= 0, got {passes}")
     max_flow = MAX_FLOW_SHARE * frames.resolution if max_flow is None else float(max_flow)
-    texture, seen = floor_texture(frames, covered, dilate, min_facing, facing_power, bilinear, prior_count)
+    texture, seen = floor_texture(frames, covered, dilate, min_facing, how)
     medians, p95s = [], []
     for _ in range(passes):
         warped, length = align_frames(frames, texture[:3].transpose(1, 2, 0), max_flow, min_facing)
         medians.append(round(float(np.median(length)), 3) if length.size else 0.0)
         p95s.append(round(float(np.percentile(length, 95)), 3) if length.size else 0.0)
-        texture, seen = floor_texture(warped, covered, dilate, min_facing, facing_power, bilinear, prior_count)
+        texture, seen = floor_texture(warped, covered, dilate, min_facing, how)
     return texture, seen, ColourAlignment(passes, round(max_flow, 3), tuple(medians), tuple(p95s))

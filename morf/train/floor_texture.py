@@ -26,6 +26,7 @@ import numpy as np
 
 from morf.avatar.uv_atlas import dilate_texture
 from morf.train.frames import FrameSet
+from morf.train.texel_splat import Projection
 
 MIN_SIDE = 64
 MAX_SIDE = 1024
@@ -87,13 +88,12 @@ def choose_floor_size(frames: FrameSet, min_facing: float = 0.3) -> FloorSize:
 
 
 def floor_texture(frames: FrameSet, covered: np.ndarray, dilate: int = 4, min_facing: float = 0.3,
-                  facing_power: float = 0.0, bilinear: bool = False,
-                  prior_count: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+                  how: Projection = Projection()) -> tuple[np.ndarray, np.ndarray]:
     """The floor's (4, S, S) float32 texture for an (S, S) atlas coverage, and the (S, S) seen map.
 
-    Channels 0-2: every texel hit by a pixel holds the mean colour of its pixels, weighted by
-    facing ** ``facing_power`` (:func:`morf.train.inpaint.project_rgb_texture`, exactly, with its
-    ``bilinear`` and ``prior_count``; the floor itself keeps their defaults); every other texel of the UV islands,
+    Channels 0-2: every texel hit by a pixel holds the mean colour of its pixels, projected as
+    ``how`` says (:func:`morf.train.inpaint.project_rgb_texture`, exactly; the floor itself keeps
+    the default, the plain mean); every other texel of the UV islands,
     pinholes between hit texels included, is filled from its neighbours (Telea); the islands are
     then grown ``dilate`` texels so bilinear lookups at seams never blend in black. Channel 3: 1
     everywhere (the coverage, once sampled). The seen map is the hit map with pinholes closed
@@ -102,7 +102,7 @@ def floor_texture(frames: FrameSet, covered: np.ndarray, dilate: int = 4, min_fa
     from morf.train.inpaint import close_seen, fill_unseen, project_rgb_texture
 
     size = covered.shape[0]
-    rgb, hit = project_rgb_texture(frames, size, min_facing, facing_power, bilinear, prior_count)
+    rgb, hit = project_rgb_texture(frames, size, min_facing, how)
     islands = covered | hit
     filled = fill_unseen(rgb, hit, islands)
     filled, _ = dilate_texture(filled, islands, dilate)

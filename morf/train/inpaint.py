@@ -19,7 +19,7 @@ import torch
 
 from morf.avatar.texture import sample_texture
 from morf.train.frames import FrameSet
-from morf.train.texel_splat import shrunk_means, texel_weights
+from morf.train.texel_splat import Projection, shrunk_means, texel_weights
 
 
 def projected_texels(frames: FrameSet, i: int, size: int, min_facing: float = 0.3):
@@ -42,18 +42,18 @@ def projecting_pixels(frames: FrameSet, i: int, min_facing: float = 0.3) -> np.n
     return frames.uv_mask[i] & frames.masks[i] & (frames.facing[i] >= int(round(min_facing * 255)))
 
 
-def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3, facing_power: float = 0.0,
-                        bilinear: bool = False, prior_count: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3,
+                        how: Projection = Projection()) -> tuple[np.ndarray, np.ndarray]:
     """Average the training frames' colours per texel (pixels as in :func:`projected_texels`).
 
-    ``facing_power`` p > 0 weights each pixel by its facing |cos| ** p instead of equally. The
+    ``how.facing_power`` p > 0 weights each pixel by its facing |cos| ** p instead of equally. The
     frames of a capture disagree by the fit's error (a few pixels at the face): the plain mean
     over every frame that sees a texel blends those copies into a ghosted blur (two pairs of eyes),
     and a texel seen at a grazing angle is stretched over many texels. Weighting by how squarely
     each frame sees the surface keeps the few frames that see it best, so the colour is sharp where
     some frame saw it well (p = 0: the plain mean).
 
-    ``bilinear`` shares each pixel among the four texels around its UV, and ``prior_count`` > 0
+    ``how.bilinear`` shares each pixel among the four texels around its UV, and ``how.prior_count`` > 0
     draws a texel seen by few pixels towards its neighbourhood (:mod:`morf.train.texel_splat`);
     the defaults are the plain nearest-texel mean.
 
@@ -66,9 +66,9 @@ def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3, fa
         ok = projecting_pixels(frames, i, min_facing)
         if not ok.any():
             continue
-        facing = (frames.facing[i][ok].astype(np.float64) / 255) ** facing_power if facing_power else None
+        facing = (frames.facing[i][ok].astype(np.float64) / 255) ** how.facing_power if how.facing_power else None
         rgb = frames.images[i][ok].astype(np.float64) / 255
-        for lin, w in texel_weights(frames.uv[i][ok], size, bilinear):
+        for lin, w in texel_weights(frames.uv[i][ok], size, how.bilinear):
             w = facing if w is None else (w if facing is None else w * facing)
             cnt += np.bincount(lin, weights=w, minlength=size * size)
             for c in range(3):
@@ -76,8 +76,8 @@ def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3, fa
                                          minlength=size * size)
     seen = cnt > 0  # facing >= min_facing > 0: a seen texel's weight is positive
     out = np.zeros_like(acc)
-    if prior_count > 0:
-        shrunk = shrunk_means(acc.reshape(size, size, 3), cnt.reshape(size, size), prior_count).reshape(-1, 3)
+    if how.prior_count > 0:
+        shrunk = shrunk_means(acc.reshape(size, size, 3), cnt.reshape(size, size), how.prior_count).reshape(-1, 3)
         out[seen] = shrunk[seen]
     else:
         out[seen] = acc[seen] / cnt[seen, None]

@@ -89,22 +89,22 @@ def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fi
     fs = pf.frames
     if cfg.renderer.rgb_skip:  # channels 0-2 are colour: the frames projected; the rest spectral
         from morf.train.colour_align import aligned_floor_texture
+        from morf.train.texel_splat import Projection
 
         source = zoom if cfg.colour_from_zoom else fs
         # the floor's colours (step 0 = floor), unless weighted towards the frames that face a texel
         # or aligned to one another first (0 passes: exactly the floor's projection)
+        how = Projection(cfg.colour_facing_power, cfg.colour_bilinear, cfg.colour_prior_count)
         projected, _, aligned = aligned_floor_texture(source, atlas.covered, cfg.colour_align_passes,
-                                                      cfg.texture_dilate, facing_power=cfg.colour_facing_power,
-                                                      bilinear=cfg.colour_bilinear,
-                                                      prior_count=cfg.colour_prior_count)
+                                                      cfg.texture_dilate, how=how)
         rgb = projected[:3]
         spec = spectral_texture(model, cfg.texture_channels - 3, cfg.texture_size, cfg.texture_size,
                                 cfg.texture_dilate)
         tex = torch.from_numpy(np.concatenate([rgb, spec], axis=0))
-        how = "".join([", each pixel shared among four texels" if cfg.colour_bilinear else "",
-                       f", texels few pixels saw drawn to their neighbourhood ({cfg.colour_prior_count:g} pixels)"
-                       if cfg.colour_prior_count else ""])
-        notes.append(f"texture channels 0-2: the training frames at {source.resolution} px projected (colour{how}); "
+        spread = "".join([", each pixel shared among four texels" if how.bilinear else "",
+                          f", texels few pixels saw drawn to their neighbourhood ({how.prior_count:g} pixels)"
+                          if how.prior_count else ""])
+        notes.append(f"texture channels 0-2: the training frames at {source.resolution} px projected (colour{spread}); "
                      "the renderer adds a residual")
         if cfg.colour_align_passes:
             notes.append(f"texture channels 0-2: {aligned.describe()}")

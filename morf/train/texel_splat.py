@@ -24,12 +24,29 @@ Two remedies, each optional:
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import cv2
 import numpy as np
 
 from morf.train.frames import UV_SCALE
 
 PRIOR_SIGMAS = (3.0, 1.0)  # texels: the prior's scales, coarse to fine
+
+
+@dataclass(frozen=True)
+class Projection:
+    """How the frames' pixels are averaged into texels (:func:`morf.train.inpaint.project_rgb_texture`).
+
+    Fields: facing_power p > 0 weights each pixel by its facing |cos| ** p (0: equally);
+    bilinear shares each pixel among the four texels around its UV (False: the one it falls in);
+    prior_count k > 0 draws each texel towards its neighbourhood by k pseudo-pixels (0: none).
+    The defaults are the plain nearest-texel mean, the RGB floor's.
+    """
+
+    facing_power: float = 0.0
+    bilinear: bool = False
+    prior_count: float = 0.0
 
 
 def texel_weights(uv: np.ndarray, size: int, bilinear: bool) -> list[tuple[np.ndarray, np.ndarray | None]]:

@@ -6,7 +6,7 @@ import numpy as np
 
 from morf.train.frames import UV_SCALE, FrameSet
 from morf.train.inpaint import project_rgb_texture
-from morf.train.texel_splat import shrunk_means, texel_weights
+from morf.train.texel_splat import Projection, shrunk_means, texel_weights
 
 
 def _packed(u, v):
@@ -61,7 +61,7 @@ def _dense_atlas_frames() -> FrameSet:
 def test_bilinear_splat_closes_the_pinholes_of_a_dense_atlas():
     fs = _dense_atlas_frames()
     _, seen_nearest = project_rgb_texture(fs, 64)
-    rgb, seen_bilinear = project_rgb_texture(fs, 64, bilinear=True)
+    rgb, seen_bilinear = project_rgb_texture(fs, 64, how=Projection(bilinear=True))
     inside = np.zeros((64, 64), bool)
     inside[18:46, 20:46] = True  # well inside the region every frame covers
     assert seen_nearest[inside].mean() <= 0.5  # every other row of texels is never hit
@@ -73,9 +73,9 @@ def test_bilinear_splat_closes_the_pinholes_of_a_dense_atlas():
 def test_projection_defaults_are_the_plain_mean(frames_factory):
     fs = frames_factory(n=3, res=32)
     plain, seen = project_rgb_texture(fs, 32)
-    same, seen2 = project_rgb_texture(fs, 32, bilinear=False, prior_count=0.0)
+    same, seen2 = project_rgb_texture(fs, 32, how=Projection(bilinear=False, prior_count=0.0))
     assert np.array_equal(plain, same) and np.array_equal(seen, seen2)
-    shrunk, seen3 = project_rgb_texture(fs, 32, prior_count=4.0)
+    shrunk, seen3 = project_rgb_texture(fs, 32, how=Projection(prior_count=4.0))
     assert np.array_equal(seen, seen3) and not np.array_equal(plain, shrunk)
     assert np.abs(shrunk[seen] - plain[seen]).mean() < 0.1  # drawn, not replaced
 

@@ -14,6 +14,7 @@ from morf.train.config import DETAIL_PRESET, PRESETS, preset
 from morf.train.detail import crop_origins, detail_centres
 from morf.train.frames import FrameSet
 from morf.train.inpaint import project_rgb_texture
+from morf.train.texel_splat import Projection
 from morf.train.trainer import Trainer
 
 
@@ -117,7 +118,7 @@ def _two_views_of_one_texel(colours, facings) -> FrameSet:
 def test_facing_weighted_projection_keeps_the_frame_that_faces_the_texel():
     fs = _two_views_of_one_texel([(255, 0, 0), (0, 0, 255)], [1.0, 0.5])
     mean, seen = project_rgb_texture(fs, 8)
-    sharp, seen_w = project_rgb_texture(fs, 8, facing_power=16)
+    sharp, seen_w = project_rgb_texture(fs, 8, how=Projection(facing_power=16))
     r, c = 5, 2  # row (1 - 0.3) * 8, column 0.3 * 8
     assert seen[r, c] and seen.sum() == 1 and np.array_equal(seen, seen_w)
     np.testing.assert_allclose(mean[r, c], [0.5, 0, 0.5], atol=1e-6)  # the plain mean blends the two
