@@ -26,12 +26,14 @@ class DetailResult:
     """Fields: scores: {"<group>_<score>": value} for the groups of ``GROUPS`` and the scores of
     ``DETAIL_SCORES`` plus ``count`` (None where no region was scored); resolution: the side the
     frames were scored at; max_shift: the tolerated shift in pixels there; crops: {sheet row:
-    (real, render)} (h, h, 3) uint8 head crops, rows without a visible head left out."""
+    (real, render)} (h, h, 3) uint8 head crops, rows without a visible head left out;
+    head_frames: :func:`head_frames` of the scored frames."""
 
     scores: dict
     resolution: int
     max_shift: int
     crops: dict
+    head_frames: tuple = ()
 
 
 def summarize_detail(frames: list[dict[str, RegionScores]]) -> dict:
@@ -48,15 +50,28 @@ def summarize_detail(frames: list[dict[str, RegionScores]]) -> dict:
     return out
 
 
+def head_frames(frames: list[dict[str, RegionScores]], frame_ids, max_shift: int) -> tuple[dict, ...]:
+    """Per frame with a scored head, in frame order: {"frame": its id in ``frame_ids``,
+    "ssim_shift", "shift": [dy, dx], "at_bound": whether |dy| or |dx| is ``max_shift``}."""
+    out = []
+    for fid, f in zip(frame_ids, frames):
+        if "head" in f:
+            h = f["head"]
+            out.append({"frame": int(fid), "ssim_shift": round(float(h.ssim_shift), 5), "shift": list(h.shift),
+                        "at_bound": max(abs(h.shift[0]), abs(h.shift[1])) >= max_shift})
+    return tuple(out)
+
+
 def _uint8(x: torch.Tensor) -> np.ndarray:
     return (x.clamp(0, 1).permute(1, 2, 0).numpy() * 255 + 0.5).astype(np.uint8)
 
 
 @torch.no_grad()
 def detail_scores(avatar, frames, colour: torch.Tensor, atlas: np.ndarray, max_shift: int,
-                  rows=()) -> DetailResult:
+                  rows=(), frame_ids=None) -> DetailResult:
     """Render every frame of ``frames`` (a FrameSet) with ``avatar`` over ``colour`` and score its
-    regions; keep the head crops of the frame positions ``rows``."""
+    regions; keep the head crops of the frame positions ``rows``. ``frame_ids`` name the frames in
+    :attr:`DetailResult.head_frames` (default: their positions)."""
     from morf.avatar.metrics import composite_over
     from morf.body.parts import pixel_parts
 
@@ -72,4 +87,5 @@ def detail_scores(avatar, frames, colour: torch.Tensor, atlas: np.ndarray, max_s
         if i in rows and "head" in boxes:
             y0, x0, y1, x1 = square_box(boxes["head"], *parts.shape)
             crops[i] = (_uint8(gt[:, y0:y1, x0:x1]), _uint8(pred[:, y0:y1, x0:x1]))
-    return DetailResult(summarize_detail(per), frames.resolution, max_shift, crops)
+    ids = frame_ids if frame_ids is not None and len(frame_ids) == frames.num_frames else range(frames.num_frames)
+    return DetailResult(summarize_detail(per), frames.resolution, max_shift, crops, head_frames(per, ids, max_shift))

@@ -266,7 +266,8 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
     # how many of these frames the run trained on (0 for its own hold-out); None for the novel poses
     seen = trained_on(project, fits, run.holdout, target.frame_ids) if target.kind == "capture" else None
     result = TargetScores.of(scores, lpips, side, seen, refined, None if detail is None else {
-        **detail.scores, "resolution": detail.resolution, "max_shift": detail.max_shift}, mask_iou(avatar, frames))
+        **detail.scores, "resolution": detail.resolution, "max_shift": detail.max_shift,
+        "head_frames": list(detail.head_frames)}, mask_iou(avatar, frames))
     if views is not None:
         tr.scored.append((run, result, views, {} if detail is None else {r: c[1] for r, c in detail.crops.items()}))
     return result
@@ -291,7 +292,7 @@ def _detail(project, model, avatar, target, fits, frames, camera, colour, poses,
 
             frames = reposed_frames(frames, model, poses[0], poses[1], camera)
     shift = max_shift_for(native, crop_of(project.camera(), avatar.camera)[2])
-    return detail_scores(avatar, frames, colour, part_atlas(model), shift, rows)
+    return detail_scores(avatar, frames, colour, part_atlas(model), shift, rows, target.frame_ids)
 
 
 def _refine(project, model, avatar, target, fits, frames, camera, rcfg: RefineConfig, say, offsets=None):
@@ -399,4 +400,22 @@ def _detail_lines(result: EvalResult, key: str) -> list[str]:
             return " ".join("  n/a" if x is None else f"{x:5.3f}" for x in v).rjust(22)
 
         lines.append(f"  {name:<24} " + " ".join(cell(g) for g in ("person", "head", "hands")))
+    lines += [line for name in names for line in _head_frame_lines(name, result.runs[name].targets[key].detail)]
     return lines
+
+
+WORST_HEADS = 5  # the lowest-scored heads each run names
+
+
+def _head_frame_lines(name: str, detail: dict) -> list[str]:
+    """The frames where a run's head scores lowest, and how many heads sit at the shift bound:
+    further off than the score forgives (the fit's error there, not the avatar's detail)."""
+    heads = detail.get("head_frames") or []
+    if not heads:
+        return []
+    worst = sorted(heads, key=lambda h: h["ssim_shift"])[:WORST_HEADS]
+    cells = ", ".join(f"{h['frame']} {h['ssim_shift']:.3f}" + (" (at the bound)" if h["at_bound"] else "")
+                      for h in worst)
+    bound = sum(h["at_bound"] for h in heads)
+    return [f"  {name}: lowest heads (frame SSIM): {cells}; at the +-{detail.get('max_shift')} px bound in "
+            f"{bound} of {len(heads)} frames"]

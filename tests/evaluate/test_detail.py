@@ -103,3 +103,18 @@ def test_large_regions_find_the_shift_coarse_to_fine():
     assert 200 * 200 > COARSE_PIXELS
     for shift in [(3, -1), (-4, 4), (0, 2)]:
         assert best_shift(np.roll(real, shift, axis=(1, 2)), real, (10, 10, 210, 210), 4) == shift
+
+
+def test_head_frames_name_each_scored_head_and_flag_the_shift_bound():
+    from morf.evaluate.detail import RegionScores
+    from morf.evaluate.detail_eval import head_frames
+
+    def r(ssim, shift):
+        return RegionScores(20.0, ssim, 0.1, 1.0, 1.0, shift, 100)
+
+    per = [{"head": r(0.8, (0, 1)), "person": r(0.9, (0, 0))}, {"person": r(0.9, (0, 0))},
+           {"head": r(0.5, (-4, 2))}, {"head": r(0.7, (1, 4))}]
+    heads = head_frames(per, [10, 15, 20, 25], 4)
+    assert [h["frame"] for h in heads] == [10, 20, 25]  # frame 15 shows no head
+    assert [h["at_bound"] for h in heads] == [False, True, True]
+    assert heads[1] == {"frame": 20, "ssim_shift": 0.5, "shift": [-4, 2], "at_bound": True}

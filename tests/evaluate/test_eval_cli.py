@@ -190,4 +190,10 @@ def test_detail_scores_at_native_size_and_head_crops(evaluated):
         assert heads.shape[:2] == (t["heads_size"][1], t["heads_size"][0])
         assert heads.shape[1] == len(t["columns"]) * HEAD_CELL and (heads.shape[0] - LABEL_H) % HEAD_CELL == 0
         assert heads[LABEL_H:, :HEAD_CELL].std() > 5  # the real heads, not a blank
-    assert "detail at native size" in evaluated["stdout"]
+    heads = d["head_frames"]  # each scored head by frame, for finding where the fit is off
+    assert len(heads) == d["head_count"]
+    assert [h["frame"] for h in heads] == sorted(h["frame"] for h in heads)
+    assert {h["frame"] for h in heads} <= set(ev["targets"]["holdout-k3"]["frame_ids"])
+    assert abs(np.mean([h["ssim_shift"] for h in heads]) - d["head_ssim_shift"]) < 1e-4
+    assert all(h["at_bound"] == (max(map(abs, h["shift"])) == 4) for h in heads)
+    assert "detail at native size" in evaluated["stdout"] and "lowest heads (frame SSIM)" in evaluated["stdout"]
