@@ -102,6 +102,7 @@ def test_detail_preset_is_the_cpu_preset_with_detail():
     # the projection without the speckle: both presets (the tiny one keeps the plain mean)
     assert cpu.colour_bilinear and det.colour_bilinear and cpu.colour_prior_count == det.colour_prior_count > 0
     assert not PRESETS["tiny"].colour_bilinear and PRESETS["tiny"].colour_prior_count == 0
+    assert cpu.colour_from_zoom and not PRESETS["tiny"].colour_from_zoom  # the colour from the 512 px frames
 
 
 def _two_views_of_one_texel(colours, facings) -> FrameSet:
