@@ -27,6 +27,7 @@ import torch
 
 from morf.body.model import BodyOutput, BodyPose
 from morf.body.parts import HAND_CHAIN, face_anchor_vertices, hand_points
+from morf.fitting.face_visibility import face_point_visibility
 from morf.fitting.losses import geman_mcclure
 
 # the neck lets the head move a little as well as turn: on a synthetic capture, fitted to the
@@ -48,7 +49,8 @@ class HeadHandsConfig:
     MediaPipe's pose ears sit about 2 cm inside the body model's (COCO-regressed) ears, and with
     detected landmarks they made it worse (8.9 -> 10.0); profile_eye_visibility: a face counts only
     where the pose the step starts from turns both eyes at least this far towards the camera
-    (:func:`hide_profile_faces`; 0: every face the given pose turns towards it); sigma: Geman-McClure scale in units of 1 % of the image height;
+    (:func:`hide_profile_faces`; 0: every face the given pose turns towards it); sigma:
+    Geman-McClure scale in units of 1 % of the image height;
     prior: weight of the squared change of the head and wrist rotations (radians^2);
     finger_prior: weight of the squared finger rotations (away from the rest, a relaxed hand);
     fingers: fit the 15 finger bones of each hand; steps, lr: Adam steps and step size
@@ -211,8 +213,6 @@ def hide_profile_faces(targets: torch.Tensor, points3d: torch.Tensor, camera, mi
     turned about 50 degrees where the head is turned 85 (People-Snapshot: the eyes 9 px apart
     against 15 px in the front views), and the head turned to it faced the camera. There the body
     keypoints' face points, weighted by what the pose shows, hold the head instead."""
-    from morf.fitting.face_visibility import face_point_visibility
-
     coco = points3d[:, [2, 1, 0, 6, 5]]  # nose, left eye, right eye, left ear, right ear
     position = torch.as_tensor(camera.position, dtype=points3d.dtype)
     eyes = face_point_visibility(coco, position)[:, 1:3]
