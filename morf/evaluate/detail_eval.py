@@ -54,7 +54,7 @@ def head_frames(frames: list[dict[str, RegionScores]], frame_ids, max_shift: int
     """Per frame with a scored head, in frame order: {"frame": its id in ``frame_ids``,
     "ssim_shift", "shift": [dy, dx], "at_bound": whether |dy| or |dx| is ``max_shift``}."""
     out = []
-    for fid, f in zip(frame_ids, frames):
+    for fid, f in zip(frame_ids, frames, strict=True):  # every target names each of its frames
         if "head" in f:
             h = f["head"]
             out.append({"frame": int(fid), "ssim_shift": round(float(h.ssim_shift), 5), "shift": list(h.shift),
@@ -87,5 +87,5 @@ def detail_scores(avatar, frames, colour: torch.Tensor, atlas: np.ndarray, max_s
         if i in rows and "head" in boxes:
             y0, x0, y1, x1 = square_box(boxes["head"], *parts.shape)
             crops[i] = (_uint8(gt[:, y0:y1, x0:x1]), _uint8(pred[:, y0:y1, x0:x1]))
-    ids = frame_ids if frame_ids is not None and len(frame_ids) == frames.num_frames else range(frames.num_frames)
+    ids = range(frames.num_frames) if frame_ids is None else frame_ids
     return DetailResult(summarize_detail(per), frames.resolution, max_shift, crops, head_frames(per, ids, max_shift))
