@@ -31,6 +31,9 @@ def add_parser(sub):
                    help="refine each frame's body pose against the real frame with each run's avatar frozen before "
                         "scoring (every run alike, the floor included): scores the appearance without the fit's "
                         "pose error, as monocular-avatar papers evaluate; minutes per run")
+    p.add_argument("--seen", action="store_true",
+                   help="also score each run on the training frames nearest its held-out ones (target seen-kK): "
+                        "how much of its error it makes on frames it saw, and how much on frames it did not")
     p.add_argument("--no-detail", dest="detail", action="store_false",
                    help="skip the detail scores (person, head and hands at native size: SSIM at the best shift "
                         "within +-4 px, GMSD, high-frequency ratio) and the head crops")
@@ -65,7 +68,7 @@ def run(args) -> int:
 
     cfg = EvalConfig(runs=tuple(args.run), out=args.out, floor=args.floor,
                      resolution=parse_resolution(args.resolution), lpips=args.lpips, vgg=args.vgg,
-                     refine_poses=args.refine_poses, detail=args.detail, force=args.force)
+                     refine_poses=args.refine_poses, detail=args.detail, seen=args.seen, force=args.force)
     result = evaluate_project(project, cfg, say=print)
     print(format_table(result))
     out = Path(args.out) if args.out else Path(project.root) / "eval"

@@ -66,22 +66,14 @@ def _uint8(x: torch.Tensor) -> np.ndarray:
     return (x.clamp(0, 1).permute(1, 2, 0).numpy() * 255 + 0.5).astype(np.uint8)
 
 
-@torch.no_grad()
-def detail_scores(avatar, frames, colour: torch.Tensor, atlas: np.ndarray, max_shift: int,
-                  rows=(), frame_ids=None) -> DetailResult:
-    """Render every frame of ``frames`` (a FrameSet) with ``avatar`` over ``colour`` and score its
-    regions; keep the head crops of the frame positions ``rows``. ``frame_ids`` name the frames in
-    :attr:`DetailResult.head_frames` (default: their positions)."""
-    from morf.avatar.metrics import composite_over
+def _scored(frames, atlas, max_shift: int, rows, frame_ids, image_pair) -> DetailResult:
+    """Score every frame's regions on ``image_pair(i)`` = (pred, gt) (3, H, W); keep the head crops of ``rows``."""
     from morf.body.parts import pixel_parts
 
     per, crops = [], {}
     for i in range(frames.num_frames):
-        b = frames.batch([i])
-        rgb, alpha = avatar.render(b.uv, b.uv_mask)
-        pred = composite_over(rgb, alpha, colour)[0]
-        gt = composite_over(b.image * b.mask, b.mask, colour)[0]
-        parts = pixel_parts(b.uv[0].numpy(), frames.uv_mask[i], atlas)
+        pred, gt, uv = image_pair(i)
+        parts = pixel_parts(uv, frames.uv_mask[i], atlas)
         boxes = frame_boxes(parts, frames.masks[i] | frames.uv_mask[i])
         per.append({n: region_scores(pred, gt, box, max_shift) for n, box in boxes.items()})
         if i in rows and "head" in boxes:
@@ -89,3 +81,40 @@ def detail_scores(avatar, frames, colour: torch.Tensor, atlas: np.ndarray, max_s
             crops[i] = (_uint8(gt[:, y0:y1, x0:x1]), _uint8(pred[:, y0:y1, x0:x1]))
     ids = range(frames.num_frames) if frame_ids is None else frame_ids
     return DetailResult(summarize_detail(per), frames.resolution, max_shift, crops, head_frames(per, ids, max_shift))
+
+
+@torch.no_grad()
+def detail_scores(avatar, frames, colour: torch.Tensor, atlas: np.ndarray, max_shift: int,
+                  rows=(), frame_ids=None) -> DetailResult:
+    """Render every frame of ``frames`` (a FrameSet) with ``avatar`` over ``colour`` and score its
+    regions; keep the head crops of the frame positions ``rows``. ``frame_ids`` name the frames in
+    :attr:`DetailResult.head_frames` (default: their positions)."""
+    from morf.avatar.metrics import composite_over
+
+    def pair(i):
+        b = frames.batch([i])
+        rgb, alpha = avatar.render(b.uv, b.uv_mask)
+        return composite_over(rgb, alpha, colour)[0], composite_over(b.image * b.mask, b.mask, colour)[0], \
+            b.uv[0].numpy()
+
+    return _scored(frames, atlas, max_shift, rows, frame_ids, pair)
+
+
+@torch.no_grad()
+def copy_scores(frames, images: np.ndarray, masks: np.ndarray, colour: torch.Tensor, atlas: np.ndarray,
+                max_shift: int, rows=(), frame_ids=None) -> DetailResult:
+    """The detail scores of other real frames copied in place of a render: ``images`` (N, H, W, 3)
+    uint8 and ``masks`` (N, H, W) bool, one per frame of ``frames``, over ``colour`` and scored in
+    ``frames``' regions, as :func:`detail_scores` scores an avatar. With each held-out frame's
+    nearest training frame this is the capture's own change from frame to frame: what an avatar
+    that gave back the nearest frame it saw, perfectly, would score."""
+    from morf.avatar.metrics import composite_over
+
+    def pair(i):
+        b = frames.batch([i])
+        img = torch.from_numpy(images[i]).permute(2, 0, 1).float()[None] / 255
+        m = torch.from_numpy(masks[i]).float()[None, None]
+        return composite_over(img * m, m, colour)[0], composite_over(b.image * b.mask, b.mask, colour)[0], \
+            b.uv[0].numpy()
+
+    return _scored(frames, atlas, max_shift, rows, frame_ids, pair)

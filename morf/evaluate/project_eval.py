@@ -14,6 +14,9 @@ images, :mod:`morf.evaluate.perceptual`) is computed when its weights are on dis
 Detail scores (:mod:`morf.evaluate.detail_eval`): the person, the head and the hands of every
 frame, at the crop's native size whatever the evaluation side, with scores that tolerate a few
 pixels of misalignment and do not reward blur; their head crops make a third image per target.
+A capture hold-out's detail gets a reference row, the nearest seen frame copied in place of a
+render (:mod:`morf.evaluate.reference`), and with ``seen`` every run is also scored on those
+seen frames (target ``seen-k<K>``), so its loss on frames it saw and on frames it did not show apart.
 """
 
 from __future__ import annotations
@@ -25,11 +28,14 @@ from typing import Callable
 import numpy as np
 import torch
 
+from morf.body.parts import part_atlas
 from morf.errors import ProjectError
+from morf.evaluate import reference
 from morf.evaluate.results import EvalResult, RunScores, TargetEntry, TargetScores
 from morf.evaluate.pose_refine import RefineConfig
 from morf.evaluate.runs import RunInfo, find_floor, floor_run_name, free_for_floor, read_run, select_runs
-from morf.evaluate.targets import EvalTarget, holdout_target, novel_poses_target, dataset_test_target, trained_on
+from morf.evaluate.targets import (EvalTarget, dataset_test_target, holdout_target, novel_poses_target, seen_target,
+                                   trained_on)
 
 LPIPS_NOTE = ("not computed: no LPIPS weights given (--lpips PATH or $MORF_LPIPS_WEIGHTS: the lpips package's "
               "weights/v0.1/vgg.pth, with the VGG-16 weights from --vgg PATH or $MORF_VGG16_WEIGHTS)")
@@ -59,7 +65,9 @@ class EvalConfig:
         ``$MORF_VGG16_WEIGHTS``; no LPIPS file at all: LPIPS is null);
         refine_poses: refine every frame's pose against its image with each run's avatar frozen
         before scoring (:mod:`morf.evaluate.pose_refine`), the floor included; refine: its settings.
-        detail: score the person, head and hands at native size and write the head crops;
+        detail: score the person, head and hands at native size and write the head crops, with the
+        nearest seen frame's reference on capture hold-outs;
+        seen: also score each run on the training frames nearest its held-out ones (``seen-k<K>``);
         force: write into an existing non-empty ``out`` (replacing only eval's own files there).
     """
 
@@ -74,6 +82,7 @@ class EvalConfig:
     refine_poses: bool = False
     refine: RefineConfig = RefineConfig()
     detail: bool = True
+    seen: bool = False
     force: bool = False
 
     def on_sheet(self, run: RunInfo) -> bool:
@@ -91,6 +100,7 @@ class _TargetResults:
     rows: list[int] = field(default_factory=list)
     scored: list = field(default_factory=list)  # (RunInfo, TargetScores, SequenceViews, head crops)
     real_heads: dict = field(default_factory=dict)  # sheet row -> the real frame's head crop, largest seen
+    reference: object = None  # morf.evaluate.reference.Reference of a capture hold-out, from its first run
 
 
 def ensure_floors(project, runs: list[RunInfo], model, say: Callable[[str], None]) -> list[RunInfo]:
@@ -187,7 +197,9 @@ def _evaluate(project, cfg: EvalConfig, model, say, claim) -> EvalResult:
             skipped[run.name] = "its avatar.pt stores no working camera (trained by an older MoRF)"
             continue
         fits = fits_of(run.fits_source)
-        mine = [t for t in (holdout_target(project, fits, run.holdout), dataset_test_target(project, fits), novel) if t]
+        seen = seen_target(project, fits, run.holdout) if cfg.seen and not run.is_floor else None
+        mine = [t for t in (holdout_target(project, fits, run.holdout), seen, dataset_test_target(project, fits),
+                            novel) if t]
         if not mine:
             skipped[run.name] = ("trained on every usable frame and the project has no hold-out sequence or test "
                                  "labels; retrain with --holdout K")
@@ -254,7 +266,11 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
         views = render_views(avatar, frames, colour, tr.rows, tr.column)
     detail = None
     if cfg.detail:
-        detail = _detail(project, model, avatar, target, fits, frames, camera, colour, poses, tr.rows, offsets)
+        detail, native, native_camera = _detail(project, model, avatar, target, fits, frames, camera, colour, poses,
+                                                tr.rows, offsets)
+        if tr.reference is None and not run.is_floor and reference.applies(project, target):
+            tr.reference = reference.nearest_frame_reference(project, fits, target, native, native_camera, colour,
+                                                             part_atlas(model), detail.max_shift, tr.rows)
         for row, (real, _) in detail.crops.items():
             if real.shape[0] > tr.real_heads.get(row, np.zeros((0,))).shape[0]:
                 tr.real_heads[row] = real
@@ -274,10 +290,10 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
 
 
 def _detail(project, model, avatar, target, fits, frames, camera, colour, poses, rows, offsets=None):
-    """The detail scores of ``avatar`` on ``target`` at the crop's native size: ``frames`` when
-    they are at that size, else the target rasterized again there (the body dressed by
-    ``offsets``; in the refined poses when ``poses`` = (RefinedPoses, shape) is given)."""
-    from morf.body.parts import part_atlas
+    """(DetailResult, the FrameSet scored, its camera): the detail scores of ``avatar`` on ``target``
+    at the crop's native size, on ``frames`` when they are at that size, else on the target
+    rasterized again there (the body dressed by ``offsets``; in the refined poses when ``poses`` =
+    (RefinedPoses, shape) is given)."""
     from morf.evaluate.detail import max_shift_for
     from morf.evaluate.detail_eval import detail_scores
     from morf.evaluate.frames import eval_side, scaled_camera, target_frames
@@ -292,7 +308,7 @@ def _detail(project, model, avatar, target, fits, frames, camera, colour, poses,
 
             frames = reposed_frames(frames, model, poses[0], poses[1], camera)
     shift = max_shift_for(native, crop_of(project.camera(), avatar.camera)[2])
-    return detail_scores(avatar, frames, colour, part_atlas(model), shift, rows, target.frame_ids)
+    return detail_scores(avatar, frames, colour, part_atlas(model), shift, rows, target.frame_ids), frames, camera
 
 
 def _refine(project, model, avatar, target, fits, frames, camera, rcfg: RefineConfig, say, offsets=None):
@@ -341,13 +357,18 @@ def _write_target(tr: _TargetResults, out: Path) -> TargetEntry:
             return (run.name, "head SSIM+-shift " + (f"{v:.3f}" if v is not None else "n/a"))
 
         crops = [(("real", "native size"), tr.real_heads)] + [(head_label(run, m), c) for run, m, _, c in ordered]
+        if tr.reference is not None:
+            v = tr.reference.detail.scores.get("head_ssim_shift")
+            crops.append(((reference.REFERENCE_NAME, "head SSIM+-shift " + (f"{v:.3f}" if v is not None else "n/a")),
+                          {r: c[1] for r, c in tr.reference.detail.crops.items()}))
         image = head_sheet(crops, [r for r in tr.rows if r in tr.real_heads],
                            [f"frame {t.frame_ids[r]}" for r in tr.rows if r in tr.real_heads])
         heads, heads_size = f"heads-{t.key}.png", (image.shape[1], image.shape[0])
         write_image(out / heads, image)
     return TargetEntry(t.title, t.holdout, tuple(t.frame_ids), tuple(ids), names, round(tr.column, 4),
                        f"sheet-{t.key}.png", (sheet.shape[1], sheet.shape[0]), f"yt-{t.key}.png",
-                       (slices.shape[1], slices.shape[0]), heads, heads_size)
+                       (slices.shape[1], slices.shape[0]), heads, heads_size,
+                       None if tr.reference is None else tr.reference.to_dict())
 
 
 def format_table(result: EvalResult) -> str:
@@ -390,18 +411,25 @@ def _detail_lines(result: EvalResult, key: str) -> list[str]:
     lines = [f"  detail at native size ({first.get('resolution')} px, shift +-{first.get('max_shift')} px): "
              "SSIM at the best shift / GMSD (lower is better) / high-frequency ratio render:real"]
     lines.append(f"  {'run':<24} " + " ".join(f"{g:>22}" for g in ("person", "head", "hands")))
-    for name in names:
-        d = result.runs[name].targets[key].detail
-
-        def cell(g):
-            if not d.get(f"{g}_count"):
-                return f"{'n/a':>22}"
-            v = [d.get(f"{g}_{s}") for s in ("ssim_shift", "gmsd", "hf_ratio")]
-            return " ".join("  n/a" if x is None else f"{x:5.3f}" for x in v).rjust(22)
-
-        lines.append(f"  {name:<24} " + " ".join(cell(g) for g in ("person", "head", "hands")))
-    lines += [line for name in names for line in _head_frame_lines(name, result.runs[name].targets[key].detail)]
+    rows = [(name, result.runs[name].targets[key].detail) for name in names]
+    ref = result.targets[key].reference
+    if ref is not None:
+        rows.append((f"({ref['name']})", ref["detail"]))
+    for name, d in rows:
+        lines.append(f"  {name:<24} " + " ".join(_detail_cell(d, g) for g in ("person", "head", "hands")))
+    if ref is not None:
+        lines.append(f"  ({ref['name']}: each held-out frame scored against the nearest frame the runs trained on, "
+                     "copied: the capture's own change from frame to frame)")
+    lines += [line for name, d in rows for line in _head_frame_lines(name, d)]
     return lines
+
+
+def _detail_cell(d: dict, group: str) -> str:
+    """A group's three detail scores, 22 characters wide."""
+    if not d.get(f"{group}_count"):
+        return f"{'n/a':>22}"
+    v = [d.get(f"{group}_{s}") for s in ("ssim_shift", "gmsd", "hf_ratio")]
+    return " ".join("  n/a" if x is None else f"{x:5.3f}" for x in v).rjust(22)
 
 
 WORST_HEADS = 5  # the lowest-scored heads each run names

@@ -143,7 +143,10 @@ class TargetEntry:
         sheet, slices: the image files (in the output folder); sheet_size, slices_size: their
             (width, height) in pixels;
         heads, heads_size: the enlarged head crops of the sheet's rows (real | each run | floor)
-            and its size (None: no head was scored; then left out of :meth:`to_dict`).
+            and its size (None: no head was scored; then left out of :meth:`to_dict`);
+        reference: a capture hold-out's detail scores of the nearest seen frame copied in place of
+            a render, ``{"name", "frames": the copied frame per held-out frame, "detail": {...}}``
+            (:mod:`morf.evaluate.reference`; None: none, then left out of :meth:`to_dict`).
     """
 
     title: str
@@ -158,6 +161,7 @@ class TargetEntry:
     slices_size: tuple[int, int]
     heads: str | None = None
     heads_size: tuple[int, int] | None = None
+    reference: dict | None = None
 
     def to_dict(self) -> dict:
         d = {"title": self.title, "holdout": self.holdout, "frame_ids": list(self.frame_ids),
@@ -166,6 +170,8 @@ class TargetEntry:
              "slices": self.slices, "slices_size": list(self.slices_size)}
         if self.heads is not None:
             d["heads"], d["heads_size"] = self.heads, list(self.heads_size)
+        if self.reference is not None:
+            d["reference"] = self.reference
         return d
 
     @staticmethod
@@ -173,7 +179,7 @@ class TargetEntry:
         return TargetEntry(d["title"], d["holdout"], tuple(d["frame_ids"]), tuple(d["sheet_frames"]),
                            tuple(d["columns"]), d["slice_column"], d["sheet"], tuple(d["sheet_size"]), d["slices"],
                            tuple(d["slices_size"]), d.get("heads"),
-                           None if d.get("heads_size") is None else tuple(d["heads_size"]))
+                           None if d.get("heads_size") is None else tuple(d["heads_size"]), d.get("reference"))
 
 
 @dataclass(frozen=True)

@@ -9,11 +9,17 @@
   keeps the labels in the manifest), in their fitted poses, for projects that label both train
   and test frames. Those frames are training frames too unless a run's hold-out left them out
   (nothing else excludes them); each score says how many of them its run trained on.
+* ``seen-k<K>`` (``morf eval --seen``): for each held-out frame of ``holdout-k<K>``, the nearest
+  frame runs with that K trained on (:func:`nearest_seen`). Beside the hold-out it splits a run's
+  error in two: what it cannot reproduce of frames it saw (its capacity, its training) and what it
+  loses on frames it did not (the fit's error there, the poses between).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+import numpy as np
 
 from morf.synth.ground_truth import has_holdout, load_holdout
 from morf.train.data import BodyFitArrays, published_test_frames, split_holdout, usable_frame_ids
@@ -91,3 +97,28 @@ def trained_on(project, fits: BodyFitArrays, holdout: int, ids) -> int:
     """How many of ``ids`` a run with this hold-out setting trained on."""
     train = set(split_holdout(usable_frame_ids(project, fits), holdout)[0]) - published_test_frames(project)
     return sum(1 for i in ids if i in train)
+
+
+def nearest_seen(project, fits: BodyFitArrays, k: int, ids) -> tuple[int, ...]:
+    """Per frame of ``ids``, the nearest frame (by frame number; a tie: the later one) that runs
+    with hold-out ``k`` trained on; () when they trained on none."""
+    train = np.asarray(sorted(set(split_holdout(usable_frame_ids(project, fits), k)[0])
+                              - published_test_frames(project)), np.int64)
+    if train.size == 0:
+        return ()
+    out = []
+    for i in ids:
+        d = np.abs(train - int(i))
+        out.append(int(train[np.flatnonzero(d == d.min())[-1]]))
+    return tuple(out)
+
+
+def seen_target(project, fits: BodyFitArrays, k: int) -> EvalTarget | None:
+    """The training frames nearest the hold-out ``k``'s frames (None where there is no hold-out)."""
+    held = holdout_target(project, fits, k)
+    if held is None:
+        return None
+    ids = tuple(sorted(set(nearest_seen(project, fits, k, held.frame_ids))))
+    if not ids:
+        return None
+    return EvalTarget(f"seen-k{k}", f"training frames next to the held-out ones (hold-out {k})", "capture", ids, k)

@@ -80,12 +80,16 @@ def test_floor_is_reused_and_options_apply(evaluated, tmp_path, body_model):
     project, run = evaluated["project"], evaluated["run"]
     again = train_floor(project, floor_request(64, 3), "rgb-holdout3", model=body_model)
     assert again.losses == {}  # already built: nothing redone
-    assert main(["eval", str(project.root), "--run", run, "--no-floor", "--resolution", "native",
+    assert main(["eval", str(project.root), "--run", run, "--no-floor", "--resolution", "native", "--seen",
                  "--out", str(tmp_path)]) == 0
     import json
 
     ev = json.loads((tmp_path / "eval.json").read_text())
     assert list(ev["runs"]) == [run] and ev["targets"]["holdout-k3"]["columns"] == ["real", run]
+    seen = ev["targets"]["seen-k3"]  # --seen: the training frames next to the held-out ones
+    assert set(seen["frame_ids"]) == set(ev["targets"]["holdout-k3"]["reference"]["frames"])
+    assert ev["runs"][run]["targets"]["seen-k3"]["trained_on"] == len(seen["frame_ids"]) > 0
+    assert "reference" not in seen  # the reference belongs to the hold-out
     av = load_trained_avatar(project.runs_dir / run)
     m = av.renderer.cfg.multiple
     native = int(round(crop_of(project.camera(), av.camera)[2] / m)) * m
@@ -188,7 +192,8 @@ def test_detail_scores_at_native_size_and_head_crops(evaluated):
     for key, t in ev["targets"].items():
         heads = cv2.imread(str(evaluated["out"] / t["heads"]))
         assert heads.shape[:2] == (t["heads_size"][1], t["heads_size"][0])
-        assert heads.shape[1] == len(t["columns"]) * HEAD_CELL and (heads.shape[0] - LABEL_H) % HEAD_CELL == 0
+        columns = len(t["columns"]) + ("reference" in t)  # the nearest seen frame's heads last
+        assert heads.shape[1] == columns * HEAD_CELL and (heads.shape[0] - LABEL_H) % HEAD_CELL == 0
         assert heads[LABEL_H:, :HEAD_CELL].std() > 5  # the real heads, not a blank
     heads = d["head_frames"]  # each scored head by frame, for finding where the fit is off
     assert len(heads) == d["head_count"]
@@ -197,3 +202,36 @@ def test_detail_scores_at_native_size_and_head_crops(evaluated):
     assert abs(np.mean([h["ssim_shift"] for h in heads]) - d["head_ssim_shift"]) < 1e-4
     assert all(h["at_bound"] == (max(map(abs, h["shift"])) == 4) for h in heads)
     assert "detail at native size" in evaluated["stdout"] and "lowest heads (frame SSIM)" in evaluated["stdout"]
+
+
+def test_nearest_seen_frame_is_the_hold_outs_reference(evaluated, body_model):
+    """The hold-out's detail carries the nearest training frame, copied, scored like a run; a frame
+    copied onto itself scores perfectly, so the reference measures the capture's change, not noise."""
+    import torch
+
+    from morf.body.parts import part_atlas
+    from morf.evaluate.detail_eval import copy_scores
+    from morf.evaluate.frames import capture_frames, scaled_camera
+    from morf.evaluate.targets import nearest_seen
+    from morf.train.data import load_body_fits
+    from morf.train.trained_avatar import load_trained_avatar
+
+    project, ev = evaluated["project"], evaluated["eval"]
+    held = ev["targets"]["holdout-k3"]
+    ref = held["reference"]
+    fits = load_body_fits(project, "auto")
+    assert ref["name"] == "nearest seen frame" and len(ref["frames"]) == len(held["frame_ids"])
+    assert tuple(ref["frames"]) == nearest_seen(project, fits, 3, held["frame_ids"])
+    assert not set(ref["frames"]) & set(held["frame_ids"])
+    d = ref["detail"]
+    run = ev["runs"][evaluated["run"]]["targets"]["holdout-k3"]["detail"]
+    assert d["resolution"] == run["resolution"] and d["person_count"] == run["person_count"]
+    assert 0 < d["head_ssim_shift"] < 1 and len(d["head_frames"]) == d["head_count"]
+    assert "reference" not in ev["targets"]["novel-poses"]  # novel poses have no seen neighbours
+    assert "(nearest seen frame)" in evaluated["stdout"]
+
+    model = body_model
+    av = load_trained_avatar(project.runs_dir / evaluated["run"])
+    frames = capture_frames(project, model, fits, held["frame_ids"][:2], scaled_camera(av.camera, 96))
+    same = copy_scores(frames, frames.images, frames.masks, torch.full((3,), 0.5), part_atlas(model), 2)
+    assert same.scores["person_ssim_shift"] > 0.999 and abs(same.scores["person_hf_ratio"] - 1) < 1e-6

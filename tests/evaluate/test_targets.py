@@ -4,7 +4,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from morf.evaluate.targets import holdout_target, ordinal, dataset_test_target, trained_on
+from morf.evaluate.targets import (dataset_test_target, holdout_target, nearest_seen, ordinal, seen_target,
+                                   trained_on)
 from morf.train.data import BodyFitArrays
 
 
@@ -36,3 +37,16 @@ def test_holdout_target_is_every_kth_usable_frame():
     assert t.frame_ids == (0, 3, 5) and t.holdout == 2 and t.applies_to(2) and not t.applies_to(3)
     assert holdout_target(p, _fits(7), 0) is None
     assert [ordinal(k) for k in (2, 3, 4, 11, 21, 22)] == ["2nd", "3rd", "4th", "11th", "21st", "22nd"]
+
+
+def test_nearest_seen_frames_are_training_frames_next_to_the_held_out_ones():
+    p = _project(["train"] * 10, dropped=(1,))  # usable 0 2 3 4 5 6 7 8 9; hold-out 3 keeps 0 4 7 out
+    fits = _fits(10)
+    assert holdout_target(p, fits, 3).frame_ids == (0, 4, 7)
+    assert nearest_seen(p, fits, 3, (0, 4, 7)) == (2, 5, 8)  # 4: 3 and 5 tie, the later wins; 0: frame 1 is dropped
+    t = seen_target(p, fits, 3)
+    assert t.key == "seen-k3" and t.frame_ids == (2, 5, 8) and t.applies_to(3) and not t.applies_to(0)
+    assert trained_on(p, fits, 3, t.frame_ids) == 3
+    assert seen_target(p, fits, 0) is None
+    labels = ["train", "test"] * 5  # the published test frames are never anyone's seen frames
+    assert nearest_seen(_project(labels), fits, 0, (1, 3)) == (2, 4)
