@@ -36,10 +36,15 @@ def projected_texels(frames: FrameSet, i: int, size: int, min_facing: float = 0.
     return ok, row, col
 
 
-def projecting_pixels(frames: FrameSet, i: int, min_facing: float = 0.3) -> np.ndarray:
+def projecting_pixels(frames: FrameSet, i: int, min_facing: float = 0.3, inset: int = 0) -> np.ndarray:
     """(H, W) bool: the pixels of frame ``i`` inside the person mask and the mesh coverage whose
-    surface faces the camera (|cos| >= ``min_facing``)."""
-    return frames.uv_mask[i] & frames.masks[i] & (frames.facing[i] >= int(round(min_facing * 255)))
+    surface faces the camera (|cos| >= ``min_facing``); with ``inset`` > 0 only those at least
+    that many pixels inside the mask's outline (the mask eroded by a disc of that radius)."""
+    mask = frames.masks[i]
+    if inset > 0:
+        disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * inset + 1, 2 * inset + 1))
+        mask = cv2.erode(mask.astype(np.uint8), disc, borderType=cv2.BORDER_REPLICATE).astype(bool)
+    return frames.uv_mask[i] & mask & (frames.facing[i] >= int(round(min_facing * 255)))
 
 
 def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3,
@@ -63,7 +68,7 @@ def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3,
     acc = np.zeros((size * size, 3), np.float64)
     cnt = np.zeros(size * size, np.float64)
     for i in range(frames.num_frames):
-        ok = projecting_pixels(frames, i, min_facing)
+        ok = projecting_pixels(frames, i, min_facing, how.edge_inset)
         if not ok.any():
             continue
         facing = (frames.facing[i][ok].astype(np.float64) / 255) ** how.facing_power if how.facing_power else None

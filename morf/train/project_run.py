@@ -94,7 +94,7 @@ def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fi
         source = zoom if cfg.colour_from_zoom else fs
         # the floor's colours (step 0 = floor), unless weighted towards the frames that face a texel
         # or aligned to one another first (0 passes: exactly the floor's projection)
-        how = Projection(cfg.colour_facing_power, cfg.colour_bilinear, cfg.colour_prior_count)
+        how = Projection(cfg.colour_facing_power, cfg.colour_bilinear, cfg.colour_prior_count, cfg.colour_edge_inset)
         projected, _, aligned = aligned_floor_texture(source, atlas.covered, cfg.colour_align_passes,
                                                       cfg.texture_dilate, how=how)
         rgb = projected[:3]

@@ -40,13 +40,17 @@ class Projection:
 
     Fields: facing_power p > 0 weights each pixel by its facing |cos| ** p (0: equally);
     bilinear shares each pixel among the four texels around its UV (False: the one it falls in);
-    prior_count k > 0 draws each texel towards its neighbourhood by k pseudo-pixels (0: none).
+    prior_count k > 0 draws each texel towards its neighbourhood by k pseudo-pixels (0: none);
+    edge_inset n > 0 leaves out the pixels within n pixels of the person mask's outline (0: none):
+    they mix the person with the backdrop, and a surface seen near the outline (an eye in a
+    profile) would take the backdrop's colour from them.
     The defaults are the plain nearest-texel mean, the RGB floor's.
     """
 
     facing_power: float = 0.0
     bilinear: bool = False
     prior_count: float = 0.0
+    edge_inset: int = 0
 
 
 def texel_weights(uv: np.ndarray, size: int, bilinear: bool) -> list[tuple[np.ndarray, np.ndarray | None]]:

@@ -2,6 +2,7 @@
 
 import dataclasses
 
+import cv2
 import numpy as np
 
 from morf.train.frames import UV_SCALE, FrameSet
@@ -88,3 +89,36 @@ def test_a_negative_prior_count_is_refused():
 
     with pytest.raises(InputError, match="colour_prior_count"):
         preset("tiny", colour_prior_count=-1)
+
+
+def test_edge_inset_keeps_the_backdrop_at_the_outline_out_of_the_colour():
+    """A person mask one pixel too wide takes the backdrop's green into the texels seen at the
+    outline; an inset of one pixel leaves those pixels out: every texel left is the person's colour."""
+    n, H = 2, 32
+    y, x = np.mgrid[0:H, 0:H]
+    uvs = np.zeros((n, H, H, 2), np.float32)
+    uvs[..., 0], uvs[..., 1] = 0.25 + (x / H) * 0.5, 0.75 - (y / H) * 0.5
+    person = (np.abs(x - 15.5) < 8) & (np.abs(y - 15.5) < 8)
+    images = np.zeros((n, H, H, 3), np.uint8)
+    images[:] = (30, 200, 40)  # the green backdrop
+    images[:, person] = (180, 120, 90)  # the person, inside the mesh's coverage
+    mask = cv2.dilate(person.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)  # the mask: 1 px too wide
+    cover = np.broadcast_to(mask, (n, H, H))
+    fs = FrameSet.from_float(images, cover, uvs, cover, np.zeros((n, 2, 3)))
+    fs = dataclasses.replace(fs, facing=np.full((n, H, H), 255, np.uint8))
+    rgb, seen = project_rgb_texture(fs, 32)
+    inset, seen_inset = project_rgb_texture(fs, 32, how=Projection(edge_inset=1))
+    green = (rgb[..., 1] > 0.6) & seen
+    assert green.sum() > 20  # the outline's pixels coloured the texels they fell on
+    assert seen_inset.sum() < seen.sum() and (seen_inset <= seen).all()
+    assert np.allclose(inset[seen_inset], np.array([180, 120, 90]) / 255)  # the person's colour alone
+
+
+def test_a_negative_edge_inset_is_refused():
+    import pytest
+
+    from morf.errors import InputError
+    from morf.train.config import preset
+
+    with pytest.raises(InputError, match="colour_edge_inset"):
+        preset("tiny", colour_edge_inset=-1)
