@@ -143,6 +143,10 @@ class FitConfig:
     # weight the nose, eyes and ears by whether the fitted head turns them towards the camera: a
     # detector's guesses at hidden face points (a face on the back of the head) tilted the head
     face_visibility: bool = True
+    # > 0: the head-and-hands step leaves a face mesh out where the pose turns an eye away from the
+    # camera further than this visibility (a profile, whose far eye the face mesh guesses; 0.5 turned
+    # People-Snapshot's profiles right, head_hands.hide_profile_faces); 0: every face counts
+    profile_face_visibility: float = 0.0
 
     # evaluation and outputs
     iou_resolution: int = 256  # raster size of the long image side for silhouette IoU
@@ -211,6 +215,8 @@ class FitConfig:
             (self.chunk_frames >= 1, f"chunk_frames must be >= 1, got {self.chunk_frames}"),
             (self.cpu_threads >= 0, f"cpu_threads must be >= 0 (0: keep torch's setting), got {self.cpu_threads}"),
             (self.seed >= 0, f"seed must be >= 0, got {self.seed}"),
+            (0 <= self.profile_face_visibility <= 1,
+             f"profile_face_visibility must be in [0, 1], got {self.profile_face_visibility}"),
         ]
         raise_first(checks)
         self.filter.validate()

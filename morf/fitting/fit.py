@@ -26,6 +26,7 @@ from morf.fitting.frame_spacing import FrameSpacing
 from morf.fitting.global_init import fit_global
 from morf.fitting.heading import HeadingEvidence, exchange_labels
 from morf.fitting.inputs import FitInputs
+from morf.fitting.head_hands import HeadHandsConfig
 from morf.fitting.landmark_refinement import refine_head_hands
 from morf.fitting.offsets import proxy_edges, spread_to_mesh
 from morf.fitting.optimize import FitProblem, run_stage
@@ -207,7 +208,8 @@ def _finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tupl
     if cfg.head_hands and inputs.landmarks is not None:
         rotvecs, landmark_px = refine_head_hands(model, state.rotvecs.numpy(), state.transl.numpy(),
                                                  state.shape.numpy(), inputs.camera, inputs.landmarks, state.swapped,
-                                                 None if state.spacing is None else state.spacing.gaps)
+                                                 None if state.spacing is None else state.spacing.gaps,
+                                                 HeadHandsConfig(profile_eye_visibility=cfg.profile_face_visibility))
         state = dataclasses.replace(state, rotvecs=torch.as_tensor(rotvecs))
     rv, tr, sh = (x.to(device) for x in (state.rotvecs, state.transl, state.shape))
     offsets = None

@@ -27,6 +27,7 @@ import torch
 
 from morf.body.model import BodyOutput, BodyPose
 from morf.body.parts import HAND_CHAIN, face_anchor_vertices, hand_points
+from morf.fitting.face_visibility import face_point_visibility
 from morf.fitting.losses import geman_mcclure
 
 # the neck lets the head move a little as well as turn: on a synthetic capture, fitted to the
@@ -46,7 +47,10 @@ class HeadHandsConfig:
     hand points (per point, times the point's confidence). The ears are off by default: with the
     synthetic truth's own points they took the head's error from 8.9 to 5.6 degrees, but
     MediaPipe's pose ears sit about 2 cm inside the body model's (COCO-regressed) ears, and with
-    detected landmarks they made it worse (8.9 -> 10.0); sigma: Geman-McClure scale in units of 1 % of the image height;
+    detected landmarks they made it worse (8.9 -> 10.0); profile_eye_visibility: a face counts only
+    where the pose the step starts from turns both eyes at least this far towards the camera
+    (:func:`hide_profile_faces`; 0, the default: every face the given pose turns towards it); sigma:
+    Geman-McClure scale in units of 1 % of the image height;
     prior: weight of the squared change of the head and wrist rotations (radians^2);
     finger_prior: weight of the squared finger rotations (away from the rest, a relaxed hand);
     fingers: fit the 15 finger bones of each hand; steps, lr: Adam steps and step size
@@ -54,6 +58,7 @@ class HeadHandsConfig:
     needs to be fitted at all."""
 
     face_weight: float = 1.0
+    profile_eye_visibility: float = 0.0
     ear_weight: float = 0.0
     hand_weight: float = 0.5
     sigma: float = 3.0
@@ -199,6 +204,24 @@ def hide_turned_away_faces(targets: torch.Tensor, points3d: torch.Tensor, camera
     return out
 
 
+def hide_profile_faces(targets: torch.Tensor, points3d: torch.Tensor, camera, min_visibility: float) -> torch.Tensor:
+    """``targets`` (B, 49, 3) with the face group's confidences zeroed in frames where the posed
+    body ``points3d`` (B, 49, 3) turns an eye away from the camera (its
+    :func:`~morf.fitting.face_visibility.face_point_visibility` under ``min_visibility``): a profile.
+
+    The face mesh places every point of a face, the far eye too; in a profile it draws a face
+    turned about 50 degrees where the head is turned 85 (People-Snapshot: the eyes 9 px apart
+    against 15 px in the front views), and the head turned to it faced the camera. There the body
+    keypoints' face points, weighted by what the pose shows, hold the head instead."""
+    coco = points3d[:, [2, 1, 0, 6, 5]]  # nose, left eye, right eye, left ear, right ear
+    position = torch.as_tensor(camera.position, dtype=points3d.dtype)
+    eyes = face_point_visibility(coco, position)[:, 1:3]
+    frontal = (eyes >= min_visibility).all(1)
+    out = targets.clone()
+    out[:, :NUM_FACE, 2] = out[:, :NUM_FACE, 2] * frontal[:, None].to(out.dtype)
+    return out
+
+
 def fitted_bones(model, fingers: bool) -> tuple[list[int], list[int]]:
     """(neck, head and wrist bone indices; finger bone indices): what the refinement moves."""
     main = [model.bone_index(b) for b in HEAD_BONES + WRIST_BONES]
@@ -275,6 +298,8 @@ def fit_head_hands(model, rotvecs: np.ndarray, transl: np.ndarray, shape: np.nda
         with torch.no_grad():
             points = poser(BodyPose(rot, tr))
             tgt = hide_turned_away_faces(tgt_all[sl], points, camera)
+            if cfg.profile_eye_visibility > 0:
+                tgt = hide_profile_faces(tgt, points, camera, cfg.profile_eye_visibility)
             before[sl] = landmark_residual_px(camera.project(points), tgt, cfg.min_points)
         rot, px = _refine_bones(rot, tr, tgt, poser, camera, main, cfg.prior, False, cfg)
         if len(fingers):

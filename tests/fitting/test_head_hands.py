@@ -3,6 +3,8 @@ brings a turned head and turned wrists back to where their landmarks put them.""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import torch
@@ -110,3 +112,32 @@ def test_frames_without_evidence_stay_as_they_are(body_model, scene):
     res = fit_head_hands(body_model, rot, transl, shape, cam, tgt, HeadHandsConfig(steps=5))
     np.testing.assert_array_equal(res.rotvecs, rot)
     assert np.isnan(res.residual_before).all()
+
+
+def _head_points(yaw_deg: float) -> torch.Tensor:
+    """(1, 49, 3) landmark points (landmark_points3d's order) of a head 2 m in front of a camera
+    at the origin, facing it when ``yaw_deg`` is 0, turned about the vertical by ``yaw_deg``."""
+    a = math.radians(yaw_deg)
+    R = torch.tensor([[math.cos(a), 0.0, math.sin(a)], [0.0, 1.0, 0.0], [-math.sin(a), 0.0, math.cos(a)]])
+    # in the head's frame: the face towards -z (the camera), the person's left towards +x
+    local = torch.tensor([[-0.03, 0.03, -0.085], [0.03, 0.03, -0.085], [0.0, 0.0, -0.1], [0.0, -0.04, -0.09],
+                          [0.0, -0.08, -0.08], [-0.075, 0.02, 0.0], [0.075, 0.02, 0.0]])
+    pts = torch.zeros(1, 49, 3)
+    pts[0, :7] = local @ R.T + torch.tensor([0.0, 0.0, 2.0])
+    return pts
+
+
+def test_profile_faces_do_not_count():
+    """The face mesh's far eye is a guess in a profile (it drew a face turned 50 degrees where the
+    head was turned 85): a face counts only where the pose turns both eyes towards the camera."""
+    from types import SimpleNamespace
+
+    from morf.fitting.head_hands import NUM_FACE, hide_profile_faces
+
+    camera = SimpleNamespace(position=np.zeros(3))
+    targets = torch.ones(1, 49, 3)
+    kept = {yaw: float(hide_profile_faces(targets, _head_points(yaw), camera, 0.5)[0, :NUM_FACE, 2].min())
+            for yaw in (0, 30, -30, 85, -85, 120)}
+    assert kept == {0: 1.0, 30: 1.0, -30: 1.0, 85: 0.0, -85: 0.0, 120: 0.0}
+    out = hide_profile_faces(targets, _head_points(85), camera, 0.5)
+    assert bool((out[0, NUM_FACE:, 2] == 1).all())  # the hands keep their evidence
