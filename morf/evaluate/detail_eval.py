@@ -100,21 +100,50 @@ def detail_scores(avatar, frames, colour: torch.Tensor, atlas: np.ndarray, max_s
     return _scored(frames, atlas, max_shift, rows, frame_ids, pair)
 
 
+def _moved(img: torch.Tensor, dy: int, dx: int, colour: torch.Tensor) -> torch.Tensor:
+    """(3, H, W) ``img`` moved by whole pixels (down ``dy``, right ``dx``), uncovered pixels ``colour``."""
+    _, H, W = img.shape
+    out = colour.to(img).view(3, 1, 1).expand(3, H, W).clone()
+    ys, yd = (slice(0, H - dy), slice(dy, H)) if dy >= 0 else (slice(-dy, H), slice(0, H + dy))
+    xs, xd = (slice(0, W - dx), slice(dx, W)) if dx >= 0 else (slice(-dx, W), slice(0, W + dx))
+    if abs(dy) < H and abs(dx) < W:
+        out[:, yd, xd] = img[:, ys, xs]
+    return out
+
+
+def _centre(box) -> np.ndarray:
+    return np.array([(box[0] + box[2]) / 2, (box[1] + box[3]) / 2])
+
+
 @torch.no_grad()
-def copy_scores(frames, images: np.ndarray, masks: np.ndarray, colour: torch.Tensor, atlas: np.ndarray,
-                max_shift: int, rows=(), frame_ids=None) -> DetailResult:
-    """The detail scores of other real frames copied in place of a render: ``images`` (N, H, W, 3)
-    uint8 and ``masks`` (N, H, W) bool, one per frame of ``frames``, over ``colour`` and scored in
-    ``frames``' regions, as :func:`detail_scores` scores an avatar. With each held-out frame's
-    nearest training frame this is the capture's own change from frame to frame: what an avatar
-    that gave back the nearest frame it saw, perfectly, would score."""
+def copy_scores(frames, copies, colour: torch.Tensor, atlas: np.ndarray, max_shift: int, rows=(),
+                frame_ids=None) -> DetailResult:
+    """The detail scores of other real frames copied in place of a render: ``copies``, a FrameSet
+    with one frame per frame of ``frames`` (rasterized in its own fit), over ``colour``, scored in
+    ``frames``' regions as :func:`detail_scores` scores an avatar. Each region of a copy is first
+    moved by whole pixels so that the copy's own box of that region (from its fit) is centred on
+    the frame's: what is left is how the region looks, not where the person stood. A region the
+    copy does not show is not scored. With each held-out frame's nearest training frame this is the
+    capture's own change from frame to frame (:mod:`morf.evaluate.reference`)."""
     from morf.avatar.metrics import composite_over
+    from morf.body.parts import pixel_parts
 
-    def pair(i):
-        b = frames.batch([i])
-        img = torch.from_numpy(images[i]).permute(2, 0, 1).float()[None] / 255
-        m = torch.from_numpy(masks[i]).float()[None, None]
-        return composite_over(img * m, m, colour)[0], composite_over(b.image * b.mask, b.mask, colour)[0], \
-            b.uv[0].numpy()
-
-    return _scored(frames, atlas, max_shift, rows, frame_ids, pair)
+    per, crops = [], {}
+    for i in range(frames.num_frames):
+        b, c = frames.batch([i]), copies.batch([i])
+        gt = composite_over(b.image * b.mask, b.mask, colour)[0]
+        copy = composite_over(c.image * c.mask, c.mask, colour)[0]
+        parts = pixel_parts(b.uv[0].numpy(), frames.uv_mask[i], atlas)
+        boxes = frame_boxes(parts, frames.masks[i] | frames.uv_mask[i])
+        theirs = frame_boxes(pixel_parts(c.uv[0].numpy(), copies.uv_mask[i], atlas), copies.masks[i] | copies.uv_mask[i])
+        scores = {}
+        for name in boxes.keys() & theirs.keys():
+            dy, dx = np.round(_centre(boxes[name]) - _centre(theirs[name])).astype(int)
+            moved = _moved(copy, int(dy), int(dx), colour)
+            scores[name] = region_scores(moved, gt, boxes[name], max_shift)
+            if name == "head" and i in rows:
+                y0, x0, y1, x1 = square_box(boxes["head"], *parts.shape)
+                crops[i] = (_uint8(gt[:, y0:y1, x0:x1]), _uint8(moved[:, y0:y1, x0:x1]))
+        per.append(scores)
+    ids = range(frames.num_frames) if frame_ids is None else frame_ids
+    return DetailResult(summarize_detail(per), frames.resolution, max_shift, crops, head_frames(per, ids, max_shift))

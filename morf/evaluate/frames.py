@@ -69,14 +69,6 @@ def _cropped(project, i: int, x0: float, y0: float, side: float, R: int) -> tupl
             crop_image(project.load_mask(i).astype(np.uint8) * 255, x0, y0, side, R) > 127)
 
 
-def capture_images(project, ids, working: PinholeCamera) -> tuple[np.ndarray, np.ndarray]:
-    """Project frames ``ids`` cropped to ``working``'s square as :func:`capture_frames` crops them,
-    without a body: images (N, R, R, 3) uint8 and masks (N, R, R) bool."""
-    x0, y0, side = crop_of(project.camera(), working)
-    pairs = [_cropped(project, int(i), x0, y0, side, working.width) for i in ids]
-    return np.stack([p[0] for p in pairs]), np.stack([p[1] for p in pairs])
-
-
 def target_frames(project, model, target, fits: BodyFitArrays | None, shape: np.ndarray,
                   working: PinholeCamera, offsets: np.ndarray | None = None) -> FrameSet:
     """The FrameSet of an :class:`~morf.evaluate.targets.EvalTarget` through ``working``, the body

@@ -269,8 +269,9 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
         detail, native, native_camera = _detail(project, model, avatar, target, fits, frames, camera, colour, poses,
                                                 tr.rows, offsets)
         if tr.reference is None and not run.is_floor and reference.applies(project, target):
-            tr.reference = reference.nearest_frame_reference(project, fits, target, native, native_camera, colour,
-                                                             part_atlas(model), detail.max_shift, tr.rows)
+            tr.reference = reference.nearest_frame_reference(project, model, fits, target, native, native_camera,
+                                                             colour, part_atlas(model), detail.max_shift, tr.rows,
+                                                             offsets)
         for row, (real, _) in detail.crops.items():
             if real.shape[0] > tr.real_heads.get(row, np.zeros((0,))).shape[0]:
                 tr.real_heads[row] = real

@@ -207,6 +207,8 @@ def test_detail_scores_at_native_size_and_head_crops(evaluated):
 def test_nearest_seen_frame_is_the_hold_outs_reference(evaluated, body_model):
     """The hold-out's detail carries the nearest training frame, copied, scored like a run; a frame
     copied onto itself scores perfectly, so the reference measures the capture's change, not noise."""
+    import dataclasses
+
     import torch
 
     from morf.body.parts import part_atlas
@@ -233,5 +235,14 @@ def test_nearest_seen_frame_is_the_hold_outs_reference(evaluated, body_model):
     model = body_model
     av = load_trained_avatar(project.runs_dir / evaluated["run"])
     frames = capture_frames(project, model, fits, held["frame_ids"][:2], scaled_camera(av.camera, 96))
-    same = copy_scores(frames, frames.images, frames.masks, torch.full((3,), 0.5), part_atlas(model), 2)
+    grey = torch.full((3,), 0.5)
+    same = copy_scores(frames, frames, grey, part_atlas(model), 2)
     assert same.scores["person_ssim_shift"] > 0.999 and abs(same.scores["person_hf_ratio"] - 1) < 1e-6
+    # a copy where the person stood 7 px lower and 5 px to the left is moved back onto the frame
+    moved = dataclasses.replace(frames, **{k: np.roll(getattr(frames, k), (7, -5), axis=(1, 2))
+                                           for k in ("images", "masks", "uv", "uv_mask", "facing")})
+    back = copy_scores(frames, moved, grey, part_atlas(model), 2)
+    for g in ("person", "head"):
+        assert back.scores[f"{g}_count"] == same.scores[f"{g}_count"] > 0
+        assert back.scores[f"{g}_ssim_shift"] > 0.99, g
+    assert all(h["shift"] == [0, 0] for h in back.head_frames)
