@@ -147,6 +147,9 @@ class FitConfig:
     # camera further than this visibility (a profile, whose far eye the face mesh guesses; 0.5 turned
     # People-Snapshot's profiles right, head_hands.hide_profile_faces); 0: every face counts
     profile_face_visibility: float = 0.0
+    # the body keypoints' nose and eyes count this much in frames where the face mesh, which found
+    # faces elsewhere in the capture, found none (face_visibility.trust_found_faces; 1: as given)
+    faceless_face_weight: float = 1.0
 
     # evaluation and outputs
     iou_resolution: int = 256  # raster size of the long image side for silhouette IoU
@@ -215,6 +218,8 @@ class FitConfig:
             (self.chunk_frames >= 1, f"chunk_frames must be >= 1, got {self.chunk_frames}"),
             (self.cpu_threads >= 0, f"cpu_threads must be >= 0 (0: keep torch's setting), got {self.cpu_threads}"),
             (self.seed >= 0, f"seed must be >= 0, got {self.seed}"),
+            (0 <= self.faceless_face_weight <= 1,
+             f"faceless_face_weight must be in [0, 1], got {self.faceless_face_weight}"),
             (0 <= self.profile_face_visibility <= 1,
              f"profile_face_visibility must be in [0, 1], got {self.profile_face_visibility}"),
         ]

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import torch
 
 NOSE, LEFT_EYE, RIGHT_EYE, LEFT_EAR, RIGHT_EAR = range(5)  # COCO order of the body keypoints
@@ -101,6 +102,27 @@ def face_point_visibility(keypoints3d: torch.Tensor, camera_position: torch.Tens
     outward = torch.stack([front, c * front + s * left, c * front - s * left, left, -left], 1)  # (B, 5, 3)
     cos = (outward * to_camera[:, None]).sum(-1)
     return ((cos - HIDDEN_COS) / (SEEN_COS - HIDDEN_COS)).clamp(0.0, 1.0)
+
+
+def trust_found_faces(keypoints: np.ndarray, landmarks: np.ndarray | None, weight: float) -> np.ndarray:
+    """(N, K, 3) body ``keypoints`` with the nose's and the eyes' confidences times ``weight`` in
+    the frames where the face landmarks (:func:`morf.fitting.inputs.project_landmarks`, (N, 49, 3),
+    the five face anchors first) found no face.
+
+    A pose detector reports a nose and two eyes on every head, a face turned three quarters away
+    too, where the face mesh finds nothing; fitted, those guesses turn the head back towards the
+    camera (the tennis clip's back-side views). Where a face mesh found a face in some frame of
+    the capture and none in this one, the body's face points are the less likely to be seen. A
+    capture whose face mesh found no face at all (faces too small for it, or no landmarks) keeps
+    every confidence: it says nothing there. The ears keep theirs."""
+    if landmarks is None or weight == 1.0:
+        return keypoints
+    found = landmarks[:, :5, 2].max(1) > 0
+    if not found.any():
+        return keypoints
+    out = np.array(keypoints, copy=True)
+    out[~found, NOSE:RIGHT_EYE + 1, 2] *= weight
+    return out
 
 
 def weight_face_points(detected: torch.Tensor, visibility: torch.Tensor) -> torch.Tensor:

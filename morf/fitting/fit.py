@@ -18,7 +18,7 @@ from morf.body.rotations import axis_angle_to_matrix
 from morf.fitting import frame_spacing
 from morf.fitting.config import FitConfig
 from morf.fitting.evaluate import evaluate_fit
-from morf.fitting.face_visibility import detector_ears, detector_frames, ear_offsets_per_frame
+from morf.fitting.face_visibility import detector_ears, detector_frames, ear_offsets_per_frame, trust_found_faces
 from morf.fitting.fit_body import FitBody
 from morf.fitting.fits_io import BodyFits
 from morf.fitting.frame_filter import filter_frames, limit_excess, pose_change_deg
@@ -103,7 +103,9 @@ def _problem(model, inputs: FitInputs, cfg: FitConfig, device: torch.device) -> 
     edges = proxy_edges(proxy.faces).to(device) if proxy is not None else None
     sil_camera = inputs.camera.scaled(inputs.mask_scale) if masks is not None else None
     return FitProblem(body=body, prior=JointLimitPrior(model).to(device), inputs=inputs,
-                      keypoints=torch.as_tensor(inputs.keypoints, device=device), masks=masks,
+                      keypoints=torch.as_tensor(trust_found_faces(inputs.keypoints, inputs.landmarks,
+                                                                  cfg.faceless_face_weight), device=device),
+                      masks=masks,
                       sil_camera=sil_camera, shape_mean=model.default_shape().to(device), offset_edges=edges,
                       keypoint_scale=0.01 * inputs.camera.height,
                       camera_position=torch.as_tensor(inputs.camera.position, dtype=torch.float32, device=device),

@@ -108,3 +108,26 @@ def test_hidden_face_guesses_do_not_tilt_the_head(body_model):
         errors[name] = _head_in_body_deg(body_model, state.rotvecs, pose)
     assert errors["now"].max() < 8.0, errors
     assert errors["before"][1:].min() > 20.0, errors  # the views turned away, where the guesses act
+
+
+def test_face_points_count_less_where_the_face_mesh_found_no_face():
+    from morf.fitting.face_visibility import trust_found_faces
+
+    kp = np.ones((3, 23, 3), np.float32)
+    lm = np.zeros((3, 49, 3), np.float32)
+    lm[0, :5, 2] = 1.0  # a face found in frame 0 only
+    out = trust_found_faces(kp, lm, 0.25)
+    assert np.array_equal(out[0], kp[0])
+    assert np.allclose(out[1:, :3, 2], 0.25) and np.allclose(out[1:, 3:, 2], 1.0)  # nose, eyes; ears and body kept
+    assert np.array_equal(kp, np.ones_like(kp))  # the input is not changed
+    assert trust_found_faces(kp, np.zeros_like(lm), 0.0) is kp  # no face anywhere: nothing to go by
+    assert trust_found_faces(kp, None, 0.0) is kp and trust_found_faces(kp, lm, 1.0) is kp
+
+
+def test_faceless_weight_is_checked():
+    import pytest
+
+    from morf.errors import InputError
+
+    with pytest.raises(InputError, match="faceless_face_weight"):
+        preset("default").replace(faceless_face_weight=1.5)
