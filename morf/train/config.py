@@ -63,6 +63,10 @@ class TrainConfig:
     # Pixels of the projection's frames within this many pixels of the person mask's outline are
     # left out of it (0: none): they mix the person with the backdrop (morf.train.texel_splat).
     colour_edge_inset: int = 0
+    # The image terms (L1, SSIM) leave out the pixels within this many pixels inside the person
+    # mask's outline (0: none), where the frames mix the person with the backdrop; the mask terms
+    # still see them (morf.train.objective.outline_weight).
+    loss_edge_inset: int = 0
     batch_size: int = 4  # images per step
     steps: int = 3000  # optimisation steps of the main stage
     texture_channels: int = 16  # C of the neural texture
@@ -231,6 +235,7 @@ class TrainConfig:
                                         f"{self.zoom_resolution}"),
             (self.colour_facing_power >= 0, f"colour_facing_power must be >= 0, got {self.colour_facing_power}"),
             (self.colour_edge_inset >= 0, f"colour_edge_inset must be >= 0, got {self.colour_edge_inset}"),
+            (self.loss_edge_inset >= 0, f"loss_edge_inset must be >= 0, got {self.loss_edge_inset}"),
             (self.colour_prior_count >= 0, f"colour_prior_count must be >= 0 pixels, got {self.colour_prior_count}"),
             (self.colour_align_passes >= 0, f"colour_align_passes must be 0 (plain projection) or a number of "
                                             f"alignment passes, got {self.colour_align_passes}"),

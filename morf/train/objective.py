@@ -44,6 +44,15 @@ def composited(out: AvatarOutput, target: torch.Tensor, mask: torch.Tensor,
     return out.rgb + (1 - out.mask) * colour, target + (1 - mask) * colour
 
 
+def outline_weight(mask: torch.Tensor, inset: int) -> torch.Tensor | None:
+    """(B, 1, H, W) 0 on the pixels of ``mask`` (B, 1, H, W) within ``inset`` pixels of its outline
+    (the mask less its erosion by a (2 inset + 1) square), 1 elsewhere; None for ``inset`` 0."""
+    if inset <= 0:
+        return None
+    eroded = -F.max_pool2d(-mask, 2 * inset + 1, 1, inset)
+    return 1 - (mask - eroded).clamp(0, 1)
+
+
 def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=None, perceptual=None,
                      gan_on: bool = False, bf16: bool | None = None,
                      backdrop: torch.Tensor | None = None) -> dict[str, torch.Tensor]:
@@ -60,10 +69,12 @@ def generator_losses(cfg: TrainConfig, out: AvatarOutput, batch: Batch, disc=Non
     image, image_target = out.rgb, target
     if cfg.loss_background == "random":
         image, image_target = composited(out, target, batch.mask, backdrop)
-    L = {"l1": l1_loss(image, image_target), "dice": dice_loss(out.mask, batch.mask), "tv_rgb": tv_loss(out.rgb)}
+    inner = outline_weight(batch.mask, cfg.loss_edge_inset)  # the outline's mixed pixels left out
+    L = {"l1": l1_loss(image, image_target, inner), "dice": dice_loss(out.mask, batch.mask),
+         "tv_rgb": tv_loss(out.rgb)}
     if cfg.w_ssim > 0:  # around the person: the real mask grown by the SSIM window's radius
         near = F.max_pool2d(batch.mask, 11, 1, 5)
-        L["ssim"] = ssim_loss(image, image_target, near)
+        L["ssim"] = ssim_loss(image, image_target, near if inner is None else near * inner)
     if cfg.w_mask_bce > 0:  # a gradient that does not vanish when the mask's sigmoid saturates
         L["mask_bce"] = F.binary_cross_entropy_with_logits(out.mask_logit.float(), batch.mask)
     if cfg.w_residual > 0 and out.residual is not None:

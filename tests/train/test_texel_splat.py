@@ -122,3 +122,16 @@ def test_a_negative_edge_inset_is_refused():
 
     with pytest.raises(InputError, match="colour_edge_inset"):
         preset("tiny", colour_edge_inset=-1)
+
+
+def test_outline_weight_leaves_the_masks_rim_out():
+    import torch
+
+    from morf.train.objective import outline_weight
+
+    mask = torch.zeros(1, 1, 12, 12)
+    mask[..., 3:9, 3:9] = 1
+    assert outline_weight(mask, 0) is None
+    w = outline_weight(mask, 1)
+    assert w.shape == mask.shape and float(w[..., 3:9, 3:9].sum()) == 16  # the 6 x 6 square keeps its inner 4 x 4
+    assert bool((w[..., 0, :] == 1).all())  # the backdrop keeps its weight
