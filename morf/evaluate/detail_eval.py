@@ -35,6 +35,11 @@ class DetailResult:
     crops: dict
     head_frames: tuple = ()
 
+    def to_dict(self) -> dict:
+        """What eval.json keeps of it: the scores, ``resolution``, ``max_shift`` and ``head_frames``."""
+        return {**self.scores, "resolution": self.resolution, "max_shift": self.max_shift,
+                "head_frames": list(self.head_frames)}
+
 
 def summarize_detail(frames: list[dict[str, RegionScores]]) -> dict:
     """The flat ``DetailResult.scores`` of per-frame {region: RegionScores} dicts."""
@@ -66,23 +71,6 @@ def _uint8(x: torch.Tensor) -> np.ndarray:
     return (x.clamp(0, 1).permute(1, 2, 0).numpy() * 255 + 0.5).astype(np.uint8)
 
 
-def _scored(frames, atlas, max_shift: int, rows, frame_ids, image_pair) -> DetailResult:
-    """Score every frame's regions on ``image_pair(i)`` = (pred, gt) (3, H, W); keep the head crops of ``rows``."""
-    from morf.body.parts import pixel_parts
-
-    per, crops = [], {}
-    for i in range(frames.num_frames):
-        pred, gt, uv = image_pair(i)
-        parts = pixel_parts(uv, frames.uv_mask[i], atlas)
-        boxes = frame_boxes(parts, frames.masks[i] | frames.uv_mask[i])
-        per.append({n: region_scores(pred, gt, box, max_shift) for n, box in boxes.items()})
-        if i in rows and "head" in boxes:
-            y0, x0, y1, x1 = square_box(boxes["head"], *parts.shape)
-            crops[i] = (_uint8(gt[:, y0:y1, x0:x1]), _uint8(pred[:, y0:y1, x0:x1]))
-    ids = range(frames.num_frames) if frame_ids is None else frame_ids
-    return DetailResult(summarize_detail(per), frames.resolution, max_shift, crops, head_frames(per, ids, max_shift))
-
-
 @torch.no_grad()
 def detail_scores(avatar, frames, colour: torch.Tensor, atlas: np.ndarray, max_shift: int,
                   rows=(), frame_ids=None) -> DetailResult:
@@ -90,14 +78,22 @@ def detail_scores(avatar, frames, colour: torch.Tensor, atlas: np.ndarray, max_s
     regions; keep the head crops of the frame positions ``rows``. ``frame_ids`` name the frames in
     :attr:`DetailResult.head_frames` (default: their positions)."""
     from morf.avatar.metrics import composite_over
+    from morf.body.parts import pixel_parts
 
-    def pair(i):
+    per, crops = [], {}
+    for i in range(frames.num_frames):
         b = frames.batch([i])
         rgb, alpha = avatar.render(b.uv, b.uv_mask)
-        return composite_over(rgb, alpha, colour)[0], composite_over(b.image * b.mask, b.mask, colour)[0], \
-            b.uv[0].numpy()
-
-    return _scored(frames, atlas, max_shift, rows, frame_ids, pair)
+        pred = composite_over(rgb, alpha, colour)[0]
+        gt = composite_over(b.image * b.mask, b.mask, colour)[0]
+        parts = pixel_parts(b.uv[0].numpy(), frames.uv_mask[i], atlas)
+        boxes = frame_boxes(parts, frames.masks[i] | frames.uv_mask[i])
+        per.append({n: region_scores(pred, gt, box, max_shift) for n, box in boxes.items()})
+        if i in rows and "head" in boxes:
+            y0, x0, y1, x1 = square_box(boxes["head"], *parts.shape)
+            crops[i] = (_uint8(gt[:, y0:y1, x0:x1]), _uint8(pred[:, y0:y1, x0:x1]))
+    ids = range(frames.num_frames) if frame_ids is None else frame_ids
+    return DetailResult(summarize_detail(per), frames.resolution, max_shift, crops, head_frames(per, ids, max_shift))
 
 
 def _moved(img: torch.Tensor, dy: int, dx: int, colour: torch.Tensor) -> torch.Tensor:

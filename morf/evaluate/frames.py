@@ -52,21 +52,14 @@ def capture_frames(project, model, fits: BodyFitArrays, ids, working: PinholeCam
     done = 0
     for uv, uvm, fac in rasterize_frames(model, rot, tr, fits.shape, working, offsets=offsets):
         for i in ids[done:done + len(uv)]:
-            image, mask = _cropped(project, i, x0, y0, side, R)
-            images.append(image)
-            masks.append(mask)
+            images.append(crop_image(project.load_frame(i), x0, y0, side, R))
+            masks.append(crop_image(project.load_mask(i).astype(np.uint8) * 255, x0, y0, side, R) > 127)
         done += len(uv)
         uvs.append(pack_uv(uv))
         uv_masks.append(uvm)
         facings.append(fac)
     return FrameSet(np.stack(images), np.stack(masks), np.concatenate(uvs), np.concatenate(uv_masks),
                     np.concatenate(facings), rot.astype(np.float32), np.asarray(ids, np.int64))
-
-
-def _cropped(project, i: int, x0: float, y0: float, side: float, R: int) -> tuple[np.ndarray, np.ndarray]:
-    """Frame ``i``'s image (R, R, 3) uint8 and person mask (R, R) bool in the square (x0, y0, side)."""
-    return (crop_image(project.load_frame(i), x0, y0, side, R),
-            crop_image(project.load_mask(i).astype(np.uint8) * 255, x0, y0, side, R) > 127)
 
 
 def target_frames(project, model, target, fits: BodyFitArrays | None, shape: np.ndarray,

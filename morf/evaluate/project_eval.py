@@ -282,9 +282,8 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
         lpips = lpips_scores(metric, avatar, frames, colour)
     # how many of these frames the run trained on (0 for its own hold-out); None for the novel poses
     seen = trained_on(project, fits, run.holdout, target.frame_ids) if target.kind == "capture" else None
-    result = TargetScores.of(scores, lpips, side, seen, refined, None if detail is None else {
-        **detail.scores, "resolution": detail.resolution, "max_shift": detail.max_shift,
-        "head_frames": list(detail.head_frames)}, mask_iou(avatar, frames))
+    result = TargetScores.of(scores, lpips, side, seen, refined, None if detail is None else detail.to_dict(),
+                             mask_iou(avatar, frames))
     if views is not None:
         tr.scored.append((run, result, views, {} if detail is None else {r: c[1] for r, c in detail.crops.items()}))
     return result

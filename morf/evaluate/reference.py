@@ -32,10 +32,7 @@ class Reference:
     detail: DetailResult
 
     def to_dict(self) -> dict:
-        d = self.detail
-        return {"name": REFERENCE_NAME, "frames": list(self.frames),
-                "detail": {**d.scores, "resolution": d.resolution, "max_shift": d.max_shift,
-                           "head_frames": list(d.head_frames)}}
+        return {"name": REFERENCE_NAME, "frames": list(self.frames), "detail": self.detail.to_dict()}
 
 
 def applies(project, target) -> bool:
