@@ -69,17 +69,20 @@ APP_SCRIPT = READ_BACK + textwrap.dedent("""
     with StudioApp(project, size=(1280, 800), headless=False, deterministic=False,
                    motion_dir=DEFAULT_MOTION.parent) as app:
         assert app._x_image is not None
-        shown = []
-        put = app._x_image.present
+        shown = []  # the images put, and None for each full frame (GL draws the panel then)
+        put, full = app._x_image.present, app.frame
         app._x_image.present = lambda image, x, y: (shown.append((image, x, y)), put(image, x, y))
+        app.frame = lambda *a, **k: (shown.append(None), full(*a, **k))[1]
         app.state.select_panel(LIVE_PANEL)
         app.state.motion_file = str(DEFAULT_MOTION)
         app.state.playing = True
+        puts = lambda: sum(s is not None for s in shown)
         for _ in range(60):
             app.run(seconds=0.5)
-            if _playing(app) and len(shown) >= 5:
+            if _playing(app) and puts() >= 5 and shown[-1] is not None:  # the window's last picture was put
                 break
-        assert len(shown) >= 5, f"{len(shown)} images put, {app.light_frame_count} light frames"
+        assert puts() >= 5, f"{puts()} images put, {app.light_frame_count} light frames"
+        assert shown[-1] is not None, "every run ended on a full frame"
         image, x, y = shown[-1]
         rect = app._ui_cache.rect
         assert (x, y) == (round(rect.x), round(rect.y)) and image.shape[0] == rect.render_side
