@@ -93,17 +93,21 @@ def dataset_test_target(project, fits: BodyFitArrays) -> EvalTarget | None:
     return EvalTarget("test-split", "frames the dataset's published split labels test", "capture", tuple(ids))
 
 
+def trained_frames(project, fits: BodyFitArrays, holdout: int) -> set[int]:
+    """The frames a run with this hold-out setting trained on."""
+    return set(split_holdout(usable_frame_ids(project, fits), holdout)[0]) - published_test_frames(project)
+
+
 def trained_on(project, fits: BodyFitArrays, holdout: int, ids) -> int:
     """How many of ``ids`` a run with this hold-out setting trained on."""
-    train = set(split_holdout(usable_frame_ids(project, fits), holdout)[0]) - published_test_frames(project)
+    train = trained_frames(project, fits, holdout)
     return sum(1 for i in ids if i in train)
 
 
 def nearest_seen(project, fits: BodyFitArrays, k: int, ids) -> tuple[int, ...]:
     """Per frame of ``ids``, the nearest frame (by frame number; a tie: the later one) that runs
     with hold-out ``k`` trained on; () when they trained on none."""
-    train = np.asarray(sorted(set(split_holdout(usable_frame_ids(project, fits), k)[0])
-                              - published_test_frames(project)), np.int64)
+    train = np.asarray(sorted(trained_frames(project, fits, k)), np.int64)
     if train.size == 0:
         return ()
     out = []
