@@ -54,8 +54,8 @@ class BenchRun:
 
 @dataclass(frozen=True)
 class TrainPlan:
-    """What every training shares. Fields: preset, holdout (every K-th usable frame kept out; 0:
-    none), steps (None: the preset's), fits (the resolved source, "fits" | "ground-truth"), vgg."""
+    """What every training shares. Fields: preset, holdout (the usable frames numbered 0, K, 2K, ...
+    kept out; 0: none), steps (None: the preset's), fits (the resolved source, "fits" | "ground-truth"), vgg."""
 
     preset: str
     holdout: int

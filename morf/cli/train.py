@@ -39,7 +39,8 @@ def add_parser(sub):
                    help="make the avatar from a moving average of the weights with this decay per step, e.g. 0.998 "
                         "(default: the preset's; cpu 0.998, gpu 0 = the last step's weights)")
     p.add_argument("--holdout", type=int, default=None, metavar="K",
-                   help="keep every K-th usable frame out of training (K >= 2) for 'morf eval' (default 0: none)")
+                   help="keep the usable frames numbered 0, K, 2K, ... out of training (K >= 2) for 'morf eval' "
+                        "(default 0: none)")
     add_fits_option(p, "body fits to train on: fits/fits.npz, or a synthetic capture's ground truth")
     add_weights_option(p, "--vgg", "VGG-16 weights (torchvision state dict) for the perceptual loss; else "
                                    "$MORF_VGG16_WEIGHTS; without them the SSIM term carries the structure (train.log "

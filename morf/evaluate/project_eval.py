@@ -21,6 +21,7 @@ seen frames (target ``seen-k<K>``), so its loss on frames it saw and on frames i
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
@@ -111,19 +112,19 @@ def ensure_floors(project, runs: list[RunInfo], model, say: Callable[[str], None
     from morf.train.floor import floor_request, train_floor
 
     out = []
-    for k, source in sorted({(r.holdout, r.fits_source) for r in runs if not r.is_floor}):
-        if any(r.is_floor and r.holdout == k and r.fits_source == source for r in runs):
+    for k, by, source in sorted({(r.holdout, r.holdout_by, r.fits_source) for r in runs if not r.is_floor}):
+        if any(r.is_floor and (r.holdout, r.holdout_by, r.fits_source) == (k, by, source) for r in runs):
             continue
-        found = find_floor(project, k, source)
+        found = find_floor(project, k, source, by)
         if found is None:
-            group = [r for r in runs if r.holdout == k and r.fits_source == source]
+            group = [r for r in runs if (r.holdout, r.holdout_by, r.fits_source) == (k, by, source)]
             side = max(r.config.resolution for r in group)
-            name = floor_run_name(project, k, source)
+            name = floor_run_name(project, k, source, by)
             if not free_for_floor(project.runs_dir / name):
                 raise ProjectError(f"{project.runs_dir / name} exists and is not an RGB floor; rename it, or pass "
                                    "--no-floor")
             say(f"building the RGB floor with hold-out {k} at {side} px ...")
-            res = train_floor(project, floor_request(side, k), name, source, model, restart=True)
+            res = train_floor(project, floor_request(side, k, by), name, source, model, restart=True)
             found = read_run(res.run_dir)
         out.append(found)
     return out
@@ -197,8 +198,8 @@ def _evaluate(project, cfg: EvalConfig, model, say, claim) -> EvalResult:
             skipped[run.name] = "its avatar.pt stores no working camera (trained by an older MoRF)"
             continue
         fits = fits_of(run.fits_source)
-        seen = seen_target(project, fits, run.holdout) if cfg.seen and not run.is_floor else None
-        mine = [t for t in (holdout_target(project, fits, run.holdout), seen, dataset_test_target(project, fits),
+        seen = seen_target(project, fits, run.holdout, run.holdout_by) if cfg.seen and not run.is_floor else None
+        mine = [t for t in (holdout_target(project, fits, run.holdout, run.holdout_by), seen, dataset_test_target(project, fits),
                             novel) if t]
         if not mine:
             skipped[run.name] = ("trained on every usable frame and the project has no hold-out sequence or test "
@@ -230,7 +231,7 @@ def _evaluate(project, cfg: EvalConfig, model, say, claim) -> EvalResult:
 def _target_slot(targets: dict, target: EvalTarget) -> _TargetResults:
     """The results slot of a target; runs on other fits, with other held-out frames, get their own."""
     for tr in targets.values():
-        if tr.target.key.startswith(target.key) and tr.target.frame_ids == target.frame_ids:
+        if re.sub(r"-\d+$", "", tr.target.key) == target.key and tr.target.frame_ids == target.frame_ids:
             return tr
     key = target.key if target.key not in targets else f"{target.key}-{len(targets)}"
     targets[key] = _TargetResults(replace(target, key=key))
@@ -281,7 +282,8 @@ def _score(project, model, avatar, run: RunInfo, target: EvalTarget, fits, tr: _
 
         lpips = lpips_scores(metric, avatar, frames, colour)
     # how many of these frames the run trained on (0 for its own hold-out); None for the novel poses
-    seen = trained_on(project, fits, run.holdout, target.frame_ids) if target.kind == "capture" else None
+    seen = (trained_on(project, fits, run.holdout, target.frame_ids, run.holdout_by) if target.kind == "capture"
+            else None)
     result = TargetScores.of(scores, lpips, side, seen, refined, None if detail is None else detail.to_dict(),
                              mask_iou(avatar, frames))
     if views is not None:

@@ -50,7 +50,7 @@ def nearest_frame_reference(project, model, fits, target, frames, camera, colour
     from morf.evaluate.frames import capture_frames
     from morf.evaluate.targets import nearest_seen
 
-    seen = nearest_seen(project, fits, target.holdout, target.frame_ids)
+    seen = nearest_seen(project, fits, target.holdout, target.frame_ids, target.holdout_by)
     if not seen:
         return None
     copies = capture_frames(project, model, fits, seen, camera, offsets)

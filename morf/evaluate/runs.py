@@ -35,6 +35,10 @@ class RunInfo:
     def holdout(self) -> int:
         return self.config.holdout
 
+    @property
+    def holdout_by(self) -> str:
+        return self.config.holdout_by
+
 
 def run_fits_source(run_dir: Path) -> str:
     """The fits source a run's train.log names ("fits: <source>; frames cache: ..."), else "auto"."""
@@ -71,9 +75,9 @@ def select_runs(project, names: tuple[str, ...] | list[str] = ()) -> list[RunInf
     return out
 
 
-def find_floor(project, holdout: int, fits_source: str | None = None) -> RunInfo | None:
+def find_floor(project, holdout: int, fits_source: str | None = None, holdout_by: str = "frame") -> RunInfo | None:
     """The newest finished RGB floor run with this hold-out setting (and these fits, when given), if any."""
-    floors = [r for r in finished_runs(project) if r.is_floor and r.holdout == holdout
+    floors = [r for r in finished_runs(project) if r.is_floor and r.holdout == holdout and r.holdout_by == holdout_by
               and (fits_source is None or r.fits_source == fits_source)]
     return floors[-1] if floors else None
 
@@ -89,11 +93,14 @@ def free_for_floor(run_dir: Path) -> bool:
         return False
 
 
-def floor_run_name(project, holdout: int, fits_source: str) -> str:
+def floor_run_name(project, holdout: int, fits_source: str, holdout_by: str = "frame") -> str:
     """The name ``morf eval`` gives a floor it builds: ``rgb-holdout<K>``, with the fits source
-    appended when that name holds a floor built on other fits."""
+    appended when that name holds a floor built on other fits, and the hold-out rule when it
+    holds one of the other rule."""
     name = f"rgb-holdout{holdout}"
     d = Path(project.runs_dir) / name
     if RunFiles(d).is_done and run_fits_source(d) != fits_source:
         name += f"-{fits_source}"
+    if RunFiles(Path(project.runs_dir) / name).is_done and read_run(Path(project.runs_dir) / name).holdout_by != holdout_by:
+        name += f"-{holdout_by}s"
     return name

@@ -1,8 +1,10 @@
 """What ``morf eval`` scores a run on (its targets):
 
 * ``holdout-k<K>``: the capture frames a run with ``holdout`` = K kept out of training
-  (:func:`morf.train.data.split_holdout` of the usable frames), in their fitted poses. Only runs
-  trained with that K are scored on it: for the others they were training frames.
+  (:func:`morf.train.holdout.split_holdout` of the usable frames: those numbered 0, K, 2K, ...), in
+  their fitted poses. Only runs trained with that K are scored on it: for the others they were
+  training frames. Runs made before that rule held out every K-th usable frame instead
+  (``holdout_by`` "position"); theirs is the target ``holdout-k<K>-positions``.
 * ``novel-poses``: a synthetic capture's hold-out sequence (``ground_truth/holdout``), poses the
   capture never showed; every run is scored on it.
 * ``test-split``: frames an imported dataset labels "test" (``morf dataset ... --split all``
@@ -22,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from morf.synth.ground_truth import has_holdout, load_holdout
-from morf.train.data import BodyFitArrays, published_test_frames, split_holdout, usable_frame_ids
+from morf.train.data import BodyFitArrays, published_test_frames, usable_frame_ids
+from morf.train.holdout import split_holdout
 
 
 @dataclass(frozen=True)
@@ -33,7 +36,8 @@ class EvalTarget:
         key: "holdout-k<K>" | "novel-poses" | "test-split" (file names and eval.json keys);
         title: a human description; kind: "capture" (project frames posed by the fits) or
         "novel-poses"; frame_ids: project frame numbers (capture) or hold-out sequence indices;
-        holdout: the K whose runs it scores (capture hold-out), else None (every run).
+        holdout: the K whose runs it scores (capture hold-out), else None (every run);
+        holdout_by: the hold-out rule of the runs it scores (see :func:`split_holdout`).
     """
 
     key: str
@@ -41,20 +45,27 @@ class EvalTarget:
     kind: str
     frame_ids: tuple[int, ...]
     holdout: int | None = None
+    holdout_by: str = "frame"
 
-    def applies_to(self, holdout: int) -> bool:
-        return self.holdout is None or self.holdout == holdout
+    def applies_to(self, holdout: int, holdout_by: str = "frame") -> bool:
+        return self.holdout is None or (self.holdout == holdout and self.holdout_by == holdout_by)
 
 
-def holdout_target(project, fits: BodyFitArrays, k: int) -> EvalTarget | None:
-    """The frames runs with hold-out ``k`` kept out of training (None for k = 0 or none left)."""
+def split_suffix(by: str) -> str:
+    """What a target's key adds for runs of the older hold-out rule ("" for the frame rule)."""
+    return "" if by == "frame" else f"-{by}s"
+
+
+def holdout_target(project, fits: BodyFitArrays, k: int, by: str = "frame") -> EvalTarget | None:
+    """The frames runs with hold-out ``k`` (rule ``by``) kept out of training (None for k = 0 or none left)."""
     if k <= 0:
         return None
-    held = split_holdout(usable_frame_ids(project, fits), k)[1]
+    held = split_holdout(usable_frame_ids(project, fits), k, by)[1]
     if not held:
         return None
-    return EvalTarget(f"holdout-k{k}", f"held-out capture frames (every {ordinal(k)} usable frame from the first)",
-                      "capture", tuple(held), k)
+    title = (f"held-out capture frames (numbers 0, {k}, {2 * k}, ...)" if by == "frame" else
+             f"held-out capture frames (every {ordinal(k)} usable frame from the first)")
+    return EvalTarget(f"holdout-k{k}{split_suffix(by)}", title, "capture", tuple(held), k, by)
 
 
 def ordinal(k: int) -> str:
@@ -93,21 +104,21 @@ def dataset_test_target(project, fits: BodyFitArrays) -> EvalTarget | None:
     return EvalTarget("test-split", "frames the dataset's published split labels test", "capture", tuple(ids))
 
 
-def trained_frames(project, fits: BodyFitArrays, holdout: int) -> set[int]:
+def trained_frames(project, fits: BodyFitArrays, holdout: int, by: str = "frame") -> set[int]:
     """The frames a run with this hold-out setting trained on."""
-    return set(split_holdout(usable_frame_ids(project, fits), holdout)[0]) - published_test_frames(project)
+    return set(split_holdout(usable_frame_ids(project, fits), holdout, by)[0]) - published_test_frames(project)
 
 
-def trained_on(project, fits: BodyFitArrays, holdout: int, ids) -> int:
+def trained_on(project, fits: BodyFitArrays, holdout: int, ids, by: str = "frame") -> int:
     """How many of ``ids`` a run with this hold-out setting trained on."""
-    train = trained_frames(project, fits, holdout)
+    train = trained_frames(project, fits, holdout, by)
     return sum(1 for i in ids if i in train)
 
 
-def nearest_seen(project, fits: BodyFitArrays, k: int, ids) -> tuple[int, ...]:
+def nearest_seen(project, fits: BodyFitArrays, k: int, ids, by: str = "frame") -> tuple[int, ...]:
     """Per frame of ``ids``, the nearest frame (by frame number; a tie: the later one) that runs
-    with hold-out ``k`` trained on; () when they trained on none."""
-    train = np.asarray(sorted(trained_frames(project, fits, k)), np.int64)
+    with hold-out ``k`` (rule ``by``) trained on; () when they trained on none."""
+    train = np.asarray(sorted(trained_frames(project, fits, k, by)), np.int64)
     if train.size == 0:
         return ()
     out = []
@@ -117,12 +128,13 @@ def nearest_seen(project, fits: BodyFitArrays, k: int, ids) -> tuple[int, ...]:
     return tuple(out)
 
 
-def seen_target(project, fits: BodyFitArrays, k: int) -> EvalTarget | None:
+def seen_target(project, fits: BodyFitArrays, k: int, by: str = "frame") -> EvalTarget | None:
     """The training frames nearest the hold-out ``k``'s frames (None where there is no hold-out)."""
-    held = holdout_target(project, fits, k)
+    held = holdout_target(project, fits, k, by)
     if held is None:
         return None
-    ids = tuple(sorted(set(nearest_seen(project, fits, k, held.frame_ids))))
+    ids = tuple(sorted(set(nearest_seen(project, fits, k, held.frame_ids, by))))
     if not ids:
         return None
-    return EvalTarget(f"seen-k{k}", f"training frames next to the held-out ones (hold-out {k})", "capture", ids, k)
+    return EvalTarget(f"seen-k{k}{split_suffix(by)}", f"training frames next to the held-out ones (hold-out {k})",
+                      "capture", ids, k, by)

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from morf.avatar.network_configs import RendererConfig, WarpConfig
 from morf.config_checks import apply_settings, check_field_kinds, check_keys, raise_first
 from morf.errors import InputError
+from morf.train.holdout import HOLDOUT_RULES
 
 METHODS = ("morf", "stylepeople", "anr", "rgb")
 
@@ -145,9 +146,11 @@ class TrainConfig:
     log_every: int = 10  # steps between metrics.jsonl lines
     channels_last: bool = False  # renderer + discriminator in channels-last memory format (CPU speed)
     bf16: bool = False  # bfloat16 autocast for renderer + discriminator (weights and losses stay float32)
-    # Hold-out: every ``holdout``-th usable frame (positions 0, K, 2K, ... of the project's training
-    # frames, see morf.train.data.split_holdout) is kept out of training for ``morf eval`` (0: none).
+    # Hold-out: the usable frames numbered 0, K, 2K, ... (K = ``holdout``) are kept out of training
+    # for ``morf eval`` (0: none); ``holdout_by`` "position" is the older rule, every K-th usable
+    # frame (runs whose config.json has no holdout_by), see morf.train.data.split_holdout
     holdout: int = 0
+    holdout_by: str = "frame"
     seed: int = 0  # RNG seed (frame order, crops, init)
     device: str = "auto"  # auto: CUDA when present, else CPU
 
@@ -158,6 +161,8 @@ class TrainConfig:
     @staticmethod
     def from_dict(d: dict) -> "TrainConfig":
         d = check_keys(TrainConfig, dict(d), "training config")
+        if "holdout_by" not in d and "holdout" in d and "device" in d and "seed" in d:
+            d["holdout_by"] = "position"  # a whole config written before the frame rule (a run's config.json)
         if isinstance(d.get("renderer"), dict):
             d["renderer"] = RendererConfig(**check_keys(RendererConfig, d["renderer"], "renderer config"))
         if isinstance(d.get("warp"), dict):
@@ -218,6 +223,8 @@ class TrainConfig:
             raise InputError("lr_decay_start must lie in [0, 1] and lr_decay_floor in (0, 1]")
         if self.holdout < 0 or self.holdout == 1:
             raise InputError(f"holdout must be 0 (none) or at least 2 (every K-th frame), got {self.holdout}")
+        if self.holdout_by not in HOLDOUT_RULES:
+            raise InputError(f"unknown holdout_by {self.holdout_by!r}; choose one of {', '.join(HOLDOUT_RULES)}")
         if not 0.0 <= self.ema_decay < 1.0:
             raise InputError(f"ema_decay must lie in [0, 1), got {self.ema_decay}")
         if not 0.0 <= self.warp_fade_start <= self.warp_fade_end <= 1.0:

@@ -24,6 +24,7 @@ from morf.pipeline.control import Progress, StageControl
 from morf.synth.ground_truth import (GroundTruth, has_ground_truth, has_holdout, load_ground_truth, load_holdout,
                                      read_holdout_frame, read_holdout_mask)
 from morf.train.frames import FrameSet, pack_uv
+from morf.train.holdout import split_holdout  # noqa: F401  (the split's home; imported from here too)
 
 CACHE_VERSION = 1
 FIT_SOURCES = ("auto", "fits", "ground-truth")
@@ -95,21 +96,6 @@ def load_body_fits(project, source: str = "auto") -> BodyFitArrays:
     if source == "ground-truth":
         raise ProjectError(f"{project.root} has no ground truth (only synthetic captures do)")
     raise ProjectError(f"no body fits in {project.root}; run 'morf fit {project.root}' first")
-
-
-def split_holdout(ids: list[int], k: int) -> tuple[list[int], list[int]]:
-    """(training ids, held-out ids): every ``k``-th of ``ids`` (positions 0, k, 2k, ...) is held out.
-
-    ``k`` = 0 holds nothing out. The split depends only on the list of usable frames, so a run and
-    ``morf eval`` agree on it as long as the project's frame decisions are unchanged.
-    """
-    if k <= 0:
-        return list(ids), []
-    if k == 1:
-        raise ProjectError("a hold-out of every frame leaves nothing to train on; use K >= 2")
-    held = list(ids[::k])
-    keep = set(held)
-    return [i for i in ids if i not in keep], held
 
 
 def usable_frame_ids(project, fits: BodyFitArrays) -> list[int]:
@@ -225,17 +211,18 @@ class ProjectFrames:
 
 
 def build_frames(project, model, resolution: int, fits_source: str = "auto",
-                 control: StageControl | None = None, holdout: int = 0, dressed: bool = True) -> ProjectFrames:
+                 control: StageControl | None = None, holdout: int = 0, dressed: bool = True,
+                 holdout_by: str = "frame") -> ProjectFrames:
     """Load (or build and cache) the training FrameSet of a project at ``resolution``.
 
-    ``holdout`` = K > 0 leaves every K-th usable frame out (:func:`split_holdout`). ``dressed``:
+    ``holdout`` = K > 0 leaves frames out by the rule ``holdout_by`` (:func:`split_holdout`). ``dressed``:
     rasterize the body with the fits' clothing offsets when they have them (:func:`clothing_offsets`).
     """
     control = control or StageControl()
     fits = load_body_fits(project, fits_source)
     if fits.rotvecs.shape[1] != len(model.bone_names):
         raise ProjectError(f"fits have {fits.rotvecs.shape[1]} bones, the body model {len(model.bone_names)}")
-    ids, _ = split_holdout(usable_frame_ids(project, fits), holdout)
+    ids, _ = split_holdout(usable_frame_ids(project, fits), holdout, holdout_by)
     test = published_test_frames(project)
     ids = [i for i in ids if i not in test]
     if not ids:

@@ -21,6 +21,7 @@ from morf.errors import InputError
 from morf.io.lock import project_lock
 from morf.pipeline.control import Progress, StageControl
 from morf.train.config import TrainConfig
+from morf.train.holdout import holdout_note
 from morf.train.floor_texture import MIN_SIDE
 from morf.train.run_files import restart_run, run_path
 
@@ -39,9 +40,10 @@ def floor_config(cfg: TrainConfig, texture_size: int) -> TrainConfig:
                        crop=0, steps=0, inpaint_steps=0)
 
 
-def floor_request(resolution: int, holdout: int) -> TrainConfig:
+def floor_request(resolution: int, holdout: int, holdout_by: str = "frame") -> TrainConfig:
     """A floor config from scratch (what ``morf eval`` builds when a project has none)."""
-    return TrainConfig(method="rgb", preset="floor", resolution=resolution, holdout=holdout, texture_channels=4,
+    return TrainConfig(method="rgb", preset="floor", resolution=resolution, holdout=holdout, holdout_by=holdout_by,
+                       texture_channels=4,
                        texture_size=MIN_SIDE, renderer=FLOOR_RENDERER, steps=0, inpaint_steps=0, device="cpu")
 
 
@@ -82,7 +84,8 @@ def _build_floor(project, run, cfg: TrainConfig, fits_source: str, model, contro
     t0 = time.monotonic()
     control.report(Progress("train", 0, None, "loading body model"))
     model = model or load_body_model("anny")
-    pf = build_frames(project, model, cfg.resolution, fits_source, control, holdout=cfg.holdout)
+    pf = build_frames(project, model, cfg.resolution, fits_source, control, holdout=cfg.holdout,
+                      holdout_by=cfg.holdout_by)
     choice = choose_floor_size(pf.frames)
     resolved = floor_config(cfg, choice.size)
     if run.config_path.is_file():
@@ -96,8 +99,7 @@ def _build_floor(project, run, cfg: TrainConfig, fits_source: str, model, contro
             f"{pf.frames.resolution} px")
     run.log(f"fits: {pf.fits.source}; frames cache: {pf.cache_path}")
     if cfg.holdout:
-        k = cfg.holdout
-        run.log(f"hold-out: usable frames 0, {k}, {2 * k}, ... (1 in {k}) are kept out of training")
+        run.log(holdout_note(cfg.holdout, cfg.holdout_by))
     run.log(choice.describe())
     control.report(Progress("train", 0, None, "projecting the frames into the texture"))
     atlas = body_uv_atlas(model, choice.size, choice.size)

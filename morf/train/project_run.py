@@ -13,6 +13,7 @@ import torch
 from morf.errors import InputError
 from morf.pipeline.control import Progress, StageControl
 from morf.train.config import TrainConfig
+from morf.train.holdout import holdout_note
 from morf.train.frame_scores import FrameScores
 from morf.train.inpaint_views import InpaintViews
 from morf.train.loop import TrainResult, train_avatar
@@ -63,11 +64,12 @@ def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fi
                          "options, or pass --restart or another --name")
     control.report(Progress("train", 0, cfg.steps, "loading body model"))
     model = model or load_body_model("anny")
-    pf = build_frames(project, model, cfg.resolution, fits_source, control, holdout=cfg.holdout, dressed=cfg.dressed)
+    pf = build_frames(project, model, cfg.resolution, fits_source, control, holdout=cfg.holdout, dressed=cfg.dressed,
+                      holdout_by=cfg.holdout_by)
     zoom, zoom_pf, centres = None, None, None
     if cfg.zoom_resolution:
         zoom_pf = build_frames(project, model, cfg.zoom_resolution, fits_source, control, holdout=cfg.holdout,
-                               dressed=cfg.dressed)
+                               dressed=cfg.dressed, holdout_by=cfg.holdout_by)
         zoom = zoom_pf.frames
     notes = [f"fits: {pf.fits.source}; frames cache: {pf.cache_path}"]
     if pf.offsets is not None:
@@ -84,7 +86,7 @@ def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fi
                                  zoom_pf.camera)
         notes.append(f"every {cfg.detail_every}th step: those crops centred on the head (half) or a hand")
     if cfg.holdout:
-        notes.append(f"hold-out: usable frames 0, K, 2K, ... (1 in K = {cfg.holdout}) are kept out of training")
+        notes.append(holdout_note(cfg.holdout, cfg.holdout_by))
     atlas = body_uv_atlas(model, cfg.texture_size, cfg.texture_size)
     fs = pf.frames
     if cfg.renderer.rgb_skip:  # channels 0-2 are colour: the frames projected; the rest spectral

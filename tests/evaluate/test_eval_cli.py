@@ -63,7 +63,7 @@ def test_held_out_frames_never_reach_training(evaluated):
     project, ev = evaluated["project"], evaluated["eval"]
     usable = usable_frame_ids(project, load_body_fits(project, "auto"))
     held = ev["targets"]["holdout-k3"]["frame_ids"]
-    assert held == split_holdout(usable, 3)[1] == usable[::3]
+    assert held == split_holdout(usable, 3)[1] == [i for i in usable if i % 3 == 0]
     for name in (evaluated["run"], "rgb-holdout3"):
         log = (project.runs_dir / name / "train.log").read_text()
         cache = log.split("frames cache: ")[1].split()[0]
@@ -95,6 +95,40 @@ def test_floor_is_reused_and_options_apply(evaluated, tmp_path, body_model):
     native = int(round(crop_of(project.camera(), av.camera)[2] / m)) * m
     assert ev["runs"][run]["targets"]["holdout-k3"]["resolution"] == native != 64
     assert np.isfinite(ev["runs"][run]["targets"]["holdout-k3"]["psnr"])
+
+
+def test_a_run_of_the_older_hold_out_rule_keeps_its_own_target(evaluated, tmp_path):
+    """A run whose config.json has no holdout_by (made when every K-th usable frame was held out)
+    is scored on that rule's frames, under its own target key, not on the frame rule's."""
+    import json
+    import shutil
+
+    from morf.train.data import load_body_fits, usable_frame_ids
+    from morf.train.run_dir import RunDir
+
+    project, run = evaluated["project"], evaluated["run"]
+    old = project.runs_dir / "older"
+    shutil.copytree(project.runs_dir / run, old)
+    cfg = json.loads((old / "config.json").read_text())
+    del cfg["holdout_by"]
+    (old / "config.json").write_text(json.dumps(cfg))
+    assert RunDir(old).load_config().holdout_by == "position"
+    project.set_user_decision(1, "drop")  # a frame dropped after training moves the older rule's frames
+    try:
+        usable = usable_frame_ids(project, load_body_fits(project, "auto"))
+        assert main(["eval", str(project.root), "--run", "older", "--run", run, "--no-floor", "--no-detail",
+                     "--out", str(tmp_path)]) == 0
+    finally:
+        shutil.rmtree(old)
+        project.set_user_decision(1, None)
+    ev = json.loads((tmp_path / "eval.json").read_text())
+    assert set(ev["runs"]["older"]["targets"]) == {"holdout-k3-positions", "novel-poses"}
+    assert ev["targets"]["holdout-k3-positions"]["frame_ids"] == usable[::3] != evaluated["eval"]["targets"][
+        "holdout-k3"]["frame_ids"]
+    # the frame rule's frames stay where they were: the frames numbered 0, 3, 6, ...
+    assert ev["targets"]["holdout-k3"]["frame_ids"] == evaluated["eval"]["targets"]["holdout-k3"]["frame_ids"]
+    assert ev["targets"]["holdout-k3"]["columns"] == ["real", run]
+    assert ev["runs"][run]["targets"]["holdout-k3"]["trained_on"] == 0
 
 
 def test_refined_poses_score_every_run_alike(evaluated, tmp_path, capsys, monkeypatch):

@@ -31,22 +31,36 @@ def test_test_labels_become_a_target_and_say_what_was_trained_on():
     assert dataset_test_target(SimpleNamespace(manifest={}, num_frames=2), _fits(2)) is None
 
 
-def test_holdout_target_is_every_kth_usable_frame():
-    p = _project(["train"] * 7, dropped=(1,))
+def test_holdout_target_is_the_usable_frames_numbered_0_k_2k():
+    p = _project(["train"] * 7, dropped=(2,))
     t = holdout_target(p, _fits(7), 2)
-    assert t.frame_ids == (0, 3, 5) and t.holdout == 2 and t.applies_to(2) and not t.applies_to(3)
+    assert t.frame_ids == (0, 4, 6) and t.holdout == 2 and t.applies_to(2) and not t.applies_to(3)
+    assert t.key == "holdout-k2" and not t.applies_to(2, "position")
     assert holdout_target(p, _fits(7), 0) is None
     assert [ordinal(k) for k in (2, 3, 4, 11, 21, 22)] == ["2nd", "3rd", "4th", "11th", "21st", "22nd"]
 
 
+def test_the_frame_rule_does_not_move_when_other_frames_are_dropped():
+    fits = _fits(12)
+    before = holdout_target(_project(["train"] * 12), fits, 3)
+    after = holdout_target(_project(["train"] * 12, dropped=(1, 4, 5)), fits, 3)
+    assert before.frame_ids == (0, 3, 6, 9) and after.frame_ids == (0, 3, 6, 9)
+    assert trained_on(_project(["train"] * 12, dropped=(1, 4, 5)), fits, 3, before.frame_ids) == 0
+    # the older rule held out every 3rd usable frame: a dropped frame moved every later one
+    old = holdout_target(_project(["train"] * 12, dropped=(1,)), fits, 3, "position")
+    assert old.key == "holdout-k3-positions" and old.frame_ids == (0, 4, 7, 10)
+    assert old.applies_to(3, "position") and not old.applies_to(3)
+    assert trained_on(_project(["train"] * 12), fits, 3, old.frame_ids, "position") == 3
+
+
 def test_nearest_seen_frames_are_training_frames_next_to_the_held_out_ones():
-    p = _project(["train"] * 10, dropped=(1,))  # usable 0 2 3 4 5 6 7 8 9; hold-out 3 keeps 0 4 7 out
+    p = _project(["train"] * 10, dropped=(1,))  # usable 0 2 3 4 5 6 7 8 9; hold-out 3 keeps 0 3 6 9 out
     fits = _fits(10)
-    assert holdout_target(p, fits, 3).frame_ids == (0, 4, 7)
-    assert nearest_seen(p, fits, 3, (0, 4, 7)) == (2, 5, 8)  # 4: 3 and 5 tie, the later wins; 0: frame 1 is dropped
+    assert holdout_target(p, fits, 3).frame_ids == (0, 3, 6, 9)
+    assert nearest_seen(p, fits, 3, (0, 3, 6, 9)) == (2, 4, 7, 8)  # 3: 2 and 4 tie, the later wins; 0: 1 is dropped
     t = seen_target(p, fits, 3)
-    assert t.key == "seen-k3" and t.frame_ids == (2, 5, 8) and t.applies_to(3) and not t.applies_to(0)
-    assert trained_on(p, fits, 3, t.frame_ids) == 3
+    assert t.key == "seen-k3" and t.frame_ids == (2, 4, 7, 8) and t.applies_to(3) and not t.applies_to(0)
+    assert trained_on(p, fits, 3, t.frame_ids) == 4
     assert seen_target(p, fits, 0) is None
     labels = ["train", "test"] * 5  # the published test frames are never anyone's seen frames
     assert nearest_seen(_project(labels), fits, 0, (1, 3)) == (2, 4)

@@ -404,6 +404,16 @@ def test_nonsensical_network_sizes_are_refused():
     cfg.replace(method="stylepeople", warp=dataclasses.replace(cfg.warp, latent_dim=0))  # no warp: not used
 
 
+def test_a_run_config_from_before_the_frame_rule_keeps_its_hold_out_rule():
+    d = preset("tiny", "morf", holdout=4).to_dict()
+    assert d["holdout_by"] == "frame"
+    old = {k: v for k, v in d.items() if k != "holdout_by"}  # a whole config.json written before the rule
+    assert type(preset("tiny")).from_dict(old).holdout_by == "position"
+    assert type(preset("tiny")).from_dict({"holdout": 4}).holdout_by == "frame"  # a partial config file: the rule now
+    with pytest.raises(InputError, match="holdout_by"):
+        type(preset("tiny")).from_dict({**d, "holdout_by": "random"})
+
+
 def test_the_rgb_floor_records_zero_steps():
     assert preset("tiny", "rgb", steps=0).steps == 0
 

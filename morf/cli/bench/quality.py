@@ -16,7 +16,8 @@ def add_arguments(p) -> None:
                         f"(default {DEFAULT_METHODS})")
     p.add_argument("--seeds", type=int, default=1, help="trainings per learned method, seeds 0..N-1 (default 1)")
     p.add_argument("--holdout", type=int, default=5,
-                   help="keep every K-th usable capture frame out of training and score on it (default 5; 0: none)")
+                   help="keep the usable capture frames numbered 0, K, 2K, ... out of training and score on them "
+                        "(default 5; 0: none)")
     p.add_argument("--steps", type=int, default=None, help="override the preset's training steps")
     p.add_argument("--fits", choices=("fits", "ground-truth", "auto"), default="fits",
                    help="body fits to train on (default: fitted bodies; the capture is fitted when it has none)")
