@@ -16,6 +16,7 @@ import torch
 
 from morf.evaluate.detail import RegionScores, region_scores
 from morf.evaluate.regions import GROUPS, frame_boxes, square_box
+from morf.train.trained_avatar import render_batch
 
 DETAIL_SCORES = ("psnr", "ssim_shift", "gmsd", "hf_ratio")
 DETAIL_KEYS = tuple(f"{g}_{s}" for g in GROUPS for s in DETAIL_SCORES + ("count",))
@@ -83,7 +84,7 @@ def detail_scores(avatar, frames, colour: torch.Tensor, atlas: np.ndarray, max_s
     per, crops = [], {}
     for i in range(frames.num_frames):
         b = frames.batch([i])
-        rgb, alpha = avatar.render(b.uv, b.uv_mask)
+        rgb, alpha = render_batch(avatar, b)
         pred = composite_over(rgb, alpha, colour)[0]
         gt = composite_over(b.image * b.mask, b.mask, colour)[0]
         parts = pixel_parts(b.uv[0].numpy(), frames.uv_mask[i], atlas)

@@ -9,6 +9,7 @@ import torch
 
 from morf.avatar.metrics import composite_over, summarize
 from morf.train.frames import FrameSet
+from morf.train.trained_avatar import render_batch
 
 
 @torch.no_grad()
@@ -19,7 +20,7 @@ def lpips_scores(metric, avatar, frames: FrameSet, colour: torch.Tensor, batch: 
     whole, person = [], []
     for s in range(0, frames.num_frames, batch):
         b = frames.batch(list(range(s, min(s + batch, frames.num_frames))))
-        rgb, alpha = avatar.render(b.uv, b.uv_mask)
+        rgb, alpha = render_batch(avatar, b)
         maps = metric.maps(composite_over(rgb, alpha, colour), composite_over(b.image * b.mask, b.mask, colour))
         whole += metric.reduce(maps).tolist()
         person += metric.reduce(maps, b.mask).tolist()

@@ -112,7 +112,6 @@ def refine_poses(avatar, model, frames: FrameSet, rotvecs: np.ndarray, transl: n
     rasterized through; ``offsets`` (V,) the clothing offsets the avatar trained with
     (:func:`morf.train.data.clothing_offsets`; None: the naked body)."""
     from morf.avatar.metrics import composite_over
-    from morf.avatar.model import render_with_texture
     from morf.body import BodyPose
     from morf.body.render_mesh import render_mesh_for
     from morf.fitting.offsets import dressed_vertices
@@ -147,10 +146,13 @@ def refine_poses(avatar, model, frames: FrameSet, rotvecs: np.ndarray, transl: n
             out = model(BodyPose(rot, tr0 + d_tr), shape_t)
             return rm.gather(dressed_vertices(model, out, shape_t, offsets_t)), rot
 
+        # an avatar with view colours: each frame in the colour of its given root orientation
+        textures = [avatar.texture_for(out_rot[i, 0]) if hasattr(avatar, "texture_for") else avatar.texture
+                    for i in idx]
+
         def image(verts, face_id):
             uv = interpolate_uv(verts, face_id, faces, uvs, camera)
-            rgb, alpha = render_with_texture(avatar.renderer, avatar.texture, uv, face_id >= 0)
-            return composite_over(rgb, alpha, colour)
+            return composite_over(*_render_each(avatar.renderer, textures, uv, face_id >= 0), colour)
 
         best = None
         for step in range(cfg.steps + 1):
@@ -194,3 +196,13 @@ def reposed_frames(frames: FrameSet, model, refined: RefinedPoses, shape: np.nda
         facings.append(fac)
     return replace(frames, uv=np.concatenate(uvs), uv_mask=np.concatenate(uvms), facing=np.concatenate(facings),
                    rotvecs=refined.rotvecs.astype(np.float32))
+
+
+def _render_each(renderer, textures: list, uv: torch.Tensor, covered: torch.Tensor):
+    """(RGB, mask) of a batch whose frames each have their texture (one call when they share one)."""
+    from morf.avatar.model import render_with_texture
+
+    if all(t is textures[0] for t in textures):
+        return render_with_texture(renderer, textures[0], uv, covered)
+    outs = [render_with_texture(renderer, t, uv[j:j + 1], covered[j:j + 1]) for j, t in enumerate(textures)]
+    return torch.cat([o[0] for o in outs]), torch.cat([o[1] for o in outs])

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import torch
+from morf.train.trained_avatar import render_batch
 
 
 def mask_iou_of(pred: np.ndarray, real: np.ndarray) -> float:
@@ -24,7 +25,7 @@ def mask_iou(avatar, frames, threshold: float = 0.5) -> float | None:
     vals = []
     for i in range(frames.num_frames):
         b = frames.batch([i])
-        _, alpha = avatar.render(b.uv, b.uv_mask)
+        _, alpha = render_batch(avatar, b)
         v = mask_iou_of(alpha[0, 0].numpy() > threshold, frames.masks[i])
         if np.isfinite(v):
             vals.append(v)

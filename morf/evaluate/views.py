@@ -11,6 +11,7 @@ import torch
 
 from morf.avatar.metrics import composite_over
 from morf.train.frames import FrameSet
+from morf.train.trained_avatar import render_batch
 
 
 @dataclass(frozen=True)
@@ -59,7 +60,7 @@ def render_views(avatar, frames: FrameSet, colour: torch.Tensor, rows: list[int]
                  batch: int = 4) -> SequenceViews:
     """A trained avatar's renders of ``frames`` over ``colour``."""
     def images(b):
-        rgb, alpha = avatar.render(b.uv, b.uv_mask)
+        rgb, alpha = render_batch(avatar, b)
         return composite_over(rgb, alpha, colour)
 
     return _views(images, frames, rows, column, batch)

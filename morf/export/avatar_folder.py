@@ -13,6 +13,9 @@ Layout (format "morf-avatar", version 1)::
       skeleton.npz         bone_names, bone_parents, rest_rotations, rest_heads, reference_rotations
       renderer.onnx        fp32 renderer, uint8 input (see morf.export.onnx_renderer)
       renderer_int8.onnx   the same, int8 QDQ
+      view_colours.npz     optional: anchors (K, 3, 3) float32 root orientations relative to the
+                           camera, colours (K, Ht, Wt, 3) uint8 in texture.npz's bytes: channels
+                           0-2 by view (morf.avatar.view_colour); the player blends the nearest
 
 Needs numpy (and onnxruntime/moderngl to play); never torch, never pickle.
 
@@ -38,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from morf.avatar.view_colour import ViewColourBytes
 from morf.errors import InputError
 from morf.export.skeleton import SkinningSkeleton
 from morf.io import atomic_write_json, load_npz, save_npz
@@ -49,6 +53,7 @@ VERSION = 1
 MANIFEST = "manifest.json"
 RENDERERS = {"fp32": "renderer.onnx", "int8": "renderer_int8.onnx"}
 ARRAYS = ("texture.npz", "mesh.npz", "skeleton.npz")
+VIEW_COLOURS_FILE = "view_colours.npz"  # optional: the colour channels by view (morf.avatar.view_colour)
 REQUIRED_FILES = (*ARRAYS, *RENDERERS.values())
 MAX_MANIFEST_BYTES = 4 * 2**20  # a manifest is a few kB (tens with native tails); more is not one
 MAX_SIZE_MULTIPLE = 1024
@@ -61,7 +66,8 @@ class ExportedAvatar:
 
     Fields:
         root: the folder; manifest: manifest.json as a dict (checked by :func:`read_manifest`).
-        texture: 16-channel uint8 neural texture; mesh: the shaped render mesh; skeleton: for posing.
+        texture: 16-channel uint8 neural texture; mesh: the shaped render mesh; skeleton: for posing;
+        view_colours: the texture's channels 0-2 by view (None: the texture's own for every view).
     """
 
     root: Path
@@ -69,6 +75,7 @@ class ExportedAvatar:
     texture: QuantizedTexture
     mesh: SkinnedMesh
     skeleton: SkinningSkeleton
+    view_colours: ViewColourBytes | None = None
 
     def renderer_path(self, precision: str = "int8") -> Path:
         if precision not in RENDERERS:
@@ -99,6 +106,11 @@ def write_arrays(folder: Path, texture: QuantizedTexture, mesh: SkinnedMesh, ske
              faces=mesh.faces.astype(np.int32), bone_indices=mesh.bone_indices.astype(np.int32),
              bone_weights=mesh.bone_weights.astype(np.float32))
     save_npz(folder / "skeleton.npz", **skeleton.to_arrays())
+
+
+def write_view_colours(folder: Path, views: ViewColourBytes) -> None:
+    """Write view_colours.npz: anchors (K, 3, 3) float32 and colours (K, Ht, Wt, 3) uint8 texture bytes."""
+    save_npz(folder / VIEW_COLOURS_FILE, anchors=views.anchors.astype(np.float32), colours=views.data)
 
 
 def write_manifest(folder: Path, fields: dict) -> dict:
@@ -327,8 +339,14 @@ def load_exported_avatar(root: str | Path, verify: bool = True) -> ExportedAvata
     verify_files(root, manifest, checksums=verify)
     t, m, s = (load_npz(root / n, error=InputError) for n in ARRAYS)
     skeleton = _skeleton(s, root / "skeleton.npz")
-    return ExportedAvatar(root=root, manifest=manifest, texture=_texture(t, root / "texture.npz"),
-                          mesh=_mesh(m, root / "mesh.npz", skeleton.num_bones), skeleton=skeleton)
+    texture = _texture(t, root / "texture.npz")
+    views = None
+    if VIEW_COLOURS_FILE in manifest["files"]:
+        views = _view_colours(load_npz(root / VIEW_COLOURS_FILE, error=InputError), root / VIEW_COLOURS_FILE,
+                              texture.data.shape[:2])
+    return ExportedAvatar(root=root, manifest=manifest, texture=texture,
+                          mesh=_mesh(m, root / "mesh.npz", skeleton.num_bones), skeleton=skeleton,
+                          view_colours=views)
 
 
 # ---- the arrays ------------------------------------------------------------------------------
@@ -361,6 +379,13 @@ def _texture(t: dict, path: Path) -> QuantizedTexture:
         raise damaged(path, f"'texture' is empty {data.shape}")
     scales = _array(t, "scales", path, "f", (NUM_CHANNELS,))
     return QuantizedTexture(data=data, scales=scales.astype(np.float32))
+
+
+def _view_colours(v: dict, path: Path, texels: tuple[int, int]) -> ViewColourBytes:
+    anchors = _array(v, "anchors", path, "f", (None, 3, 3))
+    if len(anchors) == 0:
+        raise damaged(path, "it has no anchors")
+    return ViewColourBytes(anchors.astype(np.float32), _array(v, "colours", path, "u", (len(anchors), *texels, 3)))
 
 
 def _mesh(m: dict, path: Path, num_bones: int) -> SkinnedMesh:

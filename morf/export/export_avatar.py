@@ -19,7 +19,9 @@ from typing import Sequence
 
 import numpy as np
 
-from morf.export.avatar_folder import MANIFEST, RENDERERS, replace_folder, write_arrays, write_manifest
+from morf.avatar.view_colour import quantize_view_colours
+from morf.export.avatar_folder import (MANIFEST, RENDERERS, VIEW_COLOURS_FILE, replace_folder, write_arrays,
+                                       write_manifest, write_view_colours)
 from morf.export.calibration_views import closer_scales, mosaic, zoomed_camera
 from morf.export.onnx_renderer import OPSET, export_fp32, export_int8
 from morf.export.skeleton import SkinningSkeleton, skeleton_from_body_model
@@ -27,7 +29,7 @@ from morf.io.outputs import OutputClaim, staged_folder
 from morf.pipeline.control import Progress, StageControl
 from morf.raster.gl_context import create_headless_context
 from morf.raster.neural_raster import COVERAGE_CHANNEL, NUM_CHANNELS, NeuralRasterizer, SkinnedMesh, to_layout
-from morf.raster.texture_quant import QuantizedTexture, quantize_texture
+from morf.raster.texture_quant import ZERO_POINT, QuantizedTexture, quantize_texture
 
 
 @dataclass(frozen=True)
@@ -135,7 +137,7 @@ def native_tails(folder: Path, specs: dict, layout: str, rasters: Sequence[np.nd
 def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, calibration: Sequence[View],
                   heldout: Sequence[View], cfg: ExportConfig = ExportConfig(), ctx=None,
                   control: StageControl | None = None, claim: OutputClaim | None = None,
-                  offsets: np.ndarray | None = None) -> dict:
+                  offsets: np.ndarray | None = None, view_colours=None) -> dict:
     """Write an avatar folder; returns its manifest.
 
     Args:
@@ -148,6 +150,8 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
             caller owns ``out_dir`` whole, e.g. a benchmark's work folder).
         offsets: (V,) clothing offsets the avatar trained with (None: the naked body); mesh.npz
             then stores the dressed rest vertices and the manifest's ``body`` says so.
+        view_colours: the trained avatar's :class:`~morf.avatar.view_colour.ViewColours` (None:
+            none), written as view_colours.npz in the texture's bytes.
     """
     control = control or StageControl()
     t0 = time.time()
@@ -159,7 +163,11 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
         raise ValueError(f"the player handles at most {NUM_CHANNELS} texture channels, got {tex.shape[0]}")
     # Fewer channels (small presets): pad with zero channels, which quantise to 128 = background.
     tex = np.concatenate([tex, np.zeros((NUM_CHANNELS - tex.shape[0], *tex.shape[1:]), tex.dtype)])
-    qtex = quantize_texture(tex)
+    peak = None
+    if view_colours is not None:  # the colour channels' scales cover every view's colours too
+        peak = np.zeros(NUM_CHANNELS, np.float32)
+        peak[:3] = view_colours.colours.reshape(view_colours.count, 3, -1).max(axis=(0, 2)) / 255.0
+    qtex = quantize_texture(tex, peak)
     mesh = skinned_mesh_from_body_model(body_model, shape, offsets)
     skeleton = skeleton_from_body_model(body_model, shape)
     step = lambda i, msg: control.report(Progress("export", i, 5, msg))  # noqa: E731
@@ -171,11 +179,16 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
         H, W = calib[0].shape[2:]
         step(1, "writing texture, mesh and skeleton")
         write_arrays(tmp, qtex, mesh, skeleton)
+        if view_colours is not None:
+            write_view_colours(tmp, quantize_view_colours(view_colours, qtex.scales[:3], ZERO_POINT))
         specs, quality = _export_renderers(tmp, renderer, qtex, views, cfg, step, control)
         rcfg = getattr(renderer, "cfg", None)
         fields = _manifest_fields(qtex, skeleton, mesh, rcfg, (H, W), shape, cfg, quality,
                                   len(calib) + len(views.close_calibration), time.time() - t0)
         fields["body"]["clothing"] = clothing_entry(offsets)
+        if view_colours is not None:
+            fields["view_colours"] = {"count": view_colours.count, "frames_each": view_colours.frames,
+                                      "file": VIEW_COLOURS_FILE}
         tails = native_tails(tmp, specs, cfg.input_layout, held or calib[:4])
         if tails:
             fields["renderer"]["native_tail"] = tails

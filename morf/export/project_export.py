@@ -215,5 +215,6 @@ def _export(project, cfg: ProjectExportConfig, claim, control: StageControl | No
                                           "method": trained.method}, "trained_scale": scale})
     manifest = export_avatar(out, texture=trained.texture, renderer=trained.renderer, body_model=body_model,
                              shape=trained.shape, calibration=calib[::stride], heldout=held, cfg=ecfg,
-                             control=control, claim=claim, offsets=avatar_offsets(project, trained, run_dir))
+                             control=control, claim=claim, offsets=avatar_offsets(project, trained, run_dir),
+                             view_colours=trained.view_colours)
     return manifest

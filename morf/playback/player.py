@@ -88,6 +88,7 @@ class Player:
         self._input = self.new_input()
         self.output_texture = None
         self.last_timings: dict[str, float] = {}
+        self._view_key = None  # the view colours' blend last set in the rasterizer
 
     @property
     def background(self):
@@ -116,10 +117,27 @@ class Player:
             raise InputError(f"camera is {camera.width}x{camera.height}; the player renders square {self.size}px images")
         return camera.scaled(self.size / camera.width)
 
+    def _view_colour(self, pose_rotvecs: np.ndarray, camera) -> None:
+        """Set the rasterizer's colour channels to the view colours' blend for this pose's root
+        orientation relative to ``camera`` (:mod:`morf.avatar.view_colour`); a blend already set is kept."""
+        from morf.avatar.view_colour import anchor_weights, view_orientation
+
+        views = self.avatar.view_colours
+        R = getattr(camera, "R", None)
+        orientation = view_orientation(np.eye(3) if R is None else R, self.avatar.skeleton.reference_rotations[0],
+                                       np.asarray(pose_rotvecs, np.float64)[0])
+        idx, w = anchor_weights(views.anchors, orientation)
+        key = tuple(int(i) for i in idx) + tuple(np.round(w, 3).tolist())
+        if key != self._view_key:
+            self.raster.set_colour(views.blend(orientation))
+            self._view_key = key
+
     def rasterize(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera, out: np.ndarray | None = None) -> np.ndarray:
         """The renderer input for one pose, in the renderer's layout (uint8)."""
         t0 = time.perf_counter()
         T = self.avatar.skeleton.bone_transforms(pose_rotvecs, transl)
+        if self.avatar.view_colours is not None:
+            self._view_colour(pose_rotvecs, camera)
         t1 = time.perf_counter()
         self.raster.draw(T, self._camera(camera))
         self._gl_finish()

@@ -48,6 +48,7 @@ class CpuNeuralRasterizer:
         self._box = np.zeros(4, np.int32)  # y0, y1, x0, x1 of the drawn frame (the id buffers hold it)
         self._by_gl = False  # the drawn frame went to GL
         self._gl: NeuralRasterizer | None = None
+        self._colour: np.ndarray | None = None  # channels 0-2 set by set_colour (None: the texture's)
         self._buffers: dict[int, tuple[weakref.ref, np.ndarray]] = {}  # id(buffer) -> (buffer, its last box)
 
     # ---- drawing -----------------------------------------------------------------------------
@@ -67,6 +68,15 @@ class CpuNeuralRasterizer:
         if self._by_gl:
             self._gl_rasterizer().draw(T, camera)
 
+    def set_colour(self, rgb: np.ndarray) -> None:
+        """Replace the texture's channels 0-2 (bytes (Ht, Wt, 3)) for the frames drawn from now on."""
+        if self._texture is self._texture_q.data:
+            self._texture = self._texture.copy()  # never write into the loaded avatar's array
+        self._texture[..., :3] = rgb
+        self._colour = rgb
+        if self._gl is not None:
+            self._gl.set_colour(rgb)
+
     def _gl_rasterizer(self) -> NeuralRasterizer:
         if self._gl is None:
             if self.ctx is None:
@@ -75,6 +85,8 @@ class CpuNeuralRasterizer:
                 self.ctx = create_headless_context()
             self._gl = NeuralRasterizer(self.ctx, self._mesh, self._texture_q, self.width, self.height,
                                         self.num_bones, cpu_skinning=True)
+            if self._colour is not None:
+                self._gl.set_colour(self._colour)
         return self._gl
 
     # ---- reading -------------------------------------------------------------------------

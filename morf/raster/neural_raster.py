@@ -118,6 +118,7 @@ class NeuralRasterizer:
                                                        (bw, "4f 4f", "in_weights0", "in_weights1")],
                                         index_buffer=self._index, index_element_size=4)
         Ht, Wt, _ = texture.data.shape
+        self._texture_bytes, self._channel3 = texture.data, None
         self.textures = []
         for i in range(NUM_CHANNELS // 4):
             tex = ctx.texture((Wt, Ht), 4, np.ascontiguousarray(texture.data[..., 4 * i:4 * i + 4]).tobytes())
@@ -128,6 +129,14 @@ class NeuralRasterizer:
         self.attachment = ctx.texture((self.width, self.height), 4, dtype="u4")
         self._depth = ctx.depth_renderbuffer((self.width, self.height))
         self.fbo = ctx.framebuffer(color_attachments=[self.attachment], depth_attachment=self._depth)
+
+    def set_colour(self, rgb: np.ndarray) -> None:
+        """Replace the texture's channels 0-2 (bytes (Ht, Wt, 3)) for the frames drawn from now on
+        (view colours, :mod:`morf.avatar.view_colour`); channel 3 stays as loaded."""
+        if self._channel3 is None:
+            self._channel3 = np.ascontiguousarray(self._texture_bytes[..., 3:4])
+        rgba = np.concatenate([np.asarray(rgb, np.uint8), self._channel3], axis=2)
+        self.textures[0].write(np.ascontiguousarray(rgba).tobytes())
 
     def draw(self, bone_transforms: np.ndarray, camera) -> None:
         """Render one frame into :attr:`fbo`.

@@ -38,10 +38,11 @@ class QuantizedTexture:
         return dequantize_texture(self.data, self.scales)
 
 
-def quantize_texture(texture: np.ndarray) -> QuantizedTexture:
+def quantize_texture(texture: np.ndarray, min_peak: np.ndarray | None = None) -> QuantizedTexture:
     """Quantise a (C, Ht, Wt) float texture (row 0 = top) to uint8 with per-channel scales.
 
-    ``scales[c] = max|texture[c]| / 127`` so the channel's range maps onto [1, 255].
+    ``scales[c] = max|texture[c]| / 127`` so the channel's range maps onto [1, 255]; ``min_peak``
+    (C,) raises a channel's peak to cover values other textures will put there (view colours).
     """
     tex = np.asarray(texture, dtype=np.float32)
     if tex.ndim != 3:
@@ -49,6 +50,8 @@ def quantize_texture(texture: np.ndarray) -> QuantizedTexture:
     if not np.isfinite(tex).all():
         raise ValueError("neural texture holds NaN or inf")
     peak = np.abs(tex).reshape(tex.shape[0], -1).max(axis=1)
+    if min_peak is not None:
+        peak = np.maximum(peak, np.asarray(min_peak, np.float32))
     # An all-zero channel still needs a positive scale; any value works, 1/127 keeps it tidy.
     scales = np.where(peak > 0, peak, 1.0).astype(np.float32) / 127.0
     q = np.rint(tex / scales[:, None, None]) + ZERO_POINT

@@ -20,6 +20,7 @@ from morf.train.loop import TrainResult, train_avatar
 from morf.io.lock import project_lock
 from morf.train.run_dir import RunDir
 from morf.train.run_files import restart_run, run_path
+from morf.train.trained_avatar import render_batch
 
 
 def default_run_name(cfg: TrainConfig) -> str:
@@ -51,7 +52,7 @@ def train_project(project, cfg: TrainConfig, name: str | None = None, control: S
 def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fits_source: str, vgg: str | None,
                restart: bool, model) -> TrainResult:
     """:func:`train_project` for one run folder, with its lock held."""
-    from morf.avatar.spectral import body_uv_atlas, spectral_texture
+    from morf.avatar.spectral import body_uv_atlas
     from morf.avatar.vgg import PerceptualLoss, load_vgg16, resolve_vgg_path
     from morf.body import load_body_model
     from morf.train.data import build_frames
@@ -89,30 +90,7 @@ def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fi
         notes.append(holdout_note(cfg.holdout, cfg.holdout_by))
     atlas = body_uv_atlas(model, cfg.texture_size, cfg.texture_size)
     fs = pf.frames
-    if cfg.renderer.rgb_skip:  # channels 0-2 are colour: the frames projected; the rest spectral
-        from morf.train.colour_align import aligned_floor_texture
-        from morf.train.texel_splat import Projection
-
-        source = zoom if cfg.colour_from_zoom else fs
-        # the floor's colours (step 0 = floor), unless weighted towards the frames that face a texel
-        # or aligned to one another first (0 passes: exactly the floor's projection)
-        how = Projection(cfg.colour_facing_power, cfg.colour_bilinear, cfg.colour_prior_count, cfg.colour_edge_inset)
-        projected, _, aligned = aligned_floor_texture(source, atlas.covered, cfg.colour_align_passes,
-                                                      cfg.texture_dilate, how=how)
-        rgb = projected[:3]
-        spec = spectral_texture(model, cfg.texture_channels - 3, cfg.texture_size, cfg.texture_size,
-                                cfg.texture_dilate)
-        tex = torch.from_numpy(np.concatenate([rgb, spec], axis=0))
-        spread = "".join([", each pixel shared among four texels" if how.bilinear else "",
-                          f", texels few pixels saw drawn to their neighbourhood ({how.prior_count:g} pixels)"
-                          if how.prior_count else ""])
-        notes.append(f"texture channels 0-2: the training frames at {source.resolution} px projected (colour{spread}); "
-                     "the renderer adds a residual")
-        if cfg.colour_align_passes:
-            notes.append(f"texture channels 0-2: {aligned.describe()}")
-    else:
-        tex = torch.from_numpy(spectral_texture(model, cfg.texture_channels, cfg.texture_size, cfg.texture_size,
-                                                cfg.texture_dilate))
+    tex, source, how = _initial_texture(cfg, model, fs, zoom, atlas, notes)
     vgg_path = resolve_vgg_path(vgg)
     perceptual = PerceptualLoss(load_vgg16(vgg_path)) if vgg_path is not None else None
     if vgg_path is not None:
@@ -124,9 +102,45 @@ def _train_run(project, run: RunDir, cfg: TrainConfig, control: StageControl, fi
         return make_pseudo_views(model, pf.fits.shape, pf.camera, fs.rotvecs[mid], centre, cfg.inpaint_views,
                                  pf.offsets)
 
-    return train_avatar(fs, run.root, cfg, tex, control, perceptual, InpaintViews(atlas.covered, views),
-                        shape=torch.from_numpy(pf.fits.shape), camera=pf.camera, notes=notes, zoom_frames=zoom,
-                        detail_centres=centres)
+    result = train_avatar(fs, run.root, cfg, tex, control, perceptual, InpaintViews(atlas.covered, views),
+                          shape=torch.from_numpy(pf.fits.shape), camera=pf.camera, notes=notes, zoom_frames=zoom,
+                          detail_centres=centres)
+    if cfg.view_colours and source is not None:
+        from morf.train.view_colours import attach_view_colours
+
+        control.report(Progress("train", cfg.steps, cfg.steps, f"projecting {cfg.view_colours} view colours"))
+        attach_view_colours(run, source, atlas.covered, cfg, how, model, pf.fits.shape, pf.camera.R)
+    return result
+
+
+def _initial_texture(cfg: TrainConfig, model, fs, zoom, atlas, notes: list[str]):
+    """(the initial (C, S, S) texture, the FrameSet its colour channels were projected from, the
+    projection's settings): with colour channels (``renderer.rgb_skip``) channels 0-2 are the frames
+    projected and the rest spectral; without them all spectral (then None, None)."""
+    from morf.avatar.spectral import spectral_texture
+
+    if not cfg.renderer.rgb_skip:
+        return torch.from_numpy(spectral_texture(model, cfg.texture_channels, cfg.texture_size, cfg.texture_size,
+                                                 cfg.texture_dilate)), None, None
+    from morf.train.colour_align import aligned_floor_texture
+    from morf.train.texel_splat import Projection
+
+    source = zoom if cfg.colour_from_zoom else fs
+    # the floor's colours (step 0 = floor), unless weighted towards the frames that face a texel
+    # or aligned to one another first (0 passes: exactly the floor's projection)
+    how = Projection(cfg.colour_facing_power, cfg.colour_bilinear, cfg.colour_prior_count, cfg.colour_edge_inset)
+    projected, _, aligned = aligned_floor_texture(source, atlas.covered, cfg.colour_align_passes,
+                                                  cfg.texture_dilate, how=how)
+    spec = spectral_texture(model, cfg.texture_channels - 3, cfg.texture_size, cfg.texture_size, cfg.texture_dilate)
+    tex = torch.from_numpy(np.concatenate([projected[:3], spec], axis=0))
+    spread = "".join([", each pixel shared among four texels" if how.bilinear else "",
+                      f", texels few pixels saw drawn to their neighbourhood ({how.prior_count:g} pixels)"
+                      if how.prior_count else ""])
+    notes.append(f"texture channels 0-2: the training frames at {source.resolution} px projected (colour{spread}); "
+                 "the renderer adds a residual")
+    if cfg.colour_align_passes:
+        notes.append(f"texture channels 0-2: {aligned.describe()}")
+    return tex, source, how
 
 
 def backdrop_colour(frames) -> torch.Tensor:
@@ -158,7 +172,7 @@ def evaluate_frames(avatar, frames, background: str = "capture", ordered: bool =
     p_all, p_person, s_all, s_person = [], [], [], []
     for i in range(frames.num_frames):
         b = frames.batch([i])
-        rgb, alpha = avatar.render(b.uv, b.uv_mask)
+        rgb, alpha = render_batch(avatar, b)
         pred = composite_over(rgb, alpha, colour)
         gt = composite_over(b.image * b.mask, b.mask, colour)
         p_all.append(psnr(pred, gt)); s_all.append(ssim(pred, gt))

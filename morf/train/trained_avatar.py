@@ -13,12 +13,14 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import torch
 from torch import nn
 
 from morf.avatar.model import render_with_texture
 from morf.avatar.passthrough import PassthroughConfig, PassthroughRenderer
 from morf.avatar.renderer import RendererConfig, UNetRenderer
+from morf.avatar.view_colour import ViewColours
 from morf.camera import PinholeCamera
 from morf.errors import ProjectError
 from morf.train.config import TrainConfig
@@ -44,6 +46,8 @@ class TrainedAvatar:
         shape: (1, S) float32 body shape the avatar was trained with.
         camera: the training camera at the working resolution, or None.
         method: "morf" | "stylepeople" | "anr" | "rgb".
+        view_colours: the colour channels by view (:mod:`morf.avatar.view_colour`), or None: the
+            texture's own channels 0-2 for every view.
     """
 
     texture: torch.Tensor
@@ -52,6 +56,7 @@ class TrainedAvatar:
     shape: torch.Tensor
     camera: PinholeCamera | None
     method: str
+    view_colours: ViewColours | None = None
 
     @property
     def dressed(self) -> bool:
@@ -61,13 +66,35 @@ class TrainedAvatar:
         return bool(getattr(self.config, "dressed", True))
 
     @torch.no_grad()
-    def render(self, uv: torch.Tensor, uv_mask: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """(B, H, W, 2) UVs + (B, H, W) coverage -> RGB (B, 3, H, W) premultiplied, mask (B, 1, H, W)."""
-        return render_with_texture(self.renderer, self.texture, uv, uv_mask)
+    def render(self, uv: torch.Tensor, uv_mask: torch.Tensor, roots=None) -> tuple[torch.Tensor, torch.Tensor]:
+        """(B, H, W, 2) UVs + (B, H, W) coverage -> RGB (B, 3, H, W) premultiplied, mask (B, 1, H, W).
+        ``roots``: (B, 3) the poses' root orientations (axis-angle, camera coordinates), which pick
+        the colour of an avatar with view colours (ignored without them; None: the one texture)."""
+        if self.view_colours is None or roots is None:
+            return render_with_texture(self.renderer, self.texture, uv, uv_mask)
+        roots = np.asarray(roots.detach().cpu() if isinstance(roots, torch.Tensor) else roots, np.float64)
+        outs = [render_with_texture(self.renderer, self.texture_for(roots[b]), uv[b:b + 1], uv_mask[b:b + 1])
+                for b in range(uv.shape[0])]
+        return torch.cat([o[0] for o in outs]), torch.cat([o[1] for o in outs])
+
+    def texture_for(self, root) -> torch.Tensor:
+        """The texture a pose with root orientation ``root`` (3,) is drawn with."""
+        if self.view_colours is None or root is None:
+            return self.texture
+        return self.view_colours.texture_for(self.texture, np.asarray(root, np.float64).reshape(3))
+
+
+def render_batch(avatar, batch) -> tuple[torch.Tensor, torch.Tensor]:
+    """``avatar.render`` of a FrameSet batch, each frame in its pose's view colour when the avatar
+    has view colours."""
+    if getattr(avatar, "view_colours", None) is None:
+        return avatar.render(batch.uv, batch.uv_mask)
+    return avatar.render(batch.uv, batch.uv_mask, batch.rotvecs[:, 0])
 
 
 def save_trained_avatar(path: str | Path, texture: torch.Tensor, renderer: nn.Module, config_dict: dict,
-                        shape: torch.Tensor | None, camera: PinholeCamera | None, extra: dict | None = None) -> None:
+                        shape: torch.Tensor | None, camera: PinholeCamera | None, extra: dict | None = None,
+                        view_colours: ViewColours | None = None) -> None:
     """Atomically write ``avatar.pt``."""
     from morf.io import atomic_path
 
@@ -83,6 +110,8 @@ def save_trained_avatar(path: str | Path, texture: torch.Tensor, renderer: nn.Mo
         "camera": None if camera is None else json.dumps(camera.to_dict(), default=float),
         "extra": extra or {},
     }
+    if view_colours is not None:
+        payload["view_colours"] = view_colours.to_dict()
     with atomic_path(path) as tmp:
         torch.save(payload, tmp)
 
@@ -108,5 +137,14 @@ def load_trained_avatar(run_dir: str | Path) -> TrainedAvatar:
     cfg = TrainConfig.from_dict(d["config"])
     shape = d["shape"] if d["shape"] is not None else torch.zeros(1, 0)
     camera = PinholeCamera.from_dict(json.loads(d["camera"])) if d.get("camera") else None
+    views = None
+    if d.get("view_colours") is not None:
+        try:
+            views = ViewColours.from_dict(d["view_colours"])
+        except (KeyError, TypeError, ValueError) as e:
+            raise ProjectError(f"{path}: damaged view colours ({e})") from None
+        if views.colours.shape[2:] != tuple(d["texture"].shape[1:]):
+            raise ProjectError(f"{path}: view colours of {views.colours.shape[2:]} texels for a texture of "
+                               f"{tuple(d['texture'].shape[1:])}")
     return TrainedAvatar(texture=d["texture"], renderer=renderer, config=cfg, shape=shape, camera=camera,
-                         method=cfg.method)
+                         method=cfg.method, view_colours=views)

@@ -157,7 +157,9 @@ def write_web_avatar(avatar: ExportedAvatar, folder: Path, motions: list[dict], 
         "image_size": manifest.get("image_size"),
         "size_multiple": avatar.size_multiple,
         "texture": {"file": "texture.bin", "height": int(tex.data.shape[0]), "width": int(tex.data.shape[1]),
-                    "channels": int(tex.data.shape[2]), "zero_point": 128},
+                    "channels": int(tex.data.shape[2]), "zero_point": 128,
+                    # the page draws the one colour texture; an avatar's view colours are not sent
+                    "view_colours_left_out": avatar.view_colours is not None},
         "mesh": {"file": "mesh.bin", "vertices": avatar.mesh.num_vertices, "faces": int(avatar.mesh.faces.shape[0]),
                  "arrays": layout, "levels": [
                      {"name": name, "array": f"faces_{name}", "faces": int(lm.mesh.faces.shape[0]),

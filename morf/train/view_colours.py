@@ -1,0 +1,73 @@
+"""After training: the avatar's colour channels by view (:mod:`morf.avatar.view_colour`), added to
+``avatar.pt`` when the run's config asks for them (``view_colours`` > 0)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import torch
+
+from morf.avatar.view_colour import ViewColours, angles_between, spread_anchors, view_orientation
+from morf.io import atomic_path
+from morf.io.torch_files import load_torch_file
+
+
+def attach_view_colours(run, frames, covered: np.ndarray, cfg, how, model, shape: np.ndarray, camera_R) -> bool:
+    """Project ``cfg.view_colours`` view colours from ``frames`` (the FrameSet the colour channels
+    were projected from) into ``run``'s finished avatar.pt, unless it holds them already (a resumed
+    or finished run). Texels a view's frames did not see keep the avatar's colour. ``model`` and
+    ``shape``: the body the poses turn (its skeleton's root frame); ``camera_R``: the capture
+    camera's rotation. Returns whether it wrote them."""
+
+    path = run.avatar_path
+    d = load_torch_file(path, what="avatar")
+    if d.get("view_colours") is not None:
+        return False
+    t0 = time.monotonic()
+    base = d["texture"][:3].numpy()
+    root_frame = root_reference_frame(model, shape)
+    views = project_view_colours(frames, covered, base, cfg.view_colours, cfg.view_colour_frames, cfg.texture_dilate,
+                                 how, root_frame, camera_R)
+    d["view_colours"] = views.to_dict()
+    with atomic_path(path) as tmp:
+        torch.save(d, tmp)
+    run.log(f"view colours: {views.count} anchor orientations, each projected from the {views.frames} training "
+            f"frames nearest it ({time.monotonic() - t0:.1f} s)")
+    return True
+
+
+def root_reference_frame(model, shape) -> np.ndarray:
+    """(3, 3) the reference rotation bone 0 of a pose turns about, for this body (the skeleton's
+    ``reference_rotations[0]``, :func:`morf.export.skeleton.skeleton_from_body_model`)."""
+    with torch.no_grad():
+        ref = model.anny.reference_bone_orientations
+        if ref is not None:
+            return ref[0].double().cpu().numpy()
+        shape_t = torch.as_tensor(np.asarray(shape, np.float32)).reshape(1, -1)
+        return model.rest(shape_t)["rest_bone_poses"][0, 0, :3, :3].double().cpu().numpy()
+
+
+def project_view_colours(frames, covered: np.ndarray, base: np.ndarray, count: int, per_view: int, dilate: int,
+                         how, root_frame: np.ndarray, camera_R: np.ndarray) -> ViewColours:
+    """``count`` view colours from a training FrameSet (its poses turned into orientations by
+    :func:`view_orientation` with ``root_frame`` and ``camera_R``):
+    each anchor's colour projected (:func:`morf.train.floor_texture.floor_texture` with ``how``) from
+    the ``per_view`` frames nearest it by root angle; texels they did not see take ``base`` (3, S, S),
+    the avatar's one colour texture (0-1)."""
+    from morf.train.floor_texture import floor_texture
+    from morf.train.frames import FrameSet
+
+    rot = np.stack([view_orientation(camera_R, root_frame, r) for r in frames.rotvecs[:, 0]])
+    picked = spread_anchors(rot, count)
+    near = np.argsort(angles_between(rot[picked], rot), axis=1, kind="stable")[:, :per_view]
+    colours = []
+    for idx in near:
+        idx = np.sort(idx)
+        sub = FrameSet(frames.images[idx], frames.masks[idx], frames.uv[idx], frames.uv_mask[idx], frames.facing[idx],
+                       frames.rotvecs[idx], frames.frame_ids[idx])
+        tex, seen = floor_texture(sub, covered, dilate, how=how)
+        rgb = np.where(seen[None].astype(bool), tex[:3], base)
+        colours.append(np.clip(np.rint(rgb * 255.0), 0, 255).astype(np.uint8))
+    return ViewColours(rot[picked].astype(np.float32), np.stack(colours), per_view,
+                       np.asarray(root_frame, np.float64), np.asarray(camera_R, np.float64))
