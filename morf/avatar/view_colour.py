@@ -162,15 +162,26 @@ class ViewColourBytes:
     anchors: np.ndarray
     data: np.ndarray
 
-    def blend(self, orientation: np.ndarray) -> np.ndarray:
-        """(Ht, Wt, 3) uint8 colour bytes for a root orientation matrix (3, 3) relative to the camera."""
+    def blend_weights(self, orientation: np.ndarray) -> tuple[tuple[int, ...], tuple[int, ...]]:
+        """(anchor indices, integer weights summing to 256) of the blend for a root orientation
+        matrix (3, 3) relative to the camera: :func:`anchor_weights` in steps of 1/256, fine enough
+        that a byte moves by at most one, coarse enough that a still body reuses its blend."""
         idx, w = anchor_weights(self.anchors, orientation)
-        if len(idx) == 1 or w.max() > 1.0 - 1e-6:
-            return self.data[idx[int(np.argmax(w))]]
-        out = np.zeros(self.data.shape[1:], np.float32)
-        for i, wi in zip(idx, w):
-            out += np.float32(wi) * self.data[i]
-        return np.clip(np.rint(out), 0, 255).astype(np.uint8)
+        q = np.floor(w * 256.0).astype(np.int64)
+        q[int(np.argmax(w))] += 256 - int(q.sum())
+        keep = q > 0
+        return tuple(int(i) for i in idx[keep]), tuple(int(v) for v in q[keep])
+
+    def blend(self, orientation: np.ndarray, weights=None) -> np.ndarray:
+        """(Ht, Wt, 3) uint8 colour bytes for a root orientation matrix (3, 3) relative to the camera
+        (or for ``weights`` from :meth:`blend_weights`), blended in integers."""
+        idx, q = self.blend_weights(orientation) if weights is None else weights
+        if len(idx) == 1:
+            return self.data[idx[0]]
+        out = np.full(self.data.shape[1:], 128, np.uint16)  # rounding
+        for i, wi in zip(idx, q):
+            out += self.data[i].astype(np.uint16) * np.uint16(wi)
+        return (out >> 8).astype(np.uint8)
 
 
 def quantize_view_colours(views: ViewColours, scales: np.ndarray, zero_point: int) -> ViewColourBytes:

@@ -120,16 +120,15 @@ class Player:
     def _view_colour(self, pose_rotvecs: np.ndarray, camera) -> None:
         """Set the rasterizer's colour channels to the view colours' blend for this pose's root
         orientation relative to ``camera`` (:mod:`morf.avatar.view_colour`); a blend already set is kept."""
-        from morf.avatar.view_colour import anchor_weights, view_orientation
+        from morf.avatar.view_colour import view_orientation
 
         views = self.avatar.view_colours
         R = getattr(camera, "R", None)
         orientation = view_orientation(np.eye(3) if R is None else R, self.avatar.skeleton.reference_rotations[0],
                                        np.asarray(pose_rotvecs, np.float64)[0])
-        idx, w = anchor_weights(views.anchors, orientation)
-        key = tuple(int(i) for i in idx) + tuple(np.round(w, 3).tolist())
+        key = views.blend_weights(orientation)
         if key != self._view_key:
-            self.raster.set_colour(views.blend(orientation))
+            self.raster.set_colour(views.blend(orientation, key))
             self._view_key = key
 
     def rasterize(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera, out: np.ndarray | None = None) -> np.ndarray:
