@@ -75,9 +75,12 @@ def train_plan(root: Path, name: str, fresh: tuple[str, ...], holdout: int | Non
         if holdout is not None and cfg.holdout != holdout:
             raise InputError(f"run {name!r} in {root} holds out every {cfg.holdout}th frame (--holdout {cfg.holdout}), "
                              f"not every {holdout}th; give --holdout {cfg.holdout} or another --preset")
-        if run.is_done:
+        from morf.train.view_colours import view_colours_missing
+
+        if run.is_done and not view_colours_missing(run):
             return Plan("skip", note=f"run runs/{name}")
-        step = "from its checkpoint" if run.has_checkpoint else "from its start"
+        step = ("to add its view colours" if run.is_done else
+                "from its checkpoint" if run.has_checkpoint else "from its start")
         argv = ("train", str(root), "--config", str(run.config_path), "--name", name, "--device", cfg.device)
         return Plan("resume", argv, step)
     if run.is_done:

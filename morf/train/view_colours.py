@@ -37,6 +37,17 @@ def attach_view_colours(run, frames, covered: np.ndarray, cfg, how, model, shape
     return True
 
 
+def view_colours_missing(run) -> bool:
+    """Whether ``run`` (a RunDir) finished its avatar.pt but not the view colours its config asks
+    for (a run stopped in the seconds between the two): running ``morf train`` on it again adds them."""
+    if not run.is_done or not run.config_path.is_file():
+        return False
+    cfg = run.load_config()
+    if not cfg.view_colours or not cfg.renderer.rgb_skip or cfg.method == "rgb":
+        return False
+    return load_torch_file(run.avatar_path, what="avatar").get("view_colours") is None
+
+
 def root_reference_frame(model, shape) -> np.ndarray:
     """(3, 3) the reference rotation bone 0 of a pose turns about, for this body (the skeleton's
     ``reference_rotations[0]``, :func:`morf.export.skeleton.skeleton_from_body_model`)."""

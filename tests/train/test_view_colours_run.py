@@ -93,3 +93,29 @@ def test_export_writes_them_and_the_player_draws_them(viewed, tmp_path):
                 x = np.asarray(player.rasterize(fits.rotvecs[i], fits.transl[i], cam)).reshape(-1, 16)
                 body = x[x[:, 0] != 128]  # covered pixels (the background reads the zero point)
                 assert len(body) > 20 and np.abs(body[:, :3].astype(float) - expect).max() <= 1.0, (kind, i)
+
+
+def test_a_run_stopped_before_its_view_colours_gets_them_from_morf_run(viewed):
+    """Stopped in the seconds between avatar.pt and its view colours: 'morf run' does not skip the
+    run as finished, and training it again adds them without training again."""
+    import torch
+
+    from morf.cli.project_steps import train_plan
+    from morf.io import atomic_path
+    from morf.train.run_dir import RunDir
+    from morf.train.trained_avatar import load_trained_avatar
+    from morf.train.view_colours import view_colours_missing
+
+    run = RunDir(viewed.runs_dir / "v")
+    d = torch.load(run.avatar_path, weights_only=True)
+    del d["view_colours"]
+    with atomic_path(run.avatar_path) as tmp:
+        torch.save(d, tmp)
+    assert view_colours_missing(run)
+    plan = train_plan(viewed.root, "v", ("train", str(viewed.root)))
+    assert plan.action == "resume" and "view colours" in plan.note
+    steps = run.last_step()
+    assert main(list(plan.argv)) == 0
+    assert load_trained_avatar(run.root).view_colours is not None and not view_colours_missing(run)
+    assert run.last_step() == steps  # nothing trained again
+    assert train_plan(viewed.root, "v", ("train", str(viewed.root))).action == "skip"
