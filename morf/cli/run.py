@@ -36,8 +36,8 @@ def add_parser(sub):
                         "last 'morf run' on the project's, else its latest training run's, else gpu with CUDA and "
                         "cpu without")
     p.add_argument("--holdout", type=int, default=None, metavar="K",
-                   help="keep the usable frames numbered 0, K, 2K, ... out of training for 'morf eval' (K >= 2; default: the "
-                        "last 'morf run' on the project's, else none)")
+                   help="keep the usable frames numbered 0, K, 2K, ... out of training for 'morf eval' (K >= 2; "
+                        "default: the last 'morf run' on the project's, else none)")
     p.add_argument("--keypoints", type=Path, metavar="DIR",
                    help="with --video: OpenPose JSON per frame instead of MediaPipe (as 'morf ingest')")
     p.add_argument("--masks", type=Path, metavar="DIR",

@@ -199,8 +199,8 @@ def _evaluate(project, cfg: EvalConfig, model, say, claim) -> EvalResult:
             continue
         fits = fits_of(run.fits_source)
         seen = seen_target(project, fits, run.holdout, run.holdout_by) if cfg.seen and not run.is_floor else None
-        mine = [t for t in (holdout_target(project, fits, run.holdout, run.holdout_by), seen, dataset_test_target(project, fits),
-                            novel) if t]
+        held = holdout_target(project, fits, run.holdout, run.holdout_by)
+        mine = [t for t in (held, seen, dataset_test_target(project, fits), novel) if t]
         if not mine:
             skipped[run.name] = ("trained on every usable frame and the project has no hold-out sequence or test "
                                  "labels; retrain with --holdout K")

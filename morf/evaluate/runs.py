@@ -101,6 +101,7 @@ def floor_run_name(project, holdout: int, fits_source: str, holdout_by: str = "f
     d = Path(project.runs_dir) / name
     if RunFiles(d).is_done and run_fits_source(d) != fits_source:
         name += f"-{fits_source}"
-    if RunFiles(Path(project.runs_dir) / name).is_done and read_run(Path(project.runs_dir) / name).holdout_by != holdout_by:
+    d = Path(project.runs_dir) / name
+    if RunFiles(d).is_done and read_run(d).holdout_by != holdout_by:
         name += f"-{holdout_by}s"
     return name

@@ -19,7 +19,6 @@ def attach_view_colours(run, frames, covered: np.ndarray, cfg, how, model, shape
     or finished run). Texels a view's frames did not see keep the avatar's colour. ``model`` and
     ``shape``: the body the poses turn (its skeleton's root frame); ``camera_R``: the capture
     camera's rotation. Returns whether it wrote them."""
-
     path = run.avatar_path
     d = load_torch_file(path, what="avatar")
     if d.get("view_colours") is not None:
