@@ -25,6 +25,13 @@ def attach_view_colours(run, frames, covered: np.ndarray, cfg, how, model, shape
         return False
     t0 = time.monotonic()
     base = d["texture"][:3].numpy()
+    aligned = ""
+    if cfg.colour_align_passes:  # the one texture came from aligned frames: the views from the same
+        from morf.train.colour_align import MAX_FLOW_SHARE, align_frames
+
+        frames = align_frames(frames, np.ascontiguousarray(base.transpose(1, 2, 0)),
+                              MAX_FLOW_SHARE * frames.resolution)[0]
+        aligned = ", the frames first aligned to the avatar's colour"
     root_frame = root_reference_frame(model, shape)
     views = project_view_colours(frames, covered, base, cfg.view_colours, cfg.view_colour_frames, cfg.texture_dilate,
                                  how, root_frame, camera_R)
@@ -32,7 +39,7 @@ def attach_view_colours(run, frames, covered: np.ndarray, cfg, how, model, shape
     with atomic_path(path) as tmp:
         torch.save(d, tmp)
     run.log(f"view colours: {views.count} anchor orientations, each projected from the {views.frames} training "
-            f"frames nearest it ({time.monotonic() - t0:.1f} s)")
+            f"frames nearest it{aligned} ({time.monotonic() - t0:.1f} s)")
     return True
 
 

@@ -119,3 +119,15 @@ def test_a_run_stopped_before_its_view_colours_gets_them_from_morf_run(viewed):
     assert load_trained_avatar(run.root).view_colours is not None and not view_colours_missing(run)
     assert run.last_step() == steps  # nothing trained again
     assert train_plan(viewed.root, "v", ("train", str(viewed.root))).action == "skip"
+
+
+def test_views_of_an_aligned_colour_come_from_aligned_frames(tiny_capture):
+    """A run whose one colour texture came from flow-aligned frames projects its views from the
+    frames aligned to that colour, and says so."""
+    from morf.train.trained_avatar import load_trained_avatar
+
+    assert main(["train", str(tiny_capture.root), "--preset", "tiny", "--steps", "2", "--device", "cpu", "--name", "a",
+                 "--set", "view_colours=2", "--set", "colour_align_passes=1"]) == 0
+    log = (tiny_capture.runs_dir / "a" / "train.log").read_text()
+    assert "view colours: 2 anchor orientations" in log and "first aligned to the avatar's colour" in log
+    assert load_trained_avatar(tiny_capture.runs_dir / "a").view_colours.count == 2
