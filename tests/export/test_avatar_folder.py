@@ -233,3 +233,34 @@ def test_arrays_the_rasterizers_index_with_are_checked(avatar, case):
     _rewrite(avatar, file, **changes)
     text = refused(avatar)
     assert file in text and words in text, text
+
+
+def _with_view_colours(root: Path, anchors: np.ndarray, colours: np.ndarray) -> None:
+    """Add view_colours.npz and record it in the manifest, as ``morf export`` does."""
+    from morf.avatar.view_colour import ViewColourBytes
+    from morf.export.avatar_folder import write_view_colours
+
+    write_view_colours(root, ViewColourBytes(anchors, colours))
+    fields = {k: v for k, v in json.loads((root / MANIFEST).read_text()).items()
+              if k not in ("format", "version", "files")}
+    write_manifest(root, fields)
+
+
+def test_view_colours_load_and_bad_ones_are_one_line(avatar):
+    eye = np.tile(np.eye(3, dtype=np.float32), (2, 1, 1))
+    _with_view_colours(avatar, eye, np.full((2, 4, 4, 3), 150, np.uint8))
+    views = load_exported_avatar(avatar).view_colours
+    assert views.anchors.shape == (2, 3, 3) and views.data.shape == (2, 4, 4, 3)
+    for anchors, colours, words in ((eye, np.full((2, 8, 8, 3), 150, np.uint8), "colours"),  # other texel count
+                                    (eye, np.full((3, 4, 4, 3), 150, np.uint8), "colours"),  # other anchor count
+                                    (eye, np.zeros((2, 4, 4, 3), np.float32), "colours"),  # not bytes
+                                    (eye[:, :2], np.full((2, 4, 4, 3), 150, np.uint8), "anchors"),
+                                    (eye * np.nan, np.full((2, 4, 4, 3), 150, np.uint8), "anchors")):
+        save_npz(avatar / "view_colours.npz", anchors=anchors, colours=colours)
+        fields = {k: v for k, v in json.loads((avatar / MANIFEST).read_text()).items()
+                  if k not in ("format", "version", "files")}
+        write_manifest(avatar, fields)
+        text = refused(avatar)
+        assert "view_colours.npz" in text and words in text, text
+    (avatar / "view_colours.npz").write_bytes(b"not an npz")  # damaged after export: the sums say so
+    assert "view_colours.npz" in refused(avatar)

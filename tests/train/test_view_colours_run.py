@@ -131,3 +131,22 @@ def test_views_of_an_aligned_colour_come_from_aligned_frames(tiny_capture):
     log = (tiny_capture.runs_dir / "a" / "train.log").read_text()
     assert "view colours: 2 anchor orientations" in log and "first aligned to the avatar's colour" in log
     assert load_trained_avatar(tiny_capture.runs_dir / "a").view_colours.count == 2
+
+
+def test_damaged_view_colours_in_avatar_pt_are_one_line(viewed, tmp_path):
+    import torch
+
+    from morf.errors import ProjectError
+    from morf.train.trained_avatar import load_trained_avatar
+
+    d = torch.load(viewed.runs_dir / "v" / "avatar.pt", weights_only=True)
+    assert d.get("view_colours") is not None
+    for key, value in (("colours", d["view_colours"]["colours"][:, :, :8]),  # other texel count
+                       ("colours", d["view_colours"]["colours"][:2]),  # other anchor count
+                       ("root_frame", torch.zeros(2, 2, dtype=torch.float64))):
+        bad = {**d, "view_colours": {**d["view_colours"], key: value}}
+        path = tmp_path / f"bad-{key}.pt"
+        torch.save(bad, path)
+        with pytest.raises(ProjectError) as e:
+            load_trained_avatar(path)
+        assert "view colours" in str(e.value) and "\n" not in str(e.value)
