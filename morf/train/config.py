@@ -75,6 +75,9 @@ class TrainConfig:
     # (renderer.rgb_skip).
     view_colours: int = 0
     view_colour_frames: int = 6
+    # > 0: a view's colour only on texels its frames saw about as squarely as the best frames did
+    # (within this much facing cos; morf.train.view_colours.project_view_colours), else the one texture's
+    view_colour_margin: float = 0.0
     batch_size: int = 4  # images per step
     steps: int = 3000  # optimisation steps of the main stage
     texture_channels: int = 16  # C of the neural texture
@@ -252,6 +255,7 @@ class TrainConfig:
             (self.loss_edge_inset >= 0, f"loss_edge_inset must be >= 0, got {self.loss_edge_inset}"),
             (self.view_colours >= 0, f"view_colours must be >= 0 (0: none), got {self.view_colours}"),
             (self.view_colour_frames >= 1, f"view_colour_frames must be >= 1, got {self.view_colour_frames}"),
+            (0.0 <= self.view_colour_margin <= 1.0, f"view_colour_margin must lie in [0, 1], got {self.view_colour_margin}"),
             (self.colour_prior_count >= 0, f"colour_prior_count must be >= 0 pixels, got {self.colour_prior_count}"),
             (self.colour_align_passes >= 0, f"colour_align_passes must be 0 (plain projection) or a number of "
                                             f"alignment passes, got {self.colour_align_passes}"),

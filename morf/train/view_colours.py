@@ -34,7 +34,7 @@ def attach_view_colours(run, frames, covered: np.ndarray, cfg, how, model, shape
         aligned = ", the frames first aligned to the avatar's colour"
     root_frame = root_reference_frame(model, shape)
     views = project_view_colours(frames, covered, base, cfg.view_colours, cfg.view_colour_frames, cfg.texture_dilate,
-                                 how, root_frame, camera_R)
+                                 how, root_frame, camera_R, cfg.view_colour_margin)
     d["view_colours"] = views.to_dict()
     with atomic_path(path) as tmp:
         torch.save(d, tmp)
@@ -66,25 +66,50 @@ def root_reference_frame(model, shape) -> np.ndarray:
 
 
 def project_view_colours(frames, covered: np.ndarray, base: np.ndarray, count: int, per_view: int, dilate: int,
-                         how, root_frame: np.ndarray, camera_R: np.ndarray) -> ViewColours:
+                         how, root_frame: np.ndarray, camera_R: np.ndarray, margin: float = 0.0) -> ViewColours:
     """``count`` view colours from a training FrameSet (its poses turned into orientations by
     :func:`view_orientation` with ``root_frame`` and ``camera_R``):
     each anchor's colour projected (:func:`morf.train.floor_texture.floor_texture` with ``how``) from
     the ``per_view`` frames nearest it by root angle; texels they did not see take ``base`` (3, S, S),
-    the avatar's one colour texture (0-1)."""
-    from morf.train.floor_texture import floor_texture
+    the avatar's one colour texture (0-1).
+
+    ``margin`` > 0: a view's colour only where its frames saw the texel about as squarely as the
+    frames that saw it best (:func:`squareness`): fully where their facing (cos) is at least the
+    best's, not at all where it is ``margin`` or more below it, in between linearly; the one
+    texture's colour elsewhere. A view's frames see the eyes of a three-quarter view at a slant, and
+    the one texture has them from the frames that faced them."""
     from morf.train.frames import FrameSet
+    from morf.train.floor_texture import floor_texture
 
     rot = np.stack([view_orientation(camera_R, root_frame, r) for r in frames.rotvecs[:, 0]])
     picked = spread_anchors(rot, count)
     near = np.argsort(angles_between(rot[picked], rot), axis=1, kind="stable")[:, :per_view]
+    best = squareness(frames, covered, how, SQUARE_POWER) if margin > 0 else None
     colours = []
     for idx in near:
         idx = np.sort(idx)
         sub = FrameSet(frames.images[idx], frames.masks[idx], frames.uv[idx], frames.uv_mask[idx], frames.facing[idx],
                        frames.rotvecs[idx], frames.frame_ids[idx])
         tex, seen = floor_texture(sub, covered, dilate, how=how)
-        rgb = np.where(seen[None].astype(bool), tex[:3], base)
+        mix = seen.astype(np.float32)
+        if best is not None:
+            mix = mix * np.clip((squareness(sub, covered, how, how.facing_power) - best + margin) / margin, 0, 1)
+        rgb = mix[None] * tex[:3] + (1 - mix[None]) * base
         colours.append(np.clip(np.rint(rgb * 255.0), 0, 255).astype(np.uint8))
     return ViewColours(rot[picked].astype(np.float32), np.stack(colours), per_view,
                        np.asarray(root_frame, np.float64), np.asarray(camera_R, np.float64))
+
+
+SQUARE_POWER = 8.0  # facing weights that make a texel's mean facing about its best frames'
+
+
+def squareness(frames, covered: np.ndarray, how, power: float) -> np.ndarray:
+    """(S, S) the mean facing (cos, 0-1) of the pixels that project into each texel, weighted by
+    facing ** ``power`` (a high power: about the best facing any frame gave it), 0 where none do."""
+    import dataclasses
+
+    from morf.train.floor_texture import floor_texture
+
+    faces = dataclasses.replace(frames, images=np.repeat(frames.facing[..., None], 3, axis=-1))
+    tex, seen = floor_texture(faces, covered, 0, how=dataclasses.replace(how, facing_power=power, prior_count=0.0))
+    return np.where(seen.astype(bool), tex[0], 0.0).astype(np.float32)

@@ -109,3 +109,32 @@ def test_the_root_frame_is_the_skeletons(body_model):
     shape = np.zeros((1, 6), np.float32)
     want = skeleton_from_body_model(body_model, torch.from_numpy(shape)).reference_rotations[0]
     assert np.allclose(root_reference_frame(body_model, shape), want, atol=1e-9)
+
+
+def test_a_view_keeps_only_the_texels_its_frames_saw_squarely():
+    import dataclasses
+
+    from morf.train.texel_splat import Projection
+    from morf.train.view_colours import squareness
+
+    fs = _frames()
+    facing = np.stack([np.full((16, 16), 255 - 25 * i, np.uint8) for i in range(fs.num_frames)])  # frame 0 squarest
+    fs = dataclasses.replace(fs, facing=facing)
+    covered = np.ones((16, 16), bool)
+    assert np.allclose(squareness(fs, covered, Projection(), 64.0), 1.0, atol=0.02)  # about the best frame's
+    base = np.full((3, 16, 16), 0.5, np.float32)
+    views = project_view_colours(fs, covered, base, 8, 1, 0, Projection(), np.eye(3), np.eye(3), margin=0.2)
+    from morf.train.view_colours import SQUARE_POWER
+
+    best = float(squareness(fs, covered, Projection(), SQUARE_POWER).mean())  # about frame 0's 1.0
+    assert 0.9 < best <= 1.0
+    mixes = []
+    for k in range(8):
+        i = int(np.argmin(angles_between(views.anchors[k:k + 1].astype(np.float64),
+                                         rotation_matrices(fs.rotvecs[:, 0]))[0]))
+        gap = best - (255 - 25 * i) / 255  # how much less squarely frame i saw every texel than the best
+        mix = np.clip((0.2 - gap) / 0.2, 0, 1)
+        mixes.append(mix)
+        want = mix * (i * 30 + 10) + (1 - mix) * 127.5
+        assert np.abs(views.colours[k, 0].astype(float) - want).max() <= 2.0, (k, i)
+    assert max(mixes) == 1.0 and min(mixes) == 0.0  # the squarest view's own colour, the slanted ones the base
