@@ -43,9 +43,6 @@ def report(result) -> None:
           f"{result.precision} renderer ({'tail in the page' if result.renderer == 'tail' else 'whole graph'}), "
           f"motions {', '.join(result.motions)})")
     print(f"open it with: morf serve {result.path}   (or put the folder on any static host: docs/web.md)")
-    if result.view_colours_left_out:
-        print("note: the avatar's view colours are not drawn in the browser yet; the page draws its one colour "
-              "texture (docs/web.md)")
 
 
 def run(args) -> int:

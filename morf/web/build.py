@@ -32,8 +32,7 @@ from morf.web.web_avatar import write_web_avatar
 @dataclass(frozen=True)
 class WebFolder:
     """What was written: ``path``; ``bytes`` in all; ``motions`` names; ``renderer`` mode ("tail" /
-    "image") and precision; ``backends`` the onnxruntime-web builds the folder carries;
-    ``view_colours_left_out``: the avatar has view colours, which the page does not draw."""
+    "image") and precision; ``backends`` the onnxruntime-web builds the folder carries."""
 
     path: Path
     bytes: int
@@ -41,7 +40,6 @@ class WebFolder:
     renderer: str
     precision: str
     backends: tuple[str, ...]
-    view_colours_left_out: bool = False
 
 
 def folder_bytes(path: Path) -> int:
@@ -82,8 +80,7 @@ def build_web_folder(avatar_dir: str | os.PathLike, out: str | os.PathLike, moti
         _move_into_place(tmp, Path(out), names, claim)
     write_record(out, command, names)
     return WebFolder(Path(out), folder_bytes(Path(out)), tuple(e["name"] for e in entries), doc["renderer"]["mode"],
-                     doc["renderer"]["precision"], tuple(b["backend"] for b in backends),
-                     bool(doc["texture"]["view_colours_left_out"]))
+                     doc["renderer"]["precision"], tuple(b["backend"] for b in backends))
 
 
 def _move_into_place(tmp: Path, out: Path, names: list[str], claim) -> None:

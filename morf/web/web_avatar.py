@@ -143,6 +143,9 @@ def write_web_avatar(avatar: ExportedAvatar, folder: Path, motions: list[dict], 
     folder.mkdir(parents=True, exist_ok=True)
     tex = avatar.texture
     (folder / "texture.bin").write_bytes(np.ascontiguousarray(tex.data, np.uint8).tobytes())
+    views = avatar.view_colours
+    if views is not None:  # the colour channels by view, blended per frame by view_colours.js
+        (folder / "view_colours.bin").write_bytes(np.ascontiguousarray(views.data, np.uint8).tobytes())
     levels = dict(zip(LEVEL_NAMES, light_meshes(avatar.mesh, avatar.skeleton.names, avatar.skeleton.parents)))
     mesh, layout = _mesh_bytes(avatar, levels)
     (folder / "mesh.bin").write_bytes(mesh)
@@ -157,9 +160,7 @@ def write_web_avatar(avatar: ExportedAvatar, folder: Path, motions: list[dict], 
         "image_size": manifest.get("image_size"),
         "size_multiple": avatar.size_multiple,
         "texture": {"file": "texture.bin", "height": int(tex.data.shape[0]), "width": int(tex.data.shape[1]),
-                    "channels": int(tex.data.shape[2]), "zero_point": 128,
-                    # the page draws the one colour texture; an avatar's view colours are not sent
-                    "view_colours_left_out": avatar.view_colours is not None},
+                    "channels": int(tex.data.shape[2]), "zero_point": 128},
         "mesh": {"file": "mesh.bin", "vertices": avatar.mesh.num_vertices, "faces": int(avatar.mesh.faces.shape[0]),
                  "arrays": layout, "levels": [
                      {"name": name, "array": f"faces_{name}", "faces": int(lm.mesh.faces.shape[0]),
@@ -171,5 +172,8 @@ def write_web_avatar(avatar: ExportedAvatar, folder: Path, motions: list[dict], 
         "motions": motions,
         "files": files,
     }
+    if views is not None:
+        doc["view_colours"] = {"file": "view_colours.bin", "count": int(views.anchors.shape[0]),
+                               "anchors": np.round(views.anchors.astype(np.float64), 9).reshape(-1).tolist()}
     (folder / "avatar.json").write_text(json.dumps(doc, separators=(",", ":")))
     return doc

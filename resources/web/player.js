@@ -10,6 +10,7 @@ import { ColourFill } from './fill.js';
 import { Renderer } from './renderer.js';
 import { viewProjection } from './camera.js';
 import { BodyBox, CropWindow } from './bounds.js';
+import { ViewColours } from './view_colours.js';
 
 // Pixels kept around the person's box (then out to the renderer's grid): the renderer's deeper
 // layers see this much of the empty surroundings. 32 against 64: the window about 0.36 of a 640
@@ -40,10 +41,11 @@ export async function loadAvatar(config) {
   const base = config.avatar.replace(/[^/]*$/, '');
   const doc = await (await fetch(config.avatar)).json();
   if (doc.format !== 'morf-web-avatar' || doc.version !== 1) throw new Error(`${config.avatar} is not a morf web avatar (version 1)`);
-  const [texture, mesh, graph, rasterShader] = await Promise.all([
+  const [texture, mesh, graph, rasterShader, views] = await Promise.all([
     fetchBytes(base + doc.texture.file), fetchBytes(base + doc.mesh.file), fetchBytes(base + doc.renderer.file),
-    loadRasterShader()]);
-  return { doc, texture: new Uint8Array(texture), mesh, graph: new Uint8Array(graph), rasterShader };
+    loadRasterShader(), doc.view_colours ? fetchBytes(base + doc.view_colours.file) : null]);
+  return { doc, texture: new Uint8Array(texture), mesh, graph: new Uint8Array(graph), rasterShader,
+    views: views && new Uint8Array(views) };
 }
 
 export async function loadMotion(entry) {
@@ -78,6 +80,7 @@ export class Player {
     const tail = avatar.doc.renderer.tail;
     this.fill = tail && tail.fill_levels ? new ColourFill(tail) : null;
     this.rows = new Float32Array(this.skeleton.J * 12);
+    this.views = avatar.views ? new ViewColours(avatar.doc.view_colours, avatar.views, avatar.texture, this.skeleton) : null;
     this.bodyBox = new BodyBox(avatar.doc, avatar.mesh);
     const crop = new URLSearchParams(location.search).get('crop');  // crop=off: the whole frame; crop=N: N pixels' margin
     this.cropMargin = crop === 'off' ? -1 : crop !== null && crop !== '' ? Number(crop) : CROP_MARGIN;
@@ -148,6 +151,10 @@ export class Player {
     this.skeleton.boneRows(frame, this.rows);
     if (this.meshChoice === 'auto') this.raster.setMesh(this.levelOfDetail(camera));
     this.raster.uploadBones(this.rows);
+    if (this.views) {
+      const rgba = this.views.update(frame, camera.R);
+      if (rgba) this.raster.setColour(rgba);
+    }
     const crop = this.crop(camera);
     this.lastCrop = crop;
     const t1 = performance.now();

@@ -111,6 +111,7 @@ export class NeuralRaster {
     this.pipelines = {};
     this.setSkin(skin);
     const t = doc.texture;
+    this.textureSize = { width: t.width, height: t.height };
     this.textures = [];
     const plane = new Uint8Array(t.width * t.height * 4);
     for (let i = 0; i < 4; i++) {
@@ -248,6 +249,14 @@ export class NeuralRaster {
 
   // crop: {x, y, w, h} the window drawn (rows top first; the attachment keeps image row 0 in its row
   // 0), or the whole frame. Outside it the attachment keeps what it held: read() reads only the window.
+  // Replace channels 0-3 (the first texture) with these RGBA bytes (view colours, view_colours.js).
+  setColour(rgba) {
+    const gl = this.gl, t = this.textureSize;
+    gl.bindTexture(gl.TEXTURE_2D, this.textures[0]);
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, t.width, t.height, gl.RGBA, gl.UNSIGNED_BYTE, rgba);
+  }
+
   draw(viewProj, crop = { x: 0, y: 0, w: this.size, h: this.size }) {
     const gl = this.gl;
     this.turn ^= 1;

@@ -259,3 +259,49 @@ def test_tail_in_javascript_shows_its_image_on_a_2d_canvas(tail_web):
         shown[canvas] = _png(r["canvas"])
         assert np.array_equal(shown[canvas], _image(r["image"])), canvas
     assert (np.abs(shown["2d"].astype(int) - 255).max(-1) > 8).mean() > 0.01  # a body on the white background
+
+
+def test_view_colours_are_drawn_as_the_python_player_draws_them(tiny_avatar, tmp_path):
+    """An avatar with view colours (four anchors, each a different flat green and blue over the
+    texture's own channel 0): the page blends them per frame as the Python player does. The page
+    drawing the one texture instead would miss by far more than the bar."""
+    import json
+    import shutil
+
+    from morf.avatar.view_colour import ViewColourBytes, rotation_matrices
+    from morf.export.avatar_folder import MANIFEST, load_exported_avatar, write_manifest, write_view_colours
+    from morf.web.build import build_web_folder
+    from morf.web.check import page_frames, psnr
+    from tests.web.conftest import browser_or_skip
+
+    browser_or_skip()
+    avatar = tmp_path / "avatar"
+    shutil.copytree(tiny_avatar, avatar)
+    tex = load_exported_avatar(avatar).texture.data
+    anchors = rotation_matrices(np.array([[0, 0, 0], [0, 0, 0.6], [0, 1.2, 0], [1.0, 0, 0.4]], float))
+    colours = np.stack([np.dstack([tex[..., 0], np.full(tex.shape[:2], 60 + 50 * k, np.uint8),
+                                   np.full(tex.shape[:2], 230 - 50 * k, np.uint8)]) for k in range(4)])
+    write_view_colours(avatar, ViewColourBytes(anchors.astype(np.float32), colours))
+    fields = {k: v for k, v in json.loads((avatar / MANIFEST).read_text()).items()
+              if k not in ("format", "version", "files")}
+    write_manifest(avatar, fields)
+    folder = build_web_folder(avatar, tmp_path / "web")
+    doc = json.loads((folder.path / "avatar" / "avatar.json").read_text())
+    assert doc["view_colours"]["count"] == 4 and (folder.path / "avatar" / "view_colours.bin").is_file()
+    size = 256
+    frames = _frames(104, size, count=3)
+    page, info = page_frames(folder.path, frames, query="mesh=full")
+    want, person = _python_frames(avatar, frames, size, folder.precision)
+    plain, _ = _python_frames(_without_views(avatar), frames, size, folder.precision)
+    assert info["messages"] == []
+    for a, b, c, m in zip(page, want, plain, person):
+        assert psnr(a, b, m) >= MIN_PERSON_PSNR_DB, psnr(a, b, m)
+        assert psnr(c, b, m) < MIN_PERSON_PSNR_DB - 5  # the view colours change the image
+
+
+def _without_views(folder):
+    import dataclasses
+
+    from morf.export.avatar_folder import load_exported_avatar
+
+    return dataclasses.replace(load_exported_avatar(folder), view_colours=None)
