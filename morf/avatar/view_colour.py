@@ -22,19 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from morf.rotations import rotvec_to_matrix_rodrigues
+
 BLEND = 3  # anchors blended at a time; the next one's distance fades the last in and out
-
-
-def rotation_matrices(rotvecs: np.ndarray) -> np.ndarray:
-    """(N, 3) axis-angle -> (N, 3, 3) rotation matrices (Rodrigues), float64."""
-    r = np.asarray(rotvecs, np.float64).reshape(-1, 3)
-    theta = np.linalg.norm(r, axis=1)
-    k = r / np.maximum(theta, 1e-12)[:, None]
-    K = np.zeros((len(r), 3, 3))
-    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -k[:, 2], k[:, 1], -k[:, 0]
-    K = K - K.transpose(0, 2, 1)
-    s, c = np.sin(theta)[:, None, None], np.cos(theta)[:, None, None]
-    return np.eye(3)[None] + s * K + (1 - c) * (K @ K)
 
 
 def angles_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -81,7 +71,7 @@ def view_orientation(camera_R: np.ndarray, root_frame: np.ndarray, root_rotvec: 
     a pose's bone 0 turns about the skeleton's reference frame ``root_frame``) seen through the
     world-to-camera rotation ``camera_R``."""
     U = np.asarray(root_frame, np.float64)
-    return np.asarray(camera_R, np.float64) @ U.T @ rotation_matrices(root_rotvec)[0] @ U
+    return np.asarray(camera_R, np.float64) @ U.T @ rotvec_to_matrix_rodrigues(root_rotvec) @ U
 
 
 @dataclass(frozen=True)

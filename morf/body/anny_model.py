@@ -141,5 +141,18 @@ class AnnyBodyModel(BodyModel):
                           rest_vertices=rest_v, keypoints3d=kp)
 
 
+def reference_rotations(model: AnnyBodyModel, shape, rest=None):
+    """(J, 3, 3) float64 numpy: the frames a pose's bone rotations turn about ("local-ref"):
+    Anny's reference bone orientations, else the rest rotations of the body ``shape`` (1, S)
+    (``rest``: its (J, 4, 4) rest bone poses, when the caller has them)."""
+    ref = model.anny.reference_bone_orientations
+    if ref is not None:
+        return ref.detach().double().cpu().numpy()
+    if rest is None:
+        with torch.no_grad():
+            rest = model.rest(torch.as_tensor(shape, dtype=torch.float32).reshape(1, -1))["rest_bone_poses"][0]
+    return torch.as_tensor(rest)[:, :3, :3].double().cpu().numpy()
+
+
 def anny_cache_dir() -> str:
     return os.environ.get("ANNY_CACHE_DIR", os.path.join(os.path.expanduser("~"), ".cache", "anny"))

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from morf.records import length_of
+from morf.rotations import rotvec_to_matrix_rodrigues  # noqa: F401  (imported from here too)
 
 
 @dataclass(frozen=True)
@@ -100,24 +101,6 @@ class SkinningSkeleton:
                                 reference_rotations=np.asarray(a["reference_rotations"], np.float64))
 
 
-def rotvec_to_matrix_rodrigues(rotvecs: np.ndarray) -> np.ndarray:
-    """(..., 3) axis-angle -> (..., 3, 3) rotation matrices (Rodrigues, safe at zero).
-
-    The closed form, not scipy's :func:`morf.motion.so3.rotvec_to_matrix`: the two agree to about
-    1e-15 but not bit for bit, and the player's and glTF's bone transforms are made with this one.
-    """
-    r = np.asarray(rotvecs, np.float64)
-    theta2 = (r * r).sum(-1)[..., None, None]
-    theta = np.sqrt(theta2)
-    small = theta2 < 1e-12
-    a = np.where(small, 1 - theta2 / 6, np.sin(theta) / np.where(small, 1, theta))
-    b = np.where(small, 0.5 - theta2 / 24, (1 - np.cos(theta)) / np.where(small, 1, theta2))
-    x, y, z = r[..., 0], r[..., 1], r[..., 2]
-    zero = np.zeros_like(x)
-    K = np.stack([zero, -z, y, z, zero, -x, -y, x, zero], -1).reshape(*r.shape[:-1], 3, 3)
-    return np.eye(3) + a * K + b * (K @ K)
-
-
 def skeleton_from_body_model(model, shape) -> SkinningSkeleton:
     """The shaped skeleton of an Anny body model (needs torch; used at export time only).
 
@@ -126,10 +109,11 @@ def skeleton_from_body_model(model, shape) -> SkinningSkeleton:
     """
     import torch
 
+    from morf.body.anny_model import reference_rotations
+
     with torch.no_grad():
         rest = model.rest(shape)["rest_bone_poses"][0].double().cpu().numpy()
-        ref = model.anny.reference_bone_orientations
-        U = rest[:, :3, :3] if ref is None else ref.double().cpu().numpy()
+    U = reference_rotations(model, shape, rest)
     return SkinningSkeleton(names=np.asarray(model.bone_names, dtype=str),
                             parents=np.asarray(model.bone_parents, np.int32), rest_rotations=rest[:, :3, :3].copy(),
                             rest_heads=rest[:, :3, 3].copy(), reference_rotations=U)

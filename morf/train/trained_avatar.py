@@ -93,8 +93,7 @@ def render_batch(avatar, batch) -> tuple[torch.Tensor, torch.Tensor]:
 
 
 def save_trained_avatar(path: str | Path, texture: torch.Tensor, renderer: nn.Module, config_dict: dict,
-                        shape: torch.Tensor | None, camera: PinholeCamera | None, extra: dict | None = None,
-                        view_colours: ViewColours | None = None) -> None:
+                        shape: torch.Tensor | None, camera: PinholeCamera | None, extra: dict | None = None) -> None:
     """Atomically write ``avatar.pt``."""
     from morf.io import atomic_path
 
@@ -110,8 +109,6 @@ def save_trained_avatar(path: str | Path, texture: torch.Tensor, renderer: nn.Mo
         "camera": None if camera is None else json.dumps(camera.to_dict(), default=float),
         "extra": extra or {},
     }
-    if view_colours is not None:
-        payload["view_colours"] = view_colours.to_dict()
     with atomic_path(path) as tmp:
         torch.save(payload, tmp)
 

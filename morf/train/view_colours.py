@@ -9,6 +9,7 @@ import numpy as np
 import torch
 
 from morf.avatar.view_colour import ViewColours, angles_between, spread_anchors, view_orientation
+from morf.body.anny_model import reference_rotations
 from morf.io import atomic_path
 from morf.io.torch_files import load_torch_file
 
@@ -32,7 +33,7 @@ def attach_view_colours(run, frames, covered: np.ndarray, cfg, how, model, shape
         frames = align_frames(frames, np.ascontiguousarray(base.transpose(1, 2, 0)),
                               MAX_FLOW_SHARE * frames.resolution)[0]
         aligned = ", the frames first aligned to the avatar's colour"
-    root_frame = root_reference_frame(model, shape)
+    root_frame = reference_rotations(model, shape)[0]
     views = project_view_colours(frames, covered, base, cfg.view_colours, cfg.view_colour_frames, cfg.texture_dilate,
                                  how, root_frame, camera_R, cfg.view_colour_margin)
     d["view_colours"] = views.to_dict()
@@ -52,17 +53,6 @@ def view_colours_missing(run) -> bool:
     if not cfg.view_colours or not cfg.renderer.rgb_skip or cfg.method == "rgb":
         return False
     return load_torch_file(run.avatar_path, what="avatar").get("view_colours") is None
-
-
-def root_reference_frame(model, shape) -> np.ndarray:
-    """(3, 3) the reference rotation bone 0 of a pose turns about, for this body (the skeleton's
-    ``reference_rotations[0]``, :func:`morf.export.skeleton.skeleton_from_body_model`)."""
-    with torch.no_grad():
-        ref = model.anny.reference_bone_orientations
-        if ref is not None:
-            return ref[0].double().cpu().numpy()
-        shape_t = torch.as_tensor(np.asarray(shape, np.float32)).reshape(1, -1)
-        return model.rest(shape_t)["rest_bone_poses"][0, 0, :3, :3].double().cpu().numpy()
 
 
 def project_view_colours(frames, covered: np.ndarray, base: np.ndarray, count: int, per_view: int, dilate: int,

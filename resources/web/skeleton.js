@@ -4,7 +4,7 @@
 //   K_c = [U_p^T D_c U_c | U_p^T (q_c - q_p)],  W_0 = [U_0^T D_0 U_0 | U_0^T d_0],  W_c = W_p K_c,
 //   T_c = W_c P_c^-1.
 
-function mul3(a, b) {  // 3x3 row-major products
+export function mul3(a, b) {  // 3x3 row-major products
   const o = new Float64Array(9);
   for (let i = 0; i < 3; i++) for (let j = 0; j < 3; j++) {
     o[3 * i + j] = a[3 * i] * b[j] + a[3 * i + 1] * b[3 + j] + a[3 * i + 2] * b[6 + j];

@@ -3,17 +3,9 @@
 // camera picks the three nearest anchor orientations, blended with integer weights summing to 256
 // that fall to zero as an anchor leaves the three; the blend is written into the raster's first
 // texture (channels 0-3, channel 3 kept) only when the weights change.
-import { rodrigues } from './skeleton.js';
+import { mul3, rodrigues } from './skeleton.js';
 
 const BLEND = 3;
-
-function mul3(a, b) {
-  const o = new Float64Array(9);
-  for (let i = 0; i < 3; i++) for (let j = 0; j < 3; j++) {
-    o[3 * i + j] = a[3 * i] * b[j] + a[3 * i + 1] * b[3 + j] + a[3 * i + 2] * b[6 + j];
-  }
-  return o;
-}
 
 export class ViewColours {
   // doc: avatar.json's "view_colours" ({count, anchors: K*9 row-major}); bytes: K x Ht x Wt x 3;

@@ -4,18 +4,19 @@ import numpy as np
 import pytest
 
 from morf.avatar.view_colour import (BLEND, ViewColourBytes, ViewColours, anchor_weights, angles_between,
-                                     quantize_view_colours, rotation_matrices, spread_anchors, view_orientation)
+                                     quantize_view_colours, spread_anchors, view_orientation)
 from morf.raster.texture_quant import ZERO_POINT, quantize_texture
+from morf.rotations import rotvec_to_matrix_rodrigues
 from morf.train.frames import FrameSet
-from morf.train.view_colours import project_view_colours, root_reference_frame
+from morf.train.view_colours import project_view_colours
 
 
 def _yaw(deg):
-    return rotation_matrices(np.array([[0.0, np.radians(deg), 0.0]]))[0]
+    return rotvec_to_matrix_rodrigues(np.array([[0.0, np.radians(deg), 0.0]]))[0]
 
 
 def test_rotations_and_angles():
-    r = rotation_matrices(np.array([[0.0, 0.3, 0.0], [0.1, -0.2, 0.4]]))
+    r = rotvec_to_matrix_rodrigues(np.array([[0.0, 0.3, 0.0], [0.1, -0.2, 0.4]]))
     assert np.allclose(r @ r.transpose(0, 2, 1), np.eye(3), atol=1e-12)
     assert np.allclose(np.linalg.det(r), 1.0)
     assert angles_between(_yaw(10)[None], _yaw(40)[None])[0, 0] == pytest.approx(np.radians(30))
@@ -73,7 +74,7 @@ def test_each_view_is_projected_from_the_frames_nearest_it():
     assert views.colours.shape == (4, 3, 16, 16) and views.count == 4 and views.frames == 1
     for k in range(4):  # one frame each: the anchor's own frame's red
         i = int(np.argmin(angles_between(views.anchors[k:k + 1].astype(np.float64),
-                                         rotation_matrices(fs.rotvecs[:, 0]))[0]))
+                                         rotvec_to_matrix_rodrigues(fs.rotvecs[:, 0]))[0]))
         assert np.all(np.abs(views.colours[k, 0].astype(int) - (i * 30 + 10)) <= 1)
     # a pose at an anchor's orientation is drawn mostly in that anchor's colour
     tex = views.texture_for(__import__("torch").zeros(16, 16, 16), fs.rotvecs[0, 0])
@@ -104,11 +105,14 @@ def test_bytes_are_the_textures_own():
 def test_the_root_frame_is_the_skeletons(body_model):
     import torch
 
+    from morf.body.anny_model import reference_rotations
     from morf.export.skeleton import skeleton_from_body_model
 
     shape = np.zeros((1, 6), np.float32)
-    want = skeleton_from_body_model(body_model, torch.from_numpy(shape)).reference_rotations[0]
-    assert np.allclose(root_reference_frame(body_model, shape), want, atol=1e-9)
+    want = skeleton_from_body_model(body_model, torch.from_numpy(shape)).reference_rotations
+    assert np.allclose(reference_rotations(body_model, shape), want, atol=1e-9)
+    rest = body_model.rest(torch.from_numpy(shape))["rest_bone_poses"][0]
+    assert np.allclose(reference_rotations(body_model, shape, rest), want, atol=1e-9)
 
 
 def test_a_view_keeps_only_the_texels_its_frames_saw_squarely():
@@ -131,7 +135,7 @@ def test_a_view_keeps_only_the_texels_its_frames_saw_squarely():
     mixes = []
     for k in range(8):
         i = int(np.argmin(angles_between(views.anchors[k:k + 1].astype(np.float64),
-                                         rotation_matrices(fs.rotvecs[:, 0]))[0]))
+                                         rotvec_to_matrix_rodrigues(fs.rotvecs[:, 0]))[0]))
         gap = best - (255 - 25 * i) / 255  # how much less squarely frame i saw every texel than the best
         mix = np.clip((0.2 - gap) / 0.2, 0, 1)
         mixes.append(mix)

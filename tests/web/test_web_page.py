@@ -268,8 +268,9 @@ def test_view_colours_are_drawn_as_the_python_player_draws_them(tiny_avatar, tmp
     import json
     import shutil
 
-    from morf.avatar.view_colour import ViewColourBytes, rotation_matrices
+    from morf.avatar.view_colour import ViewColourBytes
     from morf.export.avatar_folder import MANIFEST, load_exported_avatar, write_manifest, write_view_colours
+    from morf.rotations import rotvec_to_matrix_rodrigues
     from morf.web.build import build_web_folder
     from morf.web.check import page_frames, psnr
     from tests.web.conftest import browser_or_skip
@@ -278,7 +279,7 @@ def test_view_colours_are_drawn_as_the_python_player_draws_them(tiny_avatar, tmp
     avatar = tmp_path / "avatar"
     shutil.copytree(tiny_avatar, avatar)
     tex = load_exported_avatar(avatar).texture.data
-    anchors = rotation_matrices(np.array([[0, 0, 0], [0, 0, 0.6], [0, 1.2, 0], [1.0, 0, 0.4]], float))
+    anchors = rotvec_to_matrix_rodrigues(np.array([[0, 0, 0], [0, 0, 0.6], [0, 1.2, 0], [1.0, 0, 0.4]], float))
     colours = np.stack([np.dstack([tex[..., 0], np.full(tex.shape[:2], 60 + 50 * k, np.uint8),
                                    np.full(tex.shape[:2], 230 - 50 * k, np.uint8)]) for k in range(4)])
     write_view_colours(avatar, ViewColourBytes(anchors.astype(np.float32), colours))
