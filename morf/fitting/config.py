@@ -147,6 +147,13 @@ class FitConfig:
     # camera further than this visibility (a profile, whose far eye the face mesh guesses; 0.5 turned
     # People-Snapshot's profiles right, head_hands.hide_profile_faces); 0: every face counts
     profile_face_visibility: float = 0.0
+    # the head-and-hands step counts a face fully where the pose turns the head at most
+    # face_yaw_full degrees from the camera, not at all from face_yaw_none (180: every face fully;
+    # head_hands.face_yaw_weights), and ties neighbouring frames' changes together with
+    # landmark_temporal_weight (radians^2, scaled by the frames' spacing as the temporal terms are)
+    face_yaw_full: float = 30.0
+    face_yaw_none: float = 60.0
+    landmark_temporal_weight: float = 300.0
     # the body keypoints' nose and eyes count this much in frames where the face mesh, which found
     # faces elsewhere in the capture, found none (face_visibility.trust_found_faces; 1: as given)
     faceless_face_weight: float = 1.0
@@ -222,6 +229,10 @@ class FitConfig:
              f"faceless_face_weight must be in [0, 1], got {self.faceless_face_weight}"),
             (0 <= self.profile_face_visibility <= 1,
              f"profile_face_visibility must be in [0, 1], got {self.profile_face_visibility}"),
+            (0 <= self.face_yaw_full < self.face_yaw_none <= 180,
+             f"need 0 <= face_yaw_full < face_yaw_none <= 180 degrees, got {self.face_yaw_full} and {self.face_yaw_none}"),
+            (self.landmark_temporal_weight >= 0,
+             f"landmark_temporal_weight must be >= 0, got {self.landmark_temporal_weight}"),
         ]
         raise_first(checks)
         self.filter.validate()

@@ -211,7 +211,10 @@ def _finalize(model, inputs: FitInputs, cfg: FitConfig, state: FitState) -> tupl
         rotvecs, landmark_px = refine_head_hands(model, state.rotvecs.numpy(), state.transl.numpy(),
                                                  state.shape.numpy(), inputs.camera, inputs.landmarks, state.swapped,
                                                  None if state.spacing is None else state.spacing.gaps,
-                                                 HeadHandsConfig(profile_eye_visibility=cfg.profile_face_visibility))
+                                                 HeadHandsConfig(profile_eye_visibility=cfg.profile_face_visibility,
+                                                                 face_yaw_full=cfg.face_yaw_full,
+                                                                 face_yaw_none=cfg.face_yaw_none,
+                                                                 temporal=cfg.landmark_temporal_weight))
         state = dataclasses.replace(state, rotvecs=torch.as_tensor(rotvecs))
     rv, tr, sh = (x.to(device) for x in (state.rotvecs, state.transl, state.shape))
     offsets = None

@@ -54,8 +54,20 @@ class HeadHandsConfig:
     prior: weight of the squared change of the head and wrist rotations (radians^2);
     finger_prior: weight of the squared finger rotations (away from the rest, a relaxed hand);
     fingers: fit the 15 finger bones of each hand; steps, lr: Adam steps and step size
-    (radians); batch: frames fitted together; min_points: confident points a hand (or the face)
-    needs to be fitted at all."""
+    (radians); batch: frames fitted together where no ``pair_weights`` link them (with them,
+    every frame at once); min_points: confident points a hand (or the face) needs to be fitted at
+    all;
+    face_yaw_full, face_yaw_none: the face counts fully where the pose the step starts from
+    turns the head at most ``face_yaw_full`` degrees from the camera, not at all from
+    ``face_yaw_none`` degrees, linearly in between (:func:`face_yaw_weights`; ``face_yaw_none``
+    180: every face counts fully). On People-Snapshot the step's turn of the head grew with that
+    angle, 2 degrees under 30, 6 at 40-60, 13 at 60-70 and 22 at 70-80, always towards the
+    camera (docs/fitting.md "The face mesh turned away");
+    temporal: weight of the squared difference of neighbouring frames' changes (radians^2),
+    times each pair's ``pair_weights`` (1 / gap^2 of the fit's temporal terms) and the two
+    frames' head sizes in the image against ``REFERENCE_HEAD_SHARE`` (:func:`head_share`; the
+    landmark term is in image pixels, so a small head pulls less): the change may not come and go
+    from one frame to the next as a face is found and lost."""
 
     face_weight: float = 1.0
     profile_eye_visibility: float = 0.0
@@ -69,6 +81,9 @@ class HeadHandsConfig:
     lr: float = 0.02
     batch: int = 16
     min_points: int = 4
+    face_yaw_full: float = 30.0
+    face_yaw_none: float = 60.0
+    temporal: float = 300.0
 
 
 @dataclass(frozen=True)
@@ -222,6 +237,45 @@ def hide_profile_faces(targets: torch.Tensor, points3d: torch.Tensor, camera, mi
     return out
 
 
+def head_yaw_deg(points3d: torch.Tensor, camera) -> torch.Tensor:
+    """(B,) degrees between where the posed head ``points3d`` (B, 49, 3) faces (from the ears'
+    midpoint through the nose tip) and the direction from its nose tip to the camera: 0 facing
+    it, 90 a profile, 180 the back of the head."""
+    position = torch.as_tensor(camera.position, dtype=points3d.dtype)
+    forward = points3d[:, 2] - points3d[:, 5:7].mean(1)
+    to_camera = position - points3d[:, 2]
+    cos = torch.nn.functional.cosine_similarity(forward, to_camera, dim=-1)
+    return torch.rad2deg(torch.arccos(cos.clamp(-1.0, 1.0)))
+
+
+def face_yaw_weights(targets: torch.Tensor, points3d: torch.Tensor, camera, full: float, none: float) -> torch.Tensor:
+    """``targets`` (B, 49, 3) with the face group's confidences scaled by how squarely the posed
+    body ``points3d`` faces the camera: 1 up to ``full`` degrees (:func:`head_yaw_deg`), 0 from
+    ``none``, linear between; unchanged where ``none`` is 180 or more.
+
+    The face mesh guesses the far side of a turned face: the further the head turns, the less
+    turned it draws the face, and a head turned to it turns towards the camera."""
+    if none >= 180:
+        return targets
+    w = ((none - head_yaw_deg(points3d, camera)) / max(none - full, 1e-6)).clamp(0.0, 1.0)
+    out = targets.clone()
+    out[:, :NUM_FACE, 2] = out[:, :NUM_FACE, 2] * w[:, None].to(out.dtype)
+    return out
+
+
+HEAD_SIZE_M = 0.2  # a head's height, for its size in the image
+# the image share (percent of its height) of a HEAD_SIZE_M head at which ``temporal`` applies as
+# given (the default synthetic capture's head: 10.6 %); elsewhere it scales with the size squared
+REFERENCE_HEAD_SHARE = 10.0
+
+
+def head_share(points3d: torch.Tensor, camera) -> torch.Tensor:
+    """(B,) a ``HEAD_SIZE_M`` head at the ears' midpoint of ``points3d`` (B, 49, 3), in percent of
+    the image height: the scale of the landmark term's pixels against a turn of the head."""
+    z = camera.world_to_camera(points3d[:, 5:7].mean(1, keepdim=True))[:, 0, 2].clamp_min(1e-3)
+    return 100.0 * float(camera.fy) * HEAD_SIZE_M / z / camera.height
+
+
 def fitted_bones(model, fingers: bool) -> tuple[list[int], list[int]]:
     """(neck, head and wrist bone indices; finger bone indices): what the refinement moves."""
     main = [model.bone_index(b) for b in HEAD_BONES + WRIST_BONES]
@@ -254,9 +308,11 @@ def landmark_residual_px(projected: torch.Tensor, targets: torch.Tensor, min_poi
 
 
 def _refine_bones(rot0: torch.Tensor, tr: torch.Tensor, tgt: torch.Tensor, poser: LandmarkPoser, camera,
-                  bones: torch.Tensor, prior: float, toward_rest: bool, cfg: HeadHandsConfig):
+                  bones: torch.Tensor, prior: float, toward_rest: bool, cfg: HeadHandsConfig,
+                  pair_weights: torch.Tensor | None = None):
     """Adam on ``bones``' rotvecs of ``rot0`` (B, J, 3) against the landmarks; the prior pulls
-    the change (or, ``toward_rest``, the rotation itself) toward zero. Returns (rotvecs, pixels)."""
+    the change (or, ``toward_rest``, the rotation itself) toward zero; ``pair_weights`` (B-1,)
+    (or None) tie neighbouring frames' changes together (``cfg.temporal``). Returns (rotvecs, pixels)."""
     delta = torch.zeros(rot0.shape[0], len(bones), 3, requires_grad=True)
     opt = torch.optim.Adam([delta], lr=cfg.lr)
     for _ in range(cfg.steps):
@@ -264,6 +320,9 @@ def _refine_bones(rot0: torch.Tensor, tr: torch.Tensor, tgt: torch.Tensor, poser
         px = camera.project(poser(BodyPose(r, tr)))
         held = r[:, bones] if toward_rest else delta
         loss = head_hands_term(px, tgt, camera.height, cfg).sum() + prior * held.pow(2).sum()
+        if pair_weights is not None:
+            step = (delta[1:] - delta[:-1]).pow(2).sum((1, 2))
+            loss = loss + cfg.temporal * (pair_weights * step).sum()
         opt.zero_grad()
         loss.backward()
         opt.step()
@@ -273,12 +332,16 @@ def _refine_bones(rot0: torch.Tensor, tr: torch.Tensor, tgt: torch.Tensor, poser
 
 
 def fit_head_hands(model, rotvecs: np.ndarray, transl: np.ndarray, shape: np.ndarray, camera, targets: np.ndarray,
-                   cfg: HeadHandsConfig = HeadHandsConfig()) -> HeadHandsFit:
+                   cfg: HeadHandsConfig = HeadHandsConfig(), pair_weights: np.ndarray | None = None) -> HeadHandsFit:
     """Refine the head, the wrists (and with ``cfg.fingers`` the fingers) of finished fits to the
     landmarks ``targets`` (N, 49, 3) (:func:`landmark_targets`); every other bone, the root and
     the translation stay as given. ``shape`` (1 or N, S); ``camera`` a PinholeCamera in the
     landmarks' pixels. Faces found where the given pose turns the head away are ignored
-    (:func:`hide_turned_away_faces`). Frames without evidence come back unchanged.
+    (:func:`hide_turned_away_faces`), and faces count less the further it turns the head from
+    the camera (:func:`face_yaw_weights`). Frames without evidence come back unchanged, unless
+    ``pair_weights`` (N-1,) (:meth:`~morf.fitting.frame_spacing.FrameSpacing.temporal_weights`)
+    tie the head's and the wrists' changes to their neighbours' (``cfg.temporal``); then all
+    frames are fitted at once.
 
     The head and the wrists are fitted first, then the fingers with them held: fitted together,
     the fingers soaked up the wrists' turn (wrist error on a synthetic capture 11-12 degrees
@@ -291,8 +354,10 @@ def fit_head_hands(model, rotvecs: np.ndarray, transl: np.ndarray, shape: np.nda
     tgt_all = torch.as_tensor(np.asarray(targets, np.float32))
     N = rot_all.shape[0]
     before, after = torch.full((N, 3), float("nan")), torch.full((N, 3), float("nan"))
-    for s in range(0, N, cfg.batch):
-        sl = slice(s, min(s + cfg.batch, N))
+    linked = pair_weights is not None and cfg.temporal > 0 and N > 1
+    batch = N if linked else cfg.batch
+    for s in range(0, N, batch):
+        sl = slice(s, min(s + batch, N))
         rot, tr = rot_all[sl], tr_all[sl]
         poser = LandmarkPoser(model, shape_t if shape_t.shape[0] == 1 else shape_t[sl])
         with torch.no_grad():
@@ -300,8 +365,13 @@ def fit_head_hands(model, rotvecs: np.ndarray, transl: np.ndarray, shape: np.nda
             tgt = hide_turned_away_faces(tgt_all[sl], points, camera)
             if cfg.profile_eye_visibility > 0:
                 tgt = hide_profile_faces(tgt, points, camera, cfg.profile_eye_visibility)
+            tgt = face_yaw_weights(tgt, points, camera, cfg.face_yaw_full, cfg.face_yaw_none)
             before[sl] = landmark_residual_px(camera.project(points), tgt, cfg.min_points)
-        rot, px = _refine_bones(rot, tr, tgt, poser, camera, main, cfg.prior, False, cfg)
+        pairs = None
+        if linked:  # the landmark term's pull scales with the head's size in the image: the tie too
+            share = head_share(points, camera) / REFERENCE_HEAD_SHARE
+            pairs = torch.as_tensor(np.asarray(pair_weights, np.float32)) * share[1:] * share[:-1]
+        rot, px = _refine_bones(rot, tr, tgt, poser, camera, main, cfg.prior, False, cfg, pairs)
         if len(fingers):
             rot, px = _refine_bones(rot, tr, tgt, poser, camera, fingers, cfg.finger_prior, True, cfg)
         after[sl] = landmark_residual_px(px, tgt, cfg.min_points)

@@ -57,5 +57,6 @@ def refine_head_hands(model, rotvecs: np.ndarray, transl: np.ndarray, shape: np.
     pixels after it: face anchors, left hand, right hand; NaN where a group has too little evidence).
     ``gaps`` (N-1,): how far apart the frames are (:class:`~morf.fitting.frame_spacing.FrameSpacing`),
     for :func:`smooth_changes`."""
-    res = fit_head_hands(model, rotvecs, transl, shape, camera, exchange_landmark_labels(targets, swapped), cfg)
+    pairs = None if gaps is None else np.where(np.isfinite(gaps), 1.0 / np.maximum(np.asarray(gaps, np.float64), 1.0) ** 2, 0.0)
+    res = fit_head_hands(model, rotvecs, transl, shape, camera, exchange_landmark_labels(targets, swapped), cfg, pairs)
     return smooth_changes(np.asarray(rotvecs), res.rotvecs, gaps), res.residual_after

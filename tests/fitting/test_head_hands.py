@@ -141,3 +141,49 @@ def test_profile_faces_do_not_count():
     assert kept == {0: 1.0, 30: 1.0, -30: 1.0, 85: 0.0, -85: 0.0, 120: 0.0}
     out = hide_profile_faces(targets, _head_points(85), camera, 0.5)
     assert bool((out[0, NUM_FACE:, 2] == 1).all())  # the hands keep their evidence
+
+
+def test_faces_count_less_the_further_the_head_turns():
+    """The face mesh draws a turned face less turned than it is: its weight falls from full at
+    ``face_yaw_full`` degrees to nothing at ``face_yaw_none``, and the hands keep theirs."""
+    from types import SimpleNamespace
+
+    from morf.fitting.head_hands import NUM_FACE, face_yaw_weights, head_yaw_deg
+
+    camera = SimpleNamespace(position=np.zeros(3))
+    targets = torch.ones(1, 49, 3)
+    yaws = (0, 20, -20, 40, 50, 70, -70, 85, 120)
+    angle = {y: float(head_yaw_deg(_head_points(y), camera)[0]) for y in yaws}
+    assert angle[0] < 15 and abs(angle[85] - 85) < 10 and angle[120] > 110  # the face's own tilt at 0
+    kept = {y: float(face_yaw_weights(targets, _head_points(y), camera, 30.0, 60.0)[0, :NUM_FACE, 2].min())
+            for y in yaws}
+    assert kept[0] == kept[20] == kept[-20] == 1.0
+    assert 1.0 > kept[40] > kept[50] > 0.0
+    assert kept[70] == kept[-70] == kept[85] == kept[120] == 0.0
+    out = face_yaw_weights(targets, _head_points(85), camera, 30.0, 60.0)
+    assert bool((out[0, NUM_FACE:, 2] == 1).all())
+    assert torch.equal(face_yaw_weights(targets, _head_points(85), camera, 30.0, 180.0), targets)
+
+
+def test_neighbours_carry_the_head_across_a_frame_without_a_face(body_model, scene):
+    """A face found in frames 0 and 2 but not in 1 (a detector that loses it for a frame): alone,
+    frame 1 keeps its turned head; tied to its neighbours, it comes most of the way with them."""
+    cam, rot, transl, shape = scene
+    rot3 = np.repeat(rot[:1], 3, 0)
+    tr3 = np.repeat(transl[:1], 3, 0)
+    tgt = _truth(body_model, cam, rot3, tr3, shape)
+    tgt[:, 7:, 2] = 0  # the face alone
+    tgt[1, :, 2] = 0
+    off = rot3.copy()
+    off[:, body_model.bone_index("head")] += np.array([0.0, 0.0, 0.25], np.float32)  # about 14 degrees
+    true_R = _global_rotations(body_model, rot3, tr3, shape, ("head",))
+    alone = fit_head_hands(body_model, off, tr3, shape, cam, tgt, HeadHandsConfig(fingers=False))
+    tied = fit_head_hands(body_model, off, tr3, shape, cam, tgt, HeadHandsConfig(fingers=False), np.ones(2))
+    err_alone = _angle_deg(_global_rotations(body_model, alone.rotvecs, tr3, shape, ("head",)), true_R)[:, 0]
+    err_tied = _angle_deg(_global_rotations(body_model, tied.rotvecs, tr3, shape, ("head",)), true_R)[:, 0]
+    np.testing.assert_array_equal(alone.rotvecs[1], off[1])
+    assert err_alone[1] > 12 and err_tied[1] < 0.5 * err_alone[1], (err_alone, err_tied)
+    assert max(err_tied[0], err_tied[2], err_alone[0], err_alone[2]) < 5, (err_alone, err_tied)
+    no_link = fit_head_hands(body_model, off, tr3, shape, cam, tgt, HeadHandsConfig(fingers=False, temporal=0.0),
+                             np.ones(2))
+    np.testing.assert_array_equal(no_link.rotvecs[1], off[1])
