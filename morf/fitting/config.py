@@ -150,7 +150,8 @@ class FitConfig:
     # the head-and-hands step counts a face fully where the pose turns the head at most
     # face_yaw_full degrees from the camera, not at all from face_yaw_none (180: every face fully;
     # head_hands.face_yaw_weights), and ties neighbouring frames' changes together with
-    # landmark_temporal_weight (radians^2, scaled by the frames' spacing as the temporal terms are)
+    # landmark_temporal_weight (radians^2, scaled by the frames' spacing as the temporal terms are,
+    # and by the head's size in the image)
     face_yaw_full: float = 30.0
     face_yaw_none: float = 60.0
     landmark_temporal_weight: float = 300.0

@@ -56,7 +56,8 @@ class FrameSpacing:
 
     def temporal_weights(self) -> np.ndarray:
         """(N-1,) factor on each neighbour pair's temporal terms: 1 / gap^2 (0 between unordered views)."""
-        return np.where(np.isfinite(self.gaps), 1.0 / np.maximum(self.gaps, 1.0) ** 2, 0.0)
+        return gap_weights(self.gaps)
+
 
     def switch_weights(self) -> np.ndarray:
         """(N-1,) factor on the cost of turning between neighbours when the first stage picks each
@@ -78,6 +79,12 @@ class FrameSpacing:
         return (f"frames {med:.3g} video frames apart (median, from the {by}); temporal smoothing "
                 f"scaled to match" if med > 1.5 else f"frames about one video frame apart (from the {by})")
 
+
+
+def gap_weights(gaps: np.ndarray) -> np.ndarray:
+    """(N-1,) 1 / gap^2 of :attr:`FrameSpacing.gaps` (gaps under 1 count as 1; 0 where infinite)."""
+    gaps = np.asarray(gaps, np.float64)
+    return np.where(np.isfinite(gaps), 1.0 / np.maximum(gaps, 1.0) ** 2, 0.0)
 
 def dense(num_frames: int) -> FrameSpacing:
     """Every frame one reference interval from the next (what fitting assumed before it knew)."""

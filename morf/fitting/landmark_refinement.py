@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from morf.fitting.frame_spacing import gap_weights
 from morf.fitting.head_hands import HeadHandsConfig, fit_head_hands
 from morf.fitting.heading import exchange_labels
 
@@ -56,7 +57,7 @@ def refine_head_hands(model, rotvecs: np.ndarray, transl: np.ndarray, shape: np.
     """(rotvecs (N, J, 3) with the head, wrists and fingers refined, (N, 3) landmark residual in
     pixels after it: face anchors, left hand, right hand; NaN where a group has too little evidence).
     ``gaps`` (N-1,): how far apart the frames are (:class:`~morf.fitting.frame_spacing.FrameSpacing`),
-    for :func:`smooth_changes`."""
-    pairs = None if gaps is None else np.where(np.isfinite(gaps), 1.0 / np.maximum(np.asarray(gaps, np.float64), 1.0) ** 2, 0.0)
+    for the tie between neighbours' changes (``cfg.temporal``) and :func:`smooth_changes`."""
+    pairs = None if gaps is None else gap_weights(gaps)
     res = fit_head_hands(model, rotvecs, transl, shape, camera, exchange_landmark_labels(targets, swapped), cfg, pairs)
     return smooth_changes(np.asarray(rotvecs), res.rotvecs, gaps), res.residual_after
