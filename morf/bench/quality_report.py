@@ -13,7 +13,7 @@ BLOCK_COLUMNS = ["method", "runs", "psnr", "psnr_person", "psnr_person per seed"
 LPIPS_COLUMNS = ["lpips", "lpips_person"]  # shown when LPIPS was scored
 # the detail table (shown when morf eval scored regions): the scores that choose between configurations
 DETAIL_COLUMNS = ["method", "head_ssim_shift", "head_ssim_shift spread", "head_gmsd", "head_hf_ratio",
-                  "hands_ssim_shift", "hands_gmsd", "hands_hf_ratio", "person_ssim_shift", "person_gmsd",
+                  "head_hf_ratio_inside", "hands_ssim_shift", "hands_gmsd", "hands_hf_ratio", "person_ssim_shift", "person_gmsd",
                   "person_hf_ratio"]
 RUN_COLUMNS = ["run", "method", "seed", "train_minutes", "plateau_minutes", "steps", "diverged"]
 

@@ -21,7 +21,8 @@ from morf.bench.quality_runs import BenchRun
 from morf.evaluate.results import EvalResult
 
 # the LPIPS means are None when morf eval had no LPIPS weights
-DETAIL_METRICS = tuple(f"{g}_{s}" for g in ("person", "head", "hands") for s in ("ssim_shift", "gmsd", "hf_ratio"))
+DETAIL_METRICS = tuple(f"{g}_{s}" for g in ("person", "head", "hands")
+                       for s in ("ssim_shift", "gmsd", "hf_ratio", "hf_ratio_inside"))
 METRICS = ("psnr", "psnr_person", "ssim", "ssim_person", "temporal", "lpips", "lpips_person") + DETAIL_METRICS
 SPREAD_KEYS = ("psnr_person", "ssim_person", "head_ssim_shift")
 

@@ -15,6 +15,13 @@ little anywhere, so those scores prefer blur. The scores here fix that:
   (luminance minus its gaussian blur, sigma 1 px, squared and summed). Under 1: the render is
   blurrier than the real frame; over 1: noisier. It says nothing about where the detail is, so it
   is read beside the two scores above.
+* ``hf_ratio_inside``: the same ratio counted only where both images show the person's inside,
+  at least ``HF_INSET`` pixels from the edge of the real mask and of the render's (its alpha over
+  0.5, at the chosen shift; :func:`inside_mask`). The real frames are composited over the backdrop
+  with a binary mask, a hard step a render's alpha does not have; on a small head that step holds
+  most of the box's real high-frequency energy, so the box's ratio measures the matte's edge, not
+  the face. Without the render's own edge left out, an outline a few pixels off would count as
+  detail inside.
 * ``psnr``: plain PSNR of the region (no shift), to show what the others correct.
 
 Images are (3, H, W) float tensors or arrays in [0, 1]; a region is a box (y0, x0, y1, x1).
@@ -29,6 +36,7 @@ import numpy as np
 
 GMSD_C = 170 / 255 ** 2  # Xue et al.'s constant for 8-bit images, on a [0, 1] scale
 HF_SIGMA = 1.0  # pixels; the blur whose residual counts as high frequency
+HF_INSET = 3  # pixels from the real mask's edge before ``hf_ratio_inside`` counts a pixel (3 sigma)
 SSIM_RADIUS = 5  # the 11-tap SSIM window's half width
 NATIVE_SHIFT = 4  # pixels of tolerated misalignment at native size
 
@@ -37,7 +45,8 @@ NATIVE_SHIFT = 4  # pixels of tolerated misalignment at native size
 class RegionScores:
     """One region of one frame. Fields: psnr (dB, unshifted); ssim_shift; gmsd (lower is better);
     hf_render, hf_real: high-frequency energy (sum over the region); shift: (dy, dx) the render was
-    moved by; pixels: the region's pixel count."""
+    moved by; pixels: the region's pixel count; hf_render_inside, hf_real_inside: the energies inside
+    the real person (:func:`inside_mask`; the whole region when no mask was given)."""
 
     psnr: float
     ssim_shift: float
@@ -46,10 +55,16 @@ class RegionScores:
     hf_real: float
     shift: tuple[int, int]
     pixels: int
+    hf_render_inside: float = float("nan")
+    hf_real_inside: float = float("nan")
 
     @property
     def hf_ratio(self) -> float:
         return self.hf_render / self.hf_real if self.hf_real > 0 else float("nan")
+
+    @property
+    def hf_ratio_inside(self) -> float:
+        return self.hf_render_inside / self.hf_real_inside if self.hf_real_inside > 0 else float("nan")
 
 
 def max_shift_for(side: int, native_side: int) -> int:
@@ -85,15 +100,26 @@ def gmsd(pred: np.ndarray, gt: np.ndarray) -> float:
     return float(gms.std())
 
 
-def hf_energy(img: np.ndarray, pad: int = 0) -> float:
+def hf_energy(img: np.ndarray, pad: int = 0, where: np.ndarray | None = None) -> float:
     """Energy of luminance minus its gaussian blur (sigma ``HF_SIGMA``), summed inside a (3, h, w)
-    image less ``pad`` pixels of border (the border gives the blur its context)."""
+    image less ``pad`` pixels of border (the border gives the blur its context); with ``where``, a
+    bool (h - 2 pad, w - 2 pad) array, only over its pixels."""
     from scipy.ndimage import gaussian_filter
 
     lum = luminance(img)
     res = lum - gaussian_filter(lum, HF_SIGMA, mode="nearest")
     h, w = res.shape
-    return float((res[pad:h - pad, pad:w - pad] ** 2).sum())
+    e = res[pad:h - pad, pad:w - pad] ** 2
+    return float(e.sum() if where is None else e[where].sum())
+
+
+def inside_mask(mask: np.ndarray, inset: int = HF_INSET) -> np.ndarray:
+    """(H, W) bool: the pixels of the (H, W) person ``mask`` at least ``inset`` pixels from its edge
+    (the border of the image does not count as an edge)."""
+    from scipy.ndimage import distance_transform_edt
+
+    m = np.asarray(mask, bool)
+    return distance_transform_edt(np.pad(m, 1, mode="edge"))[1:-1, 1:-1] >= inset
 
 
 def _blur(x: np.ndarray) -> np.ndarray:
@@ -174,10 +200,24 @@ def _half(img: np.ndarray) -> np.ndarray:
     return img[:, :H // 2 * 2, :W // 2 * 2].reshape(c, H // 2, 2, W // 2, 2).mean((2, 4))
 
 
-def region_scores(pred, gt, box, max_shift: int = NATIVE_SHIFT) -> RegionScores:
+def _inside_box(inside, inside_pred, box, shift, m: int):
+    """The (h, w) bool of ``box`` inside both masks, the render's moved by ``shift`` (None: neither)."""
+    y0, x0, y1, x1 = box
+    where = None if inside is None else np.asarray(inside, bool)[y0:y1, x0:x1]
+    if inside_pred is not None:
+        dy, dx = shift
+        moved = np.pad(np.asarray(inside_pred, bool), m)[y0 + dy + m:y1 + dy + m, x0 + dx + m:x1 + dx + m]
+        where = moved if where is None else where & moved
+    return where
+
+
+def region_scores(pred, gt, box, max_shift: int = NATIVE_SHIFT, inside: np.ndarray | None = None,
+                  inside_pred: np.ndarray | None = None) -> RegionScores:
     """All scores of the render ``pred`` against the real ``gt`` (both (3, H, W), composited over
     the same backdrop) in ``box`` = (y0, x0, y1, x1), end exclusive. The shift is chosen on
-    luminance; ``ssim_shift`` is then the colour SSIM (mean over channels) at that shift."""
+    luminance; ``ssim_shift`` is then the colour SSIM (mean over channels) at that shift.
+    ``inside``, ``inside_pred``: the (H, W) :func:`inside_mask` of the real frame and of the render
+    (moved with it), for the energies inside; either may be left out."""
     import torch
 
     from morf.avatar.metrics import ssim_map
@@ -194,5 +234,6 @@ def region_scores(pred, gt, box, max_shift: int = NATIVE_SHIFT) -> RegionScores:
     ssim = float(ssim_map(torch.from_numpy(p), torch.from_numpy(g)).mean())  # valid part = the box
     mse = float(((pred[:, y0:y1, x0:x1] - gt[:, y0:y1, x0:x1]) ** 2).mean())
     psnr = float("inf") if mse == 0 else -10 * math.log10(mse)
+    where = _inside_box(inside, inside_pred, box, (dy, dx), m)
     return RegionScores(psnr, ssim, gmsd(p[:, r:-r, r:-r], g[:, r:-r, r:-r]), hf_energy(p, r), hf_energy(g, r),
-                        (dy, dx), int((y1 - y0) * (x1 - x0)))
+                        (dy, dx), int((y1 - y0) * (x1 - x0)), hf_energy(p, r, where), hf_energy(g, r, where))

@@ -4,7 +4,8 @@ head crops of the comparison sheet's rows.
 
 Per group (person, head, hands: both hands pooled) the result holds the mean over the scored
 regions of ``psnr``, ``ssim_shift`` and ``gmsd``, ``hf_ratio`` as the ratio of the summed energies
-(so regions with almost no real detail do not swing it), and ``count``, the regions scored.
+(so regions with almost no real detail do not swing it), ``hf_ratio_inside`` the same inside the
+real person away from its mask's edge, and ``count``, the regions scored.
 """
 
 from __future__ import annotations
@@ -14,11 +15,11 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from morf.evaluate.detail import RegionScores, region_scores
+from morf.evaluate.detail import RegionScores, inside_mask, region_scores
 from morf.evaluate.regions import GROUPS, frame_boxes, square_box
 from morf.train.trained_avatar import render_batch
 
-DETAIL_SCORES = ("psnr", "ssim_shift", "gmsd", "hf_ratio")
+DETAIL_SCORES = ("psnr", "ssim_shift", "gmsd", "hf_ratio", "hf_ratio_inside")
 DETAIL_KEYS = tuple(f"{g}_{s}" for g in GROUPS for s in DETAIL_SCORES + ("count",))
 
 
@@ -50,8 +51,9 @@ def summarize_detail(frames: list[dict[str, RegionScores]]) -> dict:
         for s in ("psnr", "ssim_shift", "gmsd"):
             vals = [getattr(x, s) for x in got if np.isfinite(getattr(x, s))]
             out[f"{group}_{s}"] = round(float(np.mean(vals)), 5) if vals else None
-        real = sum(x.hf_real for x in got)
-        out[f"{group}_hf_ratio"] = round(sum(x.hf_render for x in got) / real, 5) if real > 0 else None
+        for key, a, b in (("hf_ratio", "hf_render", "hf_real"), ("hf_ratio_inside", "hf_render_inside", "hf_real_inside")):
+            real = sum(getattr(x, b) for x in got)
+            out[f"{group}_{key}"] = round(sum(getattr(x, a) for x in got) / real, 5) if real > 0 else None
         out[f"{group}_count"] = len(got)
     return out
 
@@ -89,7 +91,8 @@ def detail_scores(avatar, frames, colour: torch.Tensor, atlas: np.ndarray, max_s
         gt = composite_over(b.image * b.mask, b.mask, colour)[0]
         parts = pixel_parts(b.uv[0].numpy(), frames.uv_mask[i], atlas)
         boxes = frame_boxes(parts, frames.masks[i] | frames.uv_mask[i])
-        per.append({n: region_scores(pred, gt, box, max_shift) for n, box in boxes.items()})
+        inside, mine = inside_mask(frames.masks[i]), inside_mask(alpha[0, 0].numpy() > 0.5)
+        per.append({n: region_scores(pred, gt, box, max_shift, inside, mine) for n, box in boxes.items()})
         if i in rows and "head" in boxes:
             y0, x0, y1, x1 = square_box(boxes["head"], *parts.shape)
             crops[i] = (_uint8(gt[:, y0:y1, x0:x1]), _uint8(pred[:, y0:y1, x0:x1]))
@@ -98,14 +101,20 @@ def detail_scores(avatar, frames, colour: torch.Tensor, atlas: np.ndarray, max_s
 
 
 def _moved(img: torch.Tensor, dy: int, dx: int, colour: torch.Tensor) -> torch.Tensor:
-    """(3, H, W) ``img`` moved by whole pixels (down ``dy``, right ``dx``), uncovered pixels ``colour``."""
+    """(C, H, W) ``img`` moved by whole pixels (down ``dy``, right ``dx``), uncovered pixels ``colour`` ((C,))."""
     _, H, W = img.shape
-    out = colour.to(img).view(3, 1, 1).expand(3, H, W).clone()
+    out = colour.to(img).view(-1, 1, 1).expand(img.shape[0], H, W).clone()
     ys, yd = (slice(0, H - dy), slice(dy, H)) if dy >= 0 else (slice(-dy, H), slice(0, H + dy))
     xs, xd = (slice(0, W - dx), slice(dx, W)) if dx >= 0 else (slice(-dx, W), slice(0, W + dx))
     if abs(dy) < H and abs(dx) < W:
         out[:, yd, xd] = img[:, ys, xs]
     return out
+
+
+def _moved_mask(mask: np.ndarray, dy: int, dx: int) -> np.ndarray:
+    """(H, W) bool ``mask`` moved as :func:`_moved` moves an image, uncovered pixels False."""
+    t = torch.from_numpy(np.asarray(mask, np.float32))[None]
+    return _moved(t, dy, dx, torch.zeros(1))[0].numpy() > 0.5
 
 
 def _centre(box) -> np.ndarray:
@@ -133,11 +142,12 @@ def copy_scores(frames, copies, colour: torch.Tensor, atlas: np.ndarray, max_shi
         parts = pixel_parts(b.uv[0].numpy(), frames.uv_mask[i], atlas)
         boxes = frame_boxes(parts, frames.masks[i] | frames.uv_mask[i])
         theirs = frame_boxes(pixel_parts(c.uv[0].numpy(), copies.uv_mask[i], atlas), copies.masks[i] | copies.uv_mask[i])
-        scores = {}
+        scores, inside = {}, inside_mask(frames.masks[i])
         for name in boxes.keys() & theirs.keys():
             dy, dx = np.round(_centre(boxes[name]) - _centre(theirs[name])).astype(int)
             moved = _moved(copy, int(dy), int(dx), colour)
-            scores[name] = region_scores(moved, gt, boxes[name], max_shift)
+            mine = inside_mask(_moved_mask(copies.masks[i], int(dy), int(dx)))
+            scores[name] = region_scores(moved, gt, boxes[name], max_shift, inside, mine)
             if name == "head" and i in rows:
                 y0, x0, y1, x1 = square_box(boxes["head"], *parts.shape)
                 crops[i] = (_uint8(gt[:, y0:y1, x0:x1]), _uint8(moved[:, y0:y1, x0:x1]))

@@ -405,14 +405,18 @@ def format_table(result: EvalResult) -> str:
 
 def _detail_lines(result: EvalResult, key: str) -> list[str]:
     """The detail block of one target: per run and region, SSIM at the best shift, GMSD (lower is
-    better) and the high-frequency ratio render / real (under 1: blurrier than the real frames)."""
+    better) and the high-frequency ratio render / real (under 1: blurrier than the real frames) over
+    the region and inside the real person, away from its mask's edge."""
+    from morf.evaluate.detail import HF_INSET
+
     names = [n for n in result.scored_runs(key) if result.runs[n].targets[key].detail]
     if not names:
         return []
     first = result.runs[names[0]].targets[key].detail
     lines = [f"  detail at native size ({first.get('resolution')} px, shift +-{first.get('max_shift')} px): "
-             "SSIM at the best shift / GMSD (lower is better) / high-frequency ratio render:real"]
-    lines.append(f"  {'run':<24} " + " ".join(f"{g:>22}" for g in ("person", "head", "hands")))
+             "SSIM at the best shift / GMSD (lower is better) / high-frequency ratio render:real over the region / "
+             f"the same inside the person ({HF_INSET} px from the real mask's edge and the render's)"]
+    lines.append(f"  {'run':<24} " + " ".join(f"{g:>28}" for g in ("person", "head", "hands")))
     rows = [(name, result.runs[name].targets[key].detail) for name in names]
     ref = result.targets[key].reference
     if ref is not None:
@@ -427,11 +431,11 @@ def _detail_lines(result: EvalResult, key: str) -> list[str]:
 
 
 def _detail_cell(d: dict, group: str) -> str:
-    """A group's three detail scores, 22 characters wide."""
+    """A group's four detail scores, 28 characters wide."""
     if not d.get(f"{group}_count"):
-        return f"{'n/a':>22}"
-    v = [d.get(f"{group}_{s}") for s in ("ssim_shift", "gmsd", "hf_ratio")]
-    return " ".join("  n/a" if x is None else f"{x:5.3f}" for x in v).rjust(22)
+        return f"{'n/a':>28}"
+    v = [d.get(f"{group}_{s}") for s in ("ssim_shift", "gmsd", "hf_ratio", "hf_ratio_inside")]
+    return " ".join("  n/a" if x is None else f"{x:5.3f}" for x in v).rjust(28)
 
 
 WORST_HEADS = 5  # the lowest-scored heads each run names

@@ -29,7 +29,7 @@ class TargetScores:
         refined_l1: with refined poses, the mean L1 of the composited render before and after the
             refinement (None: the poses were scored as given; then left out of :meth:`to_dict`);
         detail: the region scores at native size, ``{"<group>_<score>": value}`` for the groups
-            person, head, hands and the scores psnr, ssim_shift, gmsd, hf_ratio, count
+            person, head, hands and the scores psnr, ssim_shift, gmsd, hf_ratio, hf_ratio_inside, count
             (:mod:`morf.evaluate.detail_eval`), plus ``resolution`` and ``max_shift`` (None: not
             scored; then left out of :meth:`to_dict`);
         mask_iou: mean IoU of the rendered mask (probability > 0.5) and the real person mask

@@ -110,17 +110,17 @@ def test_targets_and_unmeasured_values():
     assert c.values["morf_minus_floor_psnr_person_db"] == pytest.approx(4.0)
     assert c.met["morf_minus_floor_psnr_person_db"] and c.met["morf_minus_floor_ssim_person"]
     assert c.met["morf_seed_spread_db"] is None and c.met["temporal_gain_vs_stylepeople"] is None
-    assert c.met["morf_head_hf_ratio"] is None  # no detail scores: not measured, not failed
+    assert c.met["morf_head_hf_ratio_inside"] is None  # no detail scores: not measured, not failed
 
     def detailed(method, person, head_ssim, hf):
         s = scores(method, person, 0.7)
-        return MethodScores(method, {**s.mean, "head_ssim_shift": head_ssim, "head_hf_ratio": hf}, (), s.spread)
+        return MethodScores(method, {**s.mean, "head_ssim_shift": head_ssim, "head_hf_ratio_inside": hf}, (), s.spread)
 
     # the blurred avatar wins on PSNR but loses the head detail targets
     blur = block_checks(BlockScores("novel-poses", "t", 4, "s.png", "y.png",
                                     {"morf": detailed("morf", 24.0, 0.70, 0.3), "rgb": detailed("rgb", 20.0, 0.75, 0.9)}), "rgb")
     assert blur.met["morf_minus_floor_psnr_person_db"] is True
-    assert blur.met["morf_minus_floor_head_ssim_shift"] is False and blur.met["morf_head_hf_ratio"] is False
+    assert blur.met["morf_minus_floor_head_ssim_shift"] is False and blur.met["morf_head_hf_ratio_inside"] is False
     sharp = block_checks(BlockScores("novel-poses", "t", 4, "s.png", "y.png",
                                      {"morf": detailed("morf", 24.0, 0.80, 0.8), "rgb": detailed("rgb", 20.0, 0.75, 0.9)}), "rgb")
-    assert sharp.met["morf_minus_floor_head_ssim_shift"] is True and sharp.met["morf_head_hf_ratio"] is True
+    assert sharp.met["morf_minus_floor_head_ssim_shift"] is True and sharp.met["morf_head_hf_ratio_inside"] is True

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from morf.evaluate.detail import gmsd, max_shift_for, region_scores
+from morf.evaluate.detail import gmsd, inside_mask, max_shift_for, region_scores
 from morf.evaluate.detail_eval import summarize_detail
 from morf.evaluate.regions import frame_boxes, square_box
 
@@ -51,6 +51,43 @@ def test_identical_regions_score_perfectly_and_a_shift_beyond_the_window_does_no
     far = region_scores(np.roll(real, 7, axis=2), real, (10, 10, 80, 80), max_shift=4)
     assert far.ssim_shift < 0.8  # 7 px is outside +-4: no free pass
     assert region_scores(np.roll(real, 7, axis=2), real, (10, 10, 80, 80), max_shift=8).ssim_shift > 0.99
+
+
+def _matted(img: np.ndarray, mask: np.ndarray, alpha: np.ndarray | None = None) -> np.ndarray:
+    """``img`` over grey through ``mask``, or through a soft ``alpha`` as a render's."""
+    a = mask.astype(np.float64) if alpha is None else alpha
+    return img * a + 0.5 * (1 - a)
+
+
+def test_inside_ratio_sees_the_face_where_the_box_sees_the_matte_edge():
+    from scipy.ndimage import gaussian_filter
+
+    real_img = 0.8 + 0.3 * (_textured(seed=2) - 0.5)  # a light face with faint features, on grey
+    yy, xx = np.mgrid[:96, :96]
+    mask = (yy - 48) ** 2 + (xx - 48) ** 2 < 30 ** 2  # a head: a disc, binary as a capture's mask
+    soft = np.clip(gaussian_filter(mask.astype(np.float64), 1.5), 0, 1)  # a render's alpha
+    real = _matted(real_img, mask)
+    box, inside = (8, 8, 88, 88), inside_mask(mask)
+    same_face = region_scores(_matted(real_img, mask, soft), real, box, inside=inside)
+    assert same_face.hf_ratio < 0.9  # the soft edge alone costs the box's ratio ...
+    assert same_face.hf_ratio_inside == pytest.approx(1, abs=0.05)  # ... not the inside one
+    blurred = region_scores(_matted(_blur(real_img, 1.5), mask, soft), real, box, inside=inside)
+    assert blurred.hf_ratio_inside < 0.5  # a blurred face still loses inside
+    noisy = _matted(real_img + np.random.default_rng(0).normal(0, 0.05, real_img.shape), mask, soft)
+    assert region_scores(noisy, real, box, inside=inside).hf_ratio_inside > 1.2  # and noise shows as over 1
+    assert region_scores(real, real, box).hf_ratio_inside == pytest.approx(1)  # no mask: the whole box
+    small = (yy - 48) ** 2 + (xx - 48) ** 2 < 24 ** 2  # a render whose head is 6 px too small
+    shrunk = _matted(real_img, small)
+    assert region_scores(shrunk, real, box, inside=inside).hf_ratio_inside > 1.5  # its edge counts as detail ...
+    both = region_scores(shrunk, real, box, inside=inside, inside_pred=inside_mask(small))
+    assert both.hf_ratio_inside == pytest.approx(1, abs=0.02)  # ... unless its own edge is left out too
+
+
+def test_inside_mask_keeps_the_pixels_away_from_the_edge_but_not_the_image_border():
+    mask = np.zeros((20, 20), bool)
+    mask[:, :10] = True  # a person cut by the image's left border
+    got = inside_mask(mask, 3)
+    assert got[:, :8].all() and not got[:, 8:].any()  # 3 px or more from the first pixel outside
 
 
 def test_boxes_at_the_image_border_stay_defined():

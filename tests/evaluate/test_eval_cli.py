@@ -223,6 +223,7 @@ def test_detail_scores_at_native_size_and_head_crops(evaluated):
     assert d["person_count"] == 4 and d["head_count"] >= 3
     for g in ("person", "head"):
         assert 0 < d[f"{g}_ssim_shift"] <= 1 and d[f"{g}_gmsd"] >= 0 and d[f"{g}_hf_ratio"] > 0
+    assert "person_hf_ratio_inside" in d  # None where a 30-step render has no inside 3 px from its edge
     for key, t in ev["targets"].items():
         heads = cv2.imread(str(evaluated["out"] / t["heads"]))
         assert heads.shape[:2] == (t["heads_size"][1], t["heads_size"][0])
@@ -272,6 +273,7 @@ def test_nearest_seen_frame_is_the_hold_outs_reference(evaluated, body_model):
     grey = torch.full((3,), 0.5)
     same = copy_scores(frames, frames, grey, part_atlas(model), 2)
     assert same.scores["person_ssim_shift"] > 0.999 and abs(same.scores["person_hf_ratio"] - 1) < 1e-6
+    assert abs(same.scores["person_hf_ratio_inside"] - 1) < 1e-6
     # a copy where the person stood 7 px lower and 5 px to the left is moved back onto the frame
     moved = dataclasses.replace(frames, **{k: np.roll(getattr(frames, k), (7, -5), axis=(1, 2))
                                            for k in ("images", "masks", "uv", "uv_mask", "facing")})
