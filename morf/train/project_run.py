@@ -128,14 +128,16 @@ def _initial_texture(cfg: TrainConfig, model, fs, zoom, atlas, notes: list[str])
     source = zoom if cfg.colour_from_zoom else fs
     # the floor's colours (step 0 = floor), unless weighted towards the frames that face a texel
     # or aligned to one another first (0 passes: exactly the floor's projection)
-    how = Projection(cfg.colour_facing_power, cfg.colour_bilinear, cfg.colour_prior_count, cfg.colour_edge_inset)
+    how = Projection(cfg.colour_facing_power, cfg.colour_bilinear, cfg.colour_prior_count, cfg.colour_edge_inset,
+                     _back_projections(cfg, source, notes))
     projected, _, aligned = aligned_floor_texture(source, atlas.covered, cfg.colour_align_passes,
                                                   cfg.texture_dilate, how=how)
     spec = spectral_texture(model, cfg.texture_channels - 3, cfg.texture_size, cfg.texture_size, cfg.texture_dilate)
     tex = torch.from_numpy(np.concatenate([projected[:3], spec], axis=0))
     spread = "".join([", each pixel shared among four texels" if how.bilinear else "",
                       f", texels few pixels saw drawn to their neighbourhood ({how.prior_count:g} pixels)"
-                      if how.prior_count else ""])
+                      if how.prior_count else "",
+                      f", then {how.back_projections} back-projection pass(es)" if how.back_projections else ""])
     notes.append(f"texture channels 0-2: the training frames at {source.resolution} px projected (colour{spread}); "
                  "the renderer adds a residual")
     if cfg.colour_align_passes:
@@ -193,3 +195,18 @@ def _warp_flicker(preds: list, gts: list, masks: list) -> tuple[float, float] | 
         return None
     hwc = [np.stack([t.permute(1, 2, 0).numpy() for t in seq]) for seq in (preds, gts)]
     return warping_errors(hwc[0], hwc[1], np.stack([m[0].numpy() for m in masks]))
+
+
+def _back_projections(cfg: TrainConfig, source, notes: list[str]) -> int:
+    """The colour's back-projection passes: ``cfg.colour_back_projections``, or with -1 the count
+    :func:`morf.train.back_project.choose_back_projections` finds on ``source`` (said in ``notes``)."""
+    if cfg.colour_back_projections >= 0:
+        return cfg.colour_back_projections
+    from morf.train.back_project import choose_back_projections
+    from morf.train.texel_splat import Projection
+
+    how = Projection(cfg.colour_facing_power, cfg.colour_bilinear, cfg.colour_prior_count, cfg.colour_edge_inset)
+    choice = choose_back_projections(source, cfg.texture_size, 0.3, how)
+    notes.append(f"texture channels 0-2: {choice.describe()}")
+    return choice.passes
+

@@ -44,6 +44,8 @@ class Projection:
     edge_inset n > 0 leaves out the pixels within n pixels of the person mask's outline (0: none):
     they mix the person with the backdrop, and a surface seen near the outline (an eye in a
     profile) would take the backdrop's colour from them.
+    back_projections n > 0 refines the projected colours by n passes of back-projection
+    (:mod:`morf.train.back_project`).
     The defaults are the plain nearest-texel mean, the RGB floor's.
     """
 
@@ -51,6 +53,7 @@ class Projection:
     bilinear: bool = False
     prior_count: float = 0.0
     edge_inset: int = 0
+    back_projections: int = 0
 
 
 def texel_weights(uv: np.ndarray, size: int, bilinear: bool) -> list[tuple[np.ndarray, np.ndarray | None]]:
