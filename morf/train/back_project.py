@@ -97,16 +97,18 @@ def drawn_back_ssim(texture: np.ndarray, frames, min_facing: float, how) -> floa
     import torch
 
     from morf.avatar.metrics import ssim_map
-    from morf.train.colour_align import sample_colour
     from morf.train.inpaint import projecting_pixels
+    from morf.train.texel_splat import texel_weights
 
+    flat = texture.reshape(-1, 3).astype(np.float64)
     out = []
     for i in range(frames.num_frames):
         ok = projecting_pixels(frames, i, min_facing, how.edge_inset)
         if ok.sum() < 64:
             continue
-        drawn = np.where(ok[..., None], sample_colour(texture, frames.uv[i], frames.uv_mask[i]), 0.5)
-        real = np.where(ok[..., None], frames.images[i].astype(np.float32) / 255, 0.5)
+        drawn = np.full(ok.shape + (3,), 0.5)
+        drawn[ok] = sum(w[:, None] * flat[lin] for lin, w in texel_weights(frames.uv[i][ok], texture.shape[0], True))
+        real = np.where(ok[..., None], frames.images[i].astype(np.float64) / 255, 0.5)
         s = ssim_map(*(torch.from_numpy(np.ascontiguousarray(a.transpose(2, 0, 1), np.float64))[None]
                        for a in (drawn, real)))[0].mean(0).numpy()
         r = (ok.shape[0] - s.shape[0]) // 2  # the map's valid part

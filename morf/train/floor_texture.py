@@ -92,8 +92,9 @@ def floor_texture(frames: FrameSet, covered: np.ndarray, dilate: int = 4, min_fa
     """The floor's (4, S, S) float32 texture for an (S, S) atlas coverage, and the (S, S) seen map.
 
     Channels 0-2: every texel hit by a pixel holds the mean colour of its pixels, projected as
-    ``how`` says (:func:`morf.train.inpaint.project_rgb_texture`, exactly; the floor itself keeps
-    the default, the plain mean); every other texel of the UV islands,
+    ``how`` says (:func:`morf.train.inpaint.project_rgb_texture`, exactly, then ``how.back_projections``
+    passes of :func:`morf.train.back_project.back_project`; the floor itself keeps the default, the
+    plain mean); every other texel of the UV islands,
     pinholes between hit texels included, is filled from its neighbours (Telea); the islands are
     then grown ``dilate`` texels so bilinear lookups at seams never blend in black. Channel 3: 1
     everywhere (the coverage, once sampled). The seen map is the hit map with pinholes closed
@@ -103,6 +104,10 @@ def floor_texture(frames: FrameSet, covered: np.ndarray, dilate: int = 4, min_fa
 
     size = covered.shape[0]
     rgb, hit = project_rgb_texture(frames, size, min_facing, how)
+    if how.back_projections > 0:
+        from morf.train.back_project import back_project
+
+        rgb = back_project(rgb, hit, frames, min_facing, how, how.back_projections)
     islands = covered | hit
     filled = fill_unseen(rgb, hit, islands)
     filled, _ = dilate_texture(filled, islands, dilate)

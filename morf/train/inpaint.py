@@ -60,8 +60,8 @@ def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3,
 
     ``how.bilinear`` shares each pixel among the four texels around its UV, and ``how.prior_count`` > 0
     draws a texel seen by few pixels towards its neighbourhood (:mod:`morf.train.texel_splat`);
-    ``how.back_projections`` > 0 then refines the colours against the same pixels
-    (:mod:`morf.train.back_project`); the defaults are the plain nearest-texel mean.
+    the defaults are the plain nearest-texel mean. (``how.back_projections`` is applied by
+    :func:`morf.train.floor_texture.floor_texture`, not here.)
 
     Returns:
         rgb: (size, size, 3) float32 in [0, 1] (0 where unseen); seen: (size, size) bool.
@@ -87,12 +87,7 @@ def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3,
         out[seen] = shrunk[seen]
     else:
         out[seen] = acc[seen] / cnt[seen, None]
-    rgb, seen = out.reshape(size, size, 3).astype(np.float32), seen.reshape(size, size)
-    if how.back_projections > 0:
-        from morf.train.back_project import back_project
-
-        rgb = back_project(rgb, seen, frames, min_facing, how, how.back_projections)
-    return rgb, seen
+    return out.reshape(size, size, 3).astype(np.float32), seen.reshape(size, size)
 
 
 def close_seen(seen: np.ndarray, radius: int = 2) -> np.ndarray:
