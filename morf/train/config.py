@@ -66,8 +66,8 @@ class TrainConfig:
     colour_edge_inset: int = 0
     # Passes of back-projection after that projection (morf.train.back_project): the frames'
     # residuals against the texture drawn back at their pixels, projected and added, which gives
-    # back the detail the splat and the lookup blur away where the frames agree. -1: as many (0-3)
-    # as the capture supports, chosen on frames held aside from the projection; 0: none.
+    # back the detail the splat and the lookup blur away where the frames agree. -1: as many as the
+    # capture supports (0 or 1), chosen on frames held aside from the projection; 0: none.
     colour_back_projections: int = 0
     # The image terms (L1, SSIM) leave out the pixels within this many pixels inside the person
     # mask's outline (0: none), where the frames mix the person with the backdrop; the mask terms
@@ -388,11 +388,12 @@ PRESETS: dict[str, TrainConfig] = {
         # clip's: head 0.689 -> 0.710, +0.5 dB; the outdoor walk's: head +0.004, person SSIM -0.004;
         # the flicker that forgives misregistration +1 to +7 % (docs/avatar.md, "Colour by view").
         view_colours=16, view_colour_frames=12,
-        # Back-projection passes, as many as the capture's own frames support (chosen on frames held
-        # aside): People-Snapshot took 1, head SSIM+-shift +0.001-0.002 and its HF ratio inside
+        # A back-projection pass where the capture's own frames support it (chosen on frames held
+        # aside): People-Snapshot took it, head SSIM+-shift +0.001-0.002 and its HF ratio inside
         # 0.43 -> 0.51-0.52 on two seeds, hands +0.002-0.004, person PSNR -0.03/+0.04 dB, the flicker
-        # that forgives misregistration +1-3 %; the tennis and outdoor clips took 0, where passes
-        # cost head SSIM (docs/avatar.md, "The face's finest detail").
+        # that forgives misregistration +1-3 %; the demo's capture took it, head 0.846 -> 0.854 with
+        # eyes and mouth back, person PSNR -0.11 dB, that flicker +9 %; the tennis and outdoor clips
+        # did not, where a pass costs head SSIM (docs/avatar.md, "The face's finest detail").
         colour_back_projections=-1,
         warp=WarpConfig(latent_dim=16, style_dim=64, mlp_layers=3, fourier_freqs=5, base_resolution=32, width=16, levels=3),
         disc_width=16, disc_scales=1, disc_layers=3, inpaint_steps=200, inpaint_views=16,

@@ -84,7 +84,9 @@ def test_passes_give_back_the_detail_the_splat_and_the_lookup_blur():
 def test_the_choice_takes_passes_where_frames_agree_and_none_where_they_do_not():
     how = Projection(bilinear=True)
     agree = choose_back_projections(_frames(12), SIZE, 0.3, how)
-    assert agree.passes >= 1 and agree.frames == 6 and agree.scores[1] > agree.scores[0]
+    assert agree.passes == 1 and agree.frames == 6 and agree.scores[1] > agree.scores[0]  # at most one by default
+    more = choose_back_projections(_frames(12), SIZE, 0.3, how, most=3)
+    assert more.passes >= 1 and more.scores[:2] == agree.scores[:2]
     disagree = choose_back_projections(_frames(12, jitter=4.0), SIZE, 0.3, how)
     assert disagree.passes == 0 and disagree.scores[1] < disagree.scores[0]
     assert len(disagree.scores) == 2  # stopped at the first pass that did not pay

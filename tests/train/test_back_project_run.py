@@ -25,7 +25,7 @@ def test_train_back_projects_the_colour_or_chooses_how_often(tmp_path, tiny_capt
     plain, two, chosen = _train(project.root, "plain", 0), _train(project.root, "two", 2), _train(project.root, "auto", -1)
     assert "back-projection" not in plain and "then 2 back-projection pass(es)" in two
     got = re.search(r"(\d) back-projection pass\(es\), chosen on (\d+) frames held aside", chosen)
-    assert got is not None and 0 <= int(got.group(1)) <= 3 and int(got.group(2)) > 0
+    assert got is not None and int(got.group(1)) in (0, 1) and int(got.group(2)) > 0
     colour = {n: load_trained_avatar(project.runs_dir / n).texture[:3].numpy() for n in ("plain", "two")}
     assert not np.allclose(colour["plain"], colour["two"])  # the passes changed the projected colour ...
     assert abs(colour["plain"].mean() - colour["two"].mean()) < 0.02  # ... not its overall level
