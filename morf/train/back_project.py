@@ -64,6 +64,11 @@ def _frame_pixels(frames, i: int, size: int, min_facing: float, how):
     return frames.images[i][ok].astype(np.float64) / 255, lookups, facing
 
 
+def _looked_up(tex: np.ndarray, lookups) -> np.ndarray:
+    """(P, 3): the flat (S * S, 3) texture ``tex`` at pixels' bilinear ``lookups`` (texel, weight)."""
+    return sum(w[:, None] * tex[lin] for lin, w in lookups)
+
+
 def back_project(rgb: np.ndarray, seen: np.ndarray, frames, min_facing: float, how, passes: int) -> np.ndarray:
     """(S, S, 3) float32: the projected colours ``rgb`` (S, S, 3) refined by ``passes`` passes of
     back-projection against ``frames`` (the pixels the projection used, weighted as it weighted
@@ -79,7 +84,7 @@ def back_project(rgb: np.ndarray, seen: np.ndarray, frames, min_facing: float, h
             if got is None:
                 continue
             px, lookups, facing = got
-            resid = px - sum(w[:, None] * tex[lin] for lin, w in lookups)
+            resid = px - _looked_up(tex, lookups)
             whole = np.logical_and.reduce([keep[lin] | (w <= 0) for lin, w in lookups])
             for lin, w in lookups:  # a lookup that reaches an unseen texel (0 here, filled later) is left out
                 w = w * whole if facing is None else w * whole * facing
@@ -109,7 +114,7 @@ def drawn_back_ssim(texture: np.ndarray, frames, min_facing: float, how) -> floa
         if ok.sum() < 64:
             continue
         drawn = np.full(ok.shape + (3,), 0.5)
-        drawn[ok] = sum(w[:, None] * flat[lin] for lin, w in texel_weights(frames.uv[i][ok], texture.shape[0], True))
+        drawn[ok] = _looked_up(flat, texel_weights(frames.uv[i][ok], texture.shape[0], True))
         real = np.where(ok[..., None], frames.images[i].astype(np.float64) / 255, 0.5)
         s = ssim_map(*(torch.from_numpy(np.ascontiguousarray(a.transpose(2, 0, 1), np.float64))[None]
                        for a in (drawn, real)))[0].mean(0).numpy()

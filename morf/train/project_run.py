@@ -6,6 +6,8 @@ the perceptual loss and the inpainting views, then calls :func:`morf.train.loop.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 import torch
@@ -128,8 +130,8 @@ def _initial_texture(cfg: TrainConfig, model, fs, zoom, atlas, notes: list[str])
     source = zoom if cfg.colour_from_zoom else fs
     # the floor's colours (step 0 = floor), unless weighted towards the frames that face a texel
     # or aligned to one another first (0 passes: exactly the floor's projection)
-    how = Projection(cfg.colour_facing_power, cfg.colour_bilinear, cfg.colour_prior_count, cfg.colour_edge_inset,
-                     _back_projections(cfg, source, notes))
+    how = Projection(cfg.colour_facing_power, cfg.colour_bilinear, cfg.colour_prior_count, cfg.colour_edge_inset)
+    how = replace(how, back_projections=_back_projections(cfg, source, how, notes))
     projected, _, aligned = aligned_floor_texture(source, atlas.covered, cfg.colour_align_passes,
                                                   cfg.texture_dilate, how=how)
     spec = spectral_texture(model, cfg.texture_channels - 3, cfg.texture_size, cfg.texture_size, cfg.texture_dilate)
@@ -197,15 +199,14 @@ def _warp_flicker(preds: list, gts: list, masks: list) -> tuple[float, float] | 
     return warping_errors(hwc[0], hwc[1], np.stack([m[0].numpy() for m in masks]))
 
 
-def _back_projections(cfg: TrainConfig, source, notes: list[str]) -> int:
+def _back_projections(cfg: TrainConfig, source, how, notes: list[str]) -> int:
     """The colour's back-projection passes: ``cfg.colour_back_projections``, or with -1 the count
-    :func:`morf.train.back_project.choose_back_projections` finds on ``source`` (said in ``notes``)."""
+    :func:`morf.train.back_project.choose_back_projections` finds on ``source`` projected as ``how``
+    says (said in ``notes``)."""
     if cfg.colour_back_projections >= 0:
         return cfg.colour_back_projections
     from morf.train.back_project import choose_back_projections
-    from morf.train.texel_splat import Projection
 
-    how = Projection(cfg.colour_facing_power, cfg.colour_bilinear, cfg.colour_prior_count, cfg.colour_edge_inset)
     choice = choose_back_projections(source, cfg.texture_size, 0.3, how)
     notes.append(f"texture channels 0-2: {choice.describe()}")
     return choice.passes
