@@ -51,17 +51,23 @@ def spread_anchors(rot: np.ndarray, k: int) -> np.ndarray:
 
 def anchor_weights(anchors: np.ndarray, orientation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(indices, weights) of the ``anchors`` (K, 3, 3) blended for a root orientation matrix (3, 3):
-    the ``BLEND`` nearest, each weighted by how much nearer it is than the next one, so a weight
-    reaches zero exactly when its anchor stops being among the nearest (no jump as the body turns).
-    As many anchors as ``BLEND`` or fewer: all, alike."""
+    the ``BLEND`` nearest, each weighted by the square of how much nearer it is than the next one,
+    so a weight reaches zero exactly when its anchor stops being among the nearest (no jump as the
+    body turns) and the nearest anchor leads the blend. As many anchors as ``BLEND`` or fewer: all,
+    alike.
+
+    Squared, not linear: with linear weights the other anchors' colours ghosted the eyes of
+    People-Snapshot's held-out frames; squared, its head SSIM+-shift rose 0.897 -> 0.900 and person
+    PSNR +0.15 dB, tennis +0.002 and +0.05 dB, the outdoor clip and the demo's capture within
+    0.001 and 0.04 dB (docs/avatar.md, "The face's finest detail")."""
     ang = angles_between(np.asarray(orientation, np.float64)[None], np.asarray(anchors, np.float64))[0]
     if len(ang) <= BLEND:
         order = np.argsort(ang)
         return order, np.full(len(order), 1.0 / len(order))
     order = np.argsort(ang, kind="stable")[:BLEND + 1]
-    w = ang[order[BLEND]] - ang[order[:BLEND]]
+    w = (ang[order[BLEND]] - ang[order[:BLEND]]) ** 2
     total = w.sum()
-    w = np.full(BLEND, 1.0 / BLEND) if total <= 1e-9 else w / total
+    w = np.full(BLEND, 1.0 / BLEND) if total <= 1e-12 else w / total
     return order[:BLEND], w
 
 

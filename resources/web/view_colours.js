@@ -1,7 +1,8 @@
 // The texture's colour channels (0-2) by view, as the Python player draws them
 // (morf/avatar/view_colour.py, morf/playback/player.py): the body's orientation relative to the
 // camera picks the three nearest anchor orientations, blended with integer weights summing to 256
-// that fall to zero as an anchor leaves the three; the blend is written into the raster's first
+// (each the square of how much nearer it is than the fourth) that fall to zero as an anchor leaves
+// the three; the blend is written into the raster's first
 // texture (channels 0-3, channel 3 kept) only when the weights change.
 import { mul3, rodrigues } from './skeleton.js';
 
@@ -43,9 +44,9 @@ export class ViewColours {
       w = order.map(() => 1 / order.length);
     } else {
       idx = order.slice(0, BLEND);
-      w = idx.map((i) => ang[order[BLEND]] - ang[i]);
+      w = idx.map((i) => (ang[order[BLEND]] - ang[i]) ** 2);  // squared, as morf/avatar/view_colour.py
       const total = w.reduce((s, v) => s + v, 0);
-      w = total <= 1e-9 ? w.map(() => 1 / BLEND) : w.map((v) => v / total);
+      w = total <= 1e-12 ? w.map(() => 1 / BLEND) : w.map((v) => v / total);
     }
     const q = w.map((v) => Math.floor(v * 256));
     let best = 0;

@@ -142,3 +142,11 @@ def test_a_view_keeps_only_the_texels_its_frames_saw_squarely():
         want = mix * (i * 30 + 10) + (1 - mix) * 127.5
         assert np.abs(views.colours[k, 0].astype(float) - want).max() <= 2.0, (k, i)
     assert max(mixes) == 1.0 and min(mixes) == 0.0  # the squarest view's own colour, the slanted ones the base
+
+
+def test_blend_weights_are_squared_so_the_nearest_anchor_leads():
+    anchors = np.stack([_yaw(d) for d in (0, 90, 180, 270)])
+    idx, w = anchor_weights(anchors, _yaw(20))  # 20, 70, 110 degrees from the three nearest; 160 from the next
+    assert idx.tolist() == [0, 1, 3]
+    want = np.array([140.0, 90.0, 50.0]) ** 2
+    np.testing.assert_allclose(w, want / want.sum(), atol=1e-9)
