@@ -568,13 +568,14 @@ class StudioApp:
         self._wakeup.notify()
 
     def settle(self, max_frames: int = 300, timeout_s: float = 20.0) -> None:
-        """Run frames until decoded images are uploaded and the worker applied every command."""
+        """Run frames until decoded images are uploaded, the worker applied every command and every
+        dropped path was acted on (a folder is looked into on the drop thread)."""
         end = time.monotonic() + timeout_s
         for _ in range(max_frames):
             self.frame()
             if self.textures.settled() and self.worker.pending() == 0 and \
                     self.worker.latest().review_rev == self._review_rev and (self.live is None or self.live.idle()) \
-                    and self.motions.scanning is None:
+                    and self.motions.scanning is None and not self._dropped and not self.drops.busy:
                 break
             if time.monotonic() > end:
                 break
