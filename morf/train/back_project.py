@@ -51,17 +51,16 @@ class BackProjectionChoice:
 
 
 def _frame_pixels(frames, i: int, size: int, min_facing: float, how):
-    """(rgb (P, 3), weights [(texel index, bilinear weight x facing weight)]) of frame ``i``'s
-    projecting pixels, or None where it has none."""
-    from morf.train.inpaint import projecting_pixels
+    """(rgb (P, 3), the bilinear lookups [(texel index (P,), weight (P,))], facing weights (P,) or
+    None) of the pixels of frame ``i`` the projection takes, or None where it takes none."""
+    from morf.train.inpaint import pixel_colours
     from morf.train.texel_splat import texel_weights
 
-    ok = projecting_pixels(frames, i, min_facing, how.edge_inset)
-    if not ok.any():
+    got = pixel_colours(frames, i, min_facing, how)
+    if got is None:
         return None
-    facing = (frames.facing[i][ok].astype(np.float64) / 255) ** how.facing_power if how.facing_power else None
-    lookups = texel_weights(frames.uv[i][ok], size, True)  # the renderer's lookup is bilinear
-    return frames.images[i][ok].astype(np.float64) / 255, lookups, facing
+    ok, rgb, facing = got
+    return rgb, texel_weights(frames.uv[i][ok], size, True), facing  # the renderer's lookup is bilinear
 
 
 def _looked_up(tex: np.ndarray, lookups) -> np.ndarray:
@@ -131,27 +130,22 @@ def choose_back_projections(frames, size: int, min_facing: float, how,
     without passes) from every other frame, drawn back over at most ``CHOICE_FRAMES`` of the frames
     in between after each pass; the passes up to the first that adds less than ``MIN_GAIN`` SSIM
     (at most ``most``). Fewer than 4 frames: 0."""
-    from morf.train.frames import FrameSet
     from morf.train.inpaint import project_rgb_texture
 
     n = frames.num_frames
     if n < 4 or most <= 0:
         return BackProjectionChoice(0, (), 0)
-
-    def sub(idx):
-        return FrameSet(frames.images[idx], frames.masks[idx], frames.uv[idx], frames.uv_mask[idx],
-                        frames.facing[idx], frames.rotvecs[idx], frames.frame_ids[idx])
-
     odd = np.arange(1, n, 2)
-    scored = sub(odd[np.linspace(0, len(odd) - 1, min(CHOICE_FRAMES, len(odd))).round().astype(int)])
+    scored = frames.subset(odd[np.linspace(0, len(odd) - 1, min(CHOICE_FRAMES, len(odd))).round().astype(int)])
     plain = replace(how, back_projections=0)
-    source = sub(np.arange(0, n, 2))
+    source = frames.subset(np.arange(0, n, 2))
     rgb, seen = project_rgb_texture(source, size, min_facing, plain)
     scores = [drawn_back_ssim(rgb, scored, min_facing, plain)]
-    while len(scores) <= most:  # one pass at a time: stop at the first that does not pay
+    passes = 0
+    while passes < most:  # one pass at a time: stop at the first that does not pay
         rgb = back_project(rgb, seen, source, min_facing, plain, 1)
         scores.append(drawn_back_ssim(rgb, scored, min_facing, plain))
         if scores[-1] < scores[-2] + MIN_GAIN:
             break
-    passes = len(scores) - 1 if scores[-1] >= scores[-2] + MIN_GAIN else len(scores) - 2
+        passes += 1
     return BackProjectionChoice(passes, tuple(round(s, 5) for s in scores), scored.num_frames)

@@ -69,6 +69,12 @@ class FrameSet:
             rotvecs=np.asarray(rotvecs, np.float32),
             frame_ids=np.arange(N, dtype=np.int64) if frame_ids is None else np.asarray(frame_ids, np.int64))
 
+    def subset(self, indices) -> "FrameSet":
+        """The frames at positions ``indices`` of this set, in that order."""
+        idx = np.asarray(indices, dtype=np.int64)
+        return FrameSet(self.images[idx], self.masks[idx], self.uv[idx], self.uv_mask[idx], self.facing[idx],
+                        self.rotvecs[idx], self.frame_ids[idx])
+
     def batch(self, indices, crop: int = 0, rng: np.random.Generator | None = None, device="cpu",
               origins: tuple[np.ndarray, np.ndarray] | None = None) -> "Batch":
         """Tensors for frames ``indices`` (positions in this set), optionally a ``crop``-pixel crop

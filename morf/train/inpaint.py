@@ -47,6 +47,17 @@ def projecting_pixels(frames: FrameSet, i: int, min_facing: float = 0.3, inset: 
     return frames.uv_mask[i] & mask & (frames.facing[i] >= int(round(min_facing * 255)))
 
 
+def pixel_colours(frames: FrameSet, i: int, min_facing: float, how: Projection):
+    """(ok (H, W) bool, rgb (P, 3) float64 in [0, 1], facing weights (P,) or None) of the pixels of
+    frame ``i`` that a projection as ``how`` says takes (:func:`projecting_pixels`), or None where
+    it takes none."""
+    ok = projecting_pixels(frames, i, min_facing, how.edge_inset)
+    if not ok.any():
+        return None
+    facing = (frames.facing[i][ok].astype(np.float64) / 255) ** how.facing_power if how.facing_power else None
+    return ok, frames.images[i][ok].astype(np.float64) / 255, facing
+
+
 def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3,
                         how: Projection = Projection()) -> tuple[np.ndarray, np.ndarray]:
     """Average the training frames' colours per texel (pixels as in :func:`projected_texels`).
@@ -69,11 +80,10 @@ def project_rgb_texture(frames: FrameSet, size: int, min_facing: float = 0.3,
     acc = np.zeros((size * size, 3), np.float64)
     cnt = np.zeros(size * size, np.float64)
     for i in range(frames.num_frames):
-        ok = projecting_pixels(frames, i, min_facing, how.edge_inset)
-        if not ok.any():
+        got = pixel_colours(frames, i, min_facing, how)
+        if got is None:
             continue
-        facing = (frames.facing[i][ok].astype(np.float64) / 255) ** how.facing_power if how.facing_power else None
-        rgb = frames.images[i][ok].astype(np.float64) / 255
+        ok, rgb, facing = got
         for lin, w in texel_weights(frames.uv[i][ok], size, how.bilinear):
             w = facing if w is None else (w if facing is None else w * facing)
             cnt += np.bincount(lin, weights=w, minlength=size * size)

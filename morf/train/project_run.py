@@ -210,4 +210,3 @@ def _back_projections(cfg: TrainConfig, source, how, notes: list[str]) -> int:
     choice = choose_back_projections(source, cfg.texture_size, 0.3, how)
     notes.append(f"texture channels 0-2: {choice.describe()}")
     return choice.passes
-

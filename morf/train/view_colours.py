@@ -68,7 +68,6 @@ def project_view_colours(frames, covered: np.ndarray, base: np.ndarray, count: i
     best's, not at all where it is ``margin`` or more below it, in between linearly; the one
     texture's colour elsewhere. A view's frames see the eyes of a three-quarter view at a slant, and
     the one texture has them from the frames that faced them."""
-    from morf.train.frames import FrameSet
     from morf.train.floor_texture import floor_texture
 
     rot = np.stack([view_orientation(camera_R, root_frame, r) for r in frames.rotvecs[:, 0]])
@@ -78,8 +77,7 @@ def project_view_colours(frames, covered: np.ndarray, base: np.ndarray, count: i
     colours = []
     for idx in near:
         idx = np.sort(idx)
-        sub = FrameSet(frames.images[idx], frames.masks[idx], frames.uv[idx], frames.uv_mask[idx], frames.facing[idx],
-                       frames.rotvecs[idx], frames.frame_ids[idx])
+        sub = frames.subset(idx)
         tex, seen = floor_texture(sub, covered, dilate, how=how)
         mix = seen.astype(np.float32)
         if best is not None:
