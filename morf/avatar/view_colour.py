@@ -19,57 +19,15 @@ where it is and the person turns.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from morf.avatar.anchor_blend import BLEND, anchor_weights, angles_between, integer_weights, spread_anchors  # noqa: F401
 from morf.rotations import rotvec_to_matrix_rodrigues
 
-BLEND = 3  # anchors blended at a time; the next one's distance fades the last in and out
-
-
-def angles_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Geodesic angles (radians) between rotation matrices ``a`` (N, 3, 3) and ``b`` (M, 3, 3): (N, M)."""
-    tr = np.einsum("nij,mij->nm", a, b)  # trace(a^T b)
-    return np.arccos(np.clip((tr - 1.0) / 2.0, -1.0, 1.0))
-
-
-def spread_anchors(rot: np.ndarray, k: int) -> np.ndarray:
-    """Indices of ``k`` of the rotations ``rot`` (N, 3, 3) spread over them: farthest-point sampling
-    from the one nearest all the others, by geodesic angle."""
-    n = len(rot)
-    if k >= n:
-        return np.arange(n)
-    d = angles_between(rot, rot)
-    chosen = [int(np.argmin(d.sum(1)))]
-    nearest = d[chosen[0]].copy()
-    while len(chosen) < k:
-        nxt = int(np.argmax(nearest))
-        chosen.append(nxt)
-        nearest = np.minimum(nearest, d[nxt])
-    return np.asarray(chosen)
-
-
-def anchor_weights(anchors: np.ndarray, orientation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(indices, weights) of the ``anchors`` (K, 3, 3) blended for a root orientation matrix (3, 3):
-    the ``BLEND`` nearest, each weighted by the square of how much nearer it is than the next one,
-    so a weight reaches zero exactly when its anchor stops being among the nearest (no jump as the
-    body turns) and the nearest anchor leads the blend. As many anchors as ``BLEND`` or fewer: all,
-    alike.
-
-    Squared, not linear: with linear weights the other anchors' colours ghosted the eyes of
-    People-Snapshot's held-out frames; squared, its head SSIM+-shift rose 0.897 -> 0.900 and person
-    PSNR +0.15 dB, tennis +0.002 and +0.05 dB, the outdoor clip and the demo's capture within
-    0.001 and 0.04 dB (docs/avatar.md, "The face's finest detail")."""
-    ang = angles_between(np.asarray(orientation, np.float64)[None], np.asarray(anchors, np.float64))[0]
-    if len(ang) <= BLEND:
-        order = np.argsort(ang)
-        return order, np.full(len(order), 1.0 / len(order))
-    order = np.argsort(ang, kind="stable")[:BLEND + 1]
-    w = (ang[order[BLEND]] - ang[order[:BLEND]]) ** 2
-    total = w.sum()
-    w = np.full(BLEND, 1.0 / BLEND) if total <= 1e-12 else w / total
-    return order[:BLEND], w
-
+if TYPE_CHECKING:
+    from morf.avatar.head_colour import HeadColourBytes, HeadColours
 
 def view_orientation(camera_R: np.ndarray, root_frame: np.ndarray, root_rotvec: np.ndarray) -> np.ndarray:
     """(3, 3) the body's orientation relative to a camera: the root bone's world rotation
@@ -91,7 +49,9 @@ class ViewColours:
         frames: how many training frames nearest each anchor were projected into it;
         root_frame: (3, 3) the skeleton's reference rotation of bone 0; camera_R: (3, 3) the
             capture camera's world-to-camera rotation (poses of that capture are turned into
-            orientations through both).
+            orientations through both);
+        head: the head's colour by the head's own orientation, laid over (:mod:`morf.avatar.head_colour`),
+            or None.
     """
 
     anchors: np.ndarray
@@ -99,6 +59,7 @@ class ViewColours:
     frames: int
     root_frame: np.ndarray
     camera_R: np.ndarray
+    head: "HeadColours | None" = None
 
     @property
     def count(self) -> int:
@@ -109,20 +70,25 @@ class ViewColours:
         (:func:`anchor_weights`)."""
         return anchor_weights(self.anchors, view_orientation(self.camera_R, self.root_frame, root_rotvec))
 
-    def colour(self, root_rotvec: np.ndarray) -> np.ndarray:
-        """(3, S, S) float32 colour channels (0-1) for a root orientation."""
-        idx, w = self.weights(root_rotvec)
+    def colour(self, pose: np.ndarray) -> np.ndarray:
+        """(3, S, S) float32 colour channels (0-1) for a pose: (J, 3) axis-angle per bone, or (3,)
+        the root's alone (then without the head's own colour)."""
+        pose = np.asarray(pose, np.float64)
+        idx, w = self.weights(pose.reshape(-1, 3)[0])
         out = np.zeros(self.colours.shape[1:], np.float32)
         for i, wi in zip(idx, w):
             out += np.float32(wi / 255.0) * self.colours[i].astype(np.float32)
+        if self.head is not None and pose.ndim == 2:
+            out = self.head.apply(out, pose)
         return out
 
-    def texture_for(self, texture, root_rotvec: np.ndarray):
-        """``texture`` (C, S, S) torch tensor with channels 0-2 replaced by the colour for ``root_rotvec``."""
+    def texture_for(self, texture, pose: np.ndarray):
+        """``texture`` (C, S, S) torch tensor with channels 0-2 replaced by the colour for ``pose``
+        (as :meth:`colour`)."""
         import torch
 
         out = texture.clone()
-        out[:3] = torch.from_numpy(self.colour(root_rotvec)).to(texture.dtype)
+        out[:3] = torch.from_numpy(self.colour(pose)).to(texture.dtype)
         return out
 
     def to_dict(self) -> dict:
@@ -132,7 +98,8 @@ class ViewColours:
         return {"anchors": torch.from_numpy(np.ascontiguousarray(self.anchors, np.float32)),
                 "colours": torch.from_numpy(np.ascontiguousarray(self.colours, np.uint8)), "frames": int(self.frames),
                 "root_frame": torch.from_numpy(np.ascontiguousarray(self.root_frame, np.float64)),
-                "camera_R": torch.from_numpy(np.ascontiguousarray(self.camera_R, np.float64))}
+                "camera_R": torch.from_numpy(np.ascontiguousarray(self.camera_R, np.float64)),
+                **({"head": self.head.to_dict()} if self.head is not None else {})}
 
     @staticmethod
     def from_dict(d: dict) -> "ViewColours":
@@ -144,7 +111,12 @@ class ViewColours:
         frames_R = [np.asarray(d[k], np.float64) for k in ("root_frame", "camera_R")]
         if any(m.shape != (3, 3) for m in frames_R):
             raise ValueError("view colours' root_frame and camera_R must be 3 x 3")
-        return ViewColours(anchors, colours, int(d.get("frames", 0)), *frames_R)
+        head = None
+        if d.get("head") is not None:
+            from morf.avatar.head_colour import HeadColours
+
+            head = HeadColours.from_dict(d["head"], colours.shape[2] * colours.shape[3])
+        return ViewColours(anchors, colours, int(d.get("frames", 0)), *frames_R, head=head)
 
 
 @dataclass(frozen=True)
@@ -152,21 +124,19 @@ class ViewColourBytes:
     """View colours as an exported avatar holds them: in the texture's own bytes (channels 0-2,
     quantised with the texture's scales), so the player blends bytes.
 
-    Fields: anchors (K, 3, 3) float32 root orientations relative to the camera; data (K, Ht, Wt, 3) uint8.
+    Fields: anchors (K, 3, 3) float32 root orientations relative to the camera; data (K, Ht, Wt, 3) uint8;
+    head: the head's colours laid over by the head's orientation, or None.
     """
 
     anchors: np.ndarray
     data: np.ndarray
+    head: "HeadColourBytes | None" = None
 
     def blend_weights(self, orientation: np.ndarray) -> tuple[tuple[int, ...], tuple[int, ...]]:
         """(anchor indices, integer weights summing to 256) of the blend for a root orientation
-        matrix (3, 3) relative to the camera: :func:`anchor_weights` in steps of 1/256, fine enough
-        that a byte moves by at most one, coarse enough that a still body reuses its blend."""
-        idx, w = anchor_weights(self.anchors, orientation)
-        q = np.floor(w * 256.0).astype(np.int64)
-        q[int(np.argmax(w))] += 256 - int(q.sum())
-        keep = q > 0
-        return tuple(int(i) for i in idx[keep]), tuple(int(v) for v in q[keep])
+        matrix (3, 3) relative to the camera: :func:`anchor_weights` in steps of 1/256
+        (:func:`integer_weights`)."""
+        return integer_weights(*anchor_weights(self.anchors, orientation))
 
     def blend(self, orientation: np.ndarray, weights=None) -> np.ndarray:
         """(Ht, Wt, 3) uint8 colour bytes for a root orientation matrix (3, 3) relative to the camera
@@ -185,4 +155,9 @@ def quantize_view_colours(views: ViewColours, scales: np.ndarray, zero_point: in
     c = views.colours.astype(np.float32) / 255.0  # (K, 3, S, S)
     q = np.rint(c / np.asarray(scales, np.float32)[None, :, None, None]) + zero_point
     q = np.clip(q, zero_point - 127, zero_point + 127).astype(np.uint8)
-    return ViewColourBytes(np.asarray(views.anchors, np.float32), np.ascontiguousarray(q.transpose(0, 2, 3, 1)))
+    head = None
+    if views.head is not None:
+        from morf.avatar.head_colour import quantize_head_colours
+
+        head = quantize_head_colours(views.head, scales, zero_point)
+    return ViewColourBytes(np.asarray(views.anchors, np.float32), np.ascontiguousarray(q.transpose(0, 2, 3, 1)), head)

@@ -146,8 +146,8 @@ def refine_poses(avatar, model, frames: FrameSet, rotvecs: np.ndarray, transl: n
             out = model(BodyPose(rot, tr0 + d_tr), shape_t)
             return rm.gather(dressed_vertices(model, out, shape_t, offsets_t)), rot
 
-        # an avatar with view colours: each frame in the colour of its given root orientation
-        textures = [avatar.texture_for(out_rot[i, 0]) if hasattr(avatar, "texture_for") else avatar.texture
+        # an avatar with view colours: each frame in the colour of its given pose
+        textures = [avatar.texture_for(out_rot[i]) if hasattr(avatar, "texture_for") else avatar.texture
                     for i in idx]
 
         def image(verts, face_id):

@@ -15,7 +15,10 @@ Layout (format "morf-avatar", version 1)::
       renderer_int8.onnx   the same, int8 QDQ
       view_colours.npz     optional: anchors (K, 3, 3) float32 root orientations relative to the
                            camera, colours (K, Ht, Wt, 3) uint8 in texture.npz's bytes: channels
-                           0-2 by view (morf.avatar.view_colour); the player blends the nearest
+                           0-2 by view (morf.avatar.view_colour); the player blends the nearest;
+                           head_anchors, head_bone, head_texels, head_share, head_colours
+                           (optional): the head's own colours, blended by the head bone's
+                           orientation and laid over (morf.avatar.head_colour)
 
 Needs numpy (and onnxruntime/moderngl to play); never torch, never pickle.
 
@@ -41,6 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
+from morf.avatar.head_colour import HeadColourBytes
 from morf.avatar.view_colour import ViewColourBytes
 from morf.errors import InputError
 from morf.export.skeleton import SkinningSkeleton
@@ -109,8 +113,16 @@ def write_arrays(folder: Path, texture: QuantizedTexture, mesh: SkinnedMesh, ske
 
 
 def write_view_colours(folder: Path, views: ViewColourBytes) -> None:
-    """Write view_colours.npz: anchors (K, 3, 3) float32 and colours (K, Ht, Wt, 3) uint8 texture bytes."""
-    save_npz(folder / VIEW_COLOURS_FILE, anchors=views.anchors.astype(np.float32), colours=views.data)
+    """Write view_colours.npz: anchors (K, 3, 3) float32 and colours (K, Ht, Wt, 3) uint8 texture
+    bytes; with the head's own colours also head_anchors (Kh, 3, 3) float32, head_bone (1,) int32,
+    head_texels (n,) int32, head_share (n,) uint8 and head_colours (Kh, n, 3) uint8."""
+    arrays = {"anchors": views.anchors.astype(np.float32), "colours": views.data}
+    if views.head is not None:
+        h = views.head
+        arrays.update(head_anchors=h.anchors.astype(np.float32), head_bone=np.array([h.bone], np.int32),
+                      head_texels=h.texels.astype(np.int32), head_share=h.share.astype(np.uint8),
+                      head_colours=h.data)
+    save_npz(folder / VIEW_COLOURS_FILE, **arrays)
 
 
 def write_manifest(folder: Path, fields: dict) -> dict:
@@ -343,7 +355,7 @@ def load_exported_avatar(root: str | Path, verify: bool = True) -> ExportedAvata
     views = None
     if VIEW_COLOURS_FILE in manifest["files"]:
         views = _view_colours(load_npz(root / VIEW_COLOURS_FILE, error=InputError), root / VIEW_COLOURS_FILE,
-                              texture.data.shape[:2])
+                              texture.data.shape[:2], skeleton.num_bones)
     return ExportedAvatar(root=root, manifest=manifest, texture=texture,
                           mesh=_mesh(m, root / "mesh.npz", skeleton.num_bones), skeleton=skeleton,
                           view_colours=views)
@@ -381,11 +393,25 @@ def _texture(t: dict, path: Path) -> QuantizedTexture:
     return QuantizedTexture(data=data, scales=scales.astype(np.float32))
 
 
-def _view_colours(v: dict, path: Path, texels: tuple[int, int]) -> ViewColourBytes:
+def _view_colours(v: dict, path: Path, texels: tuple[int, int], num_bones: int) -> ViewColourBytes:
     anchors = _array(v, "anchors", path, "f", (None, 3, 3))
     if len(anchors) == 0:
         raise damaged(path, "it has no anchors")
-    return ViewColourBytes(anchors.astype(np.float32), _array(v, "colours", path, "u", (len(anchors), *texels, 3)))
+    head = _head_colours(v, path, texels[0] * texels[1], num_bones) if "head_anchors" in v else None
+    return ViewColourBytes(anchors.astype(np.float32), _array(v, "colours", path, "u", (len(anchors), *texels, 3)),
+                           head)
+
+
+def _head_colours(v: dict, path: Path, texel_count: int, num_bones: int) -> HeadColourBytes:
+    anchors = _array(v, "head_anchors", path, "f", (None, 3, 3))
+    if len(anchors) == 0:
+        raise damaged(path, "it has no head anchors")
+    bone = _in_range(_array(v, "head_bone", path, "i", (1,)), "head_bone", path, num_bones, "bones")
+    texels = _in_range(_array(v, "head_texels", path, "i", (None,)), "head_texels", path, texel_count, "texels")
+    n = len(texels)
+    return HeadColourBytes(anchors.astype(np.float32), int(bone[0]), texels.astype(np.int32),
+                           _array(v, "head_share", path, "u", (n,)), _array(v, "head_colours", path, "u",
+                                                                            (len(anchors), n, 3)))
 
 
 def _mesh(m: dict, path: Path, num_bones: int) -> SkinnedMesh:

@@ -167,6 +167,8 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
     if view_colours is not None:  # the colour channels' scales cover every view's colours too
         peak = np.zeros(NUM_CHANNELS, np.float32)
         peak[:3] = view_colours.colours.reshape(view_colours.count, 3, -1).max(axis=(0, 2)) / 255.0
+        if view_colours.head is not None:
+            peak[:3] = np.maximum(peak[:3], view_colours.head.colours.max(axis=(0, 1)) / 255.0)
     qtex = quantize_texture(tex, peak)
     mesh = skinned_mesh_from_body_model(body_model, shape, offsets)
     skeleton = skeleton_from_body_model(body_model, shape)
@@ -189,6 +191,10 @@ def export_avatar(out_dir: str | Path, *, texture, renderer, body_model, shape, 
         if view_colours is not None:
             fields["view_colours"] = {"count": view_colours.count, "frames_each": view_colours.frames,
                                       "file": VIEW_COLOURS_FILE}
+            if view_colours.head is not None:
+                fields["view_colours"]["head"] = {"count": view_colours.head.count,
+                                                  "frames_each": view_colours.head.frames,
+                                                  "texels": int(len(view_colours.head.texels))}
         tails = native_tails(tmp, specs, cfg.input_layout, held or calib[:4])
         if tails:
             fields["renderer"]["native_tail"] = tails

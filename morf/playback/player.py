@@ -117,26 +117,33 @@ class Player:
             raise InputError(f"camera is {camera.width}x{camera.height}; the player renders square {self.size}px images")
         return camera.scaled(self.size / camera.width)
 
-    def _view_colour(self, pose_rotvecs: np.ndarray, camera) -> None:
+    def _view_colour(self, pose_rotvecs: np.ndarray, camera, bones: np.ndarray) -> None:
         """Set the rasterizer's colour channels to the view colours' blend for this pose's root
-        orientation relative to ``camera`` (:mod:`morf.avatar.view_colour`); a blend already set is kept."""
+        orientation relative to ``camera`` (:mod:`morf.avatar.view_colour`), with the head's own
+        colours laid over by the head bone's (its skinning rotation in ``bones``, the pose's (J, 4, 4)
+        bone transforms; :mod:`morf.avatar.head_colour`); a blend already set is kept."""
+        from morf.avatar.head_colour import head_orientation
         from morf.avatar.view_colour import view_orientation
 
         views = self.avatar.view_colours
         R = getattr(camera, "R", None)
-        orientation = view_orientation(np.eye(3) if R is None else R, self.avatar.skeleton.reference_rotations[0],
+        R = np.eye(3) if R is None else R
+        orientation = view_orientation(R, self.avatar.skeleton.reference_rotations[0],
                                        np.asarray(pose_rotvecs, np.float64)[0])
         key = views.blend_weights(orientation)
-        if key != self._view_key:
-            self.raster.set_colour(views.blend(orientation, key))
-            self._view_key = key
+        head = views.head
+        head_key = None if head is None else head.blend_weights(head_orientation(R, bones[head.bone, :3, :3]))
+        if (key, head_key) != self._view_key:
+            rgb = views.blend(orientation, key)
+            self.raster.set_colour(rgb if head is None else head.lay_over(rgb, head_key))
+            self._view_key = (key, head_key)
 
     def rasterize(self, pose_rotvecs: np.ndarray, transl: np.ndarray, camera, out: np.ndarray | None = None) -> np.ndarray:
         """The renderer input for one pose, in the renderer's layout (uint8)."""
         t0 = time.perf_counter()
         T = self.avatar.skeleton.bone_transforms(pose_rotvecs, transl)
         if self.avatar.view_colours is not None:
-            self._view_colour(pose_rotvecs, camera)
+            self._view_colour(pose_rotvecs, camera, T)
         t1 = time.perf_counter()
         self.raster.draw(T, self._camera(camera))
         self._gl_finish()

@@ -66,22 +66,25 @@ class TrainedAvatar:
         return bool(getattr(self.config, "dressed", True))
 
     @torch.no_grad()
-    def render(self, uv: torch.Tensor, uv_mask: torch.Tensor, roots=None) -> tuple[torch.Tensor, torch.Tensor]:
+    def render(self, uv: torch.Tensor, uv_mask: torch.Tensor, poses=None) -> tuple[torch.Tensor, torch.Tensor]:
         """(B, H, W, 2) UVs + (B, H, W) coverage -> RGB (B, 3, H, W) premultiplied, mask (B, 1, H, W).
-        ``roots``: (B, 3) the poses' root orientations (axis-angle, camera coordinates), which pick
-        the colour of an avatar with view colours (ignored without them; None: the one texture)."""
-        if self.view_colours is None or roots is None:
+        ``poses``: (B, J, 3) the poses (axis-angle per bone, the root's in camera coordinates), or
+        (B, 3) their root orientations alone, which pick the colour of an avatar with view colours
+        (the head's own colour needs the whole pose; ignored without view colours; None: the one texture)."""
+        if self.view_colours is None or poses is None:
             return render_with_texture(self.renderer, self.texture, uv, uv_mask)
-        roots = np.asarray(roots.detach().cpu() if isinstance(roots, torch.Tensor) else roots, np.float64)
-        outs = [render_with_texture(self.renderer, self.texture_for(roots[b]), uv[b:b + 1], uv_mask[b:b + 1])
+        poses = np.asarray(poses.detach().cpu() if isinstance(poses, torch.Tensor) else poses, np.float64)
+        outs = [render_with_texture(self.renderer, self.texture_for(poses[b]), uv[b:b + 1], uv_mask[b:b + 1])
                 for b in range(uv.shape[0])]
         return torch.cat([o[0] for o in outs]), torch.cat([o[1] for o in outs])
 
-    def texture_for(self, root) -> torch.Tensor:
-        """The texture a pose with root orientation ``root`` (3,) is drawn with."""
-        if self.view_colours is None or root is None:
+    def texture_for(self, pose) -> torch.Tensor:
+        """The texture a pose is drawn with: ``pose`` (J, 3) axis-angle per bone, or (3,) the root
+        orientation alone (:meth:`morf.avatar.view_colour.ViewColours.colour`)."""
+        if self.view_colours is None or pose is None:
             return self.texture
-        return self.view_colours.texture_for(self.texture, np.asarray(root, np.float64).reshape(3))
+        pose = np.asarray(pose, np.float64)
+        return self.view_colours.texture_for(self.texture, pose if pose.ndim == 2 else pose.reshape(3))
 
 
 def render_batch(avatar, batch) -> tuple[torch.Tensor, torch.Tensor]:
@@ -89,7 +92,7 @@ def render_batch(avatar, batch) -> tuple[torch.Tensor, torch.Tensor]:
     has view colours."""
     if getattr(avatar, "view_colours", None) is None:
         return avatar.render(batch.uv, batch.uv_mask)
-    return avatar.render(batch.uv, batch.uv_mask, batch.rotvecs[:, 0])
+    return avatar.render(batch.uv, batch.uv_mask, batch.rotvecs)
 
 
 def save_trained_avatar(path: str | Path, texture: torch.Tensor, renderer: nn.Module, config_dict: dict,

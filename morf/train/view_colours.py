@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -36,11 +37,21 @@ def attach_view_colours(run, frames, covered: np.ndarray, cfg, how, model, shape
     root_frame = reference_rotations(model, shape)[0]
     views = project_view_colours(frames, covered, base, cfg.view_colours, cfg.view_colour_frames, cfg.texture_dilate,
                                  how, root_frame, camera_R, cfg.view_colour_margin)
+    head = ""
+    if cfg.head_view_colours:
+        from morf.avatar.head_colour import head_share
+        from morf.train.head_colours import head_chain, project_head_colours
+
+        views = dataclasses.replace(views, head=project_head_colours(
+            frames, covered, base, cfg.head_view_colours, cfg.head_view_colour_frames, cfg.texture_dilate, how,
+            head_chain(model, shape), camera_R, head_share(model, base.shape[1])))
+        head = (f"; the head's {views.head.count} more by the head's own orientation, each from the "
+                f"{views.head.frames} frames whose head was turned most like it ({len(views.head.texels)} texels)")
     d["view_colours"] = views.to_dict()
     with atomic_path(path) as tmp:
         torch.save(d, tmp)
     run.log(f"view colours: {views.count} anchor orientations, each projected from the {views.frames} training "
-            f"frames nearest it{aligned} ({time.monotonic() - t0:.1f} s)")
+            f"frames nearest it{aligned}{head} ({time.monotonic() - t0:.1f} s)")
     return True
 
 

@@ -146,6 +146,11 @@ def write_web_avatar(avatar: ExportedAvatar, folder: Path, motions: list[dict], 
     views = avatar.view_colours
     if views is not None:  # the colour channels by view, blended per frame by view_colours.js
         (folder / "view_colours.bin").write_bytes(np.ascontiguousarray(views.data, np.uint8).tobytes())
+        if views.head is not None:  # the head's own colours: texels (int32 LE), shares, then K x n x 3 bytes
+            h = views.head
+            (folder / "head_colours.bin").write_bytes(np.ascontiguousarray(h.texels, "<i4").tobytes()
+                                                      + np.ascontiguousarray(h.share, np.uint8).tobytes()
+                                                      + np.ascontiguousarray(h.data, np.uint8).tobytes())
     levels = dict(zip(LEVEL_NAMES, light_meshes(avatar.mesh, avatar.skeleton.names, avatar.skeleton.parents)))
     mesh, layout = _mesh_bytes(avatar, levels)
     (folder / "mesh.bin").write_bytes(mesh)
@@ -175,5 +180,10 @@ def write_web_avatar(avatar: ExportedAvatar, folder: Path, motions: list[dict], 
     if views is not None:
         doc["view_colours"] = {"file": "view_colours.bin", "count": int(views.anchors.shape[0]),
                                "anchors": np.round(views.anchors.astype(np.float64), 9).reshape(-1).tolist()}
+        if views.head is not None:
+            h = views.head
+            doc["view_colours"]["head"] = {
+                "file": "head_colours.bin", "count": int(h.anchors.shape[0]), "bone": int(h.bone),
+                "texels": int(len(h.texels)), "anchors": np.round(h.anchors.astype(np.float64), 9).reshape(-1).tolist()}
     (folder / "avatar.json").write_text(json.dumps(doc, separators=(",", ":")))
     return doc

@@ -41,11 +41,13 @@ export async function loadAvatar(config) {
   const base = config.avatar.replace(/[^/]*$/, '');
   const doc = await (await fetch(config.avatar)).json();
   if (doc.format !== 'morf-web-avatar' || doc.version !== 1) throw new Error(`${config.avatar} is not a morf web avatar (version 1)`);
-  const [texture, mesh, graph, rasterShader, views] = await Promise.all([
+  const head = doc.view_colours && doc.view_colours.head;
+  const [texture, mesh, graph, rasterShader, views, headViews] = await Promise.all([
     fetchBytes(base + doc.texture.file), fetchBytes(base + doc.mesh.file), fetchBytes(base + doc.renderer.file),
-    loadRasterShader(), doc.view_colours ? fetchBytes(base + doc.view_colours.file) : null]);
+    loadRasterShader(), doc.view_colours ? fetchBytes(base + doc.view_colours.file) : null,
+    head ? fetchBytes(base + head.file) : null]);
   return { doc, texture: new Uint8Array(texture), mesh, graph: new Uint8Array(graph), rasterShader,
-    views: views && new Uint8Array(views) };
+    views: views && new Uint8Array(views), headViews };
 }
 
 export async function loadMotion(entry) {
@@ -80,7 +82,8 @@ export class Player {
     const tail = avatar.doc.renderer.tail;
     this.fill = tail && tail.fill_levels ? new ColourFill(tail) : null;
     this.rows = new Float32Array(this.skeleton.J * 12);
-    this.views = avatar.views ? new ViewColours(avatar.doc.view_colours, avatar.views, avatar.texture, this.skeleton) : null;
+    this.views = avatar.views ? new ViewColours(avatar.doc.view_colours, avatar.views, avatar.texture, this.skeleton,
+      avatar.headViews) : null;
     this.bodyBox = new BodyBox(avatar.doc, avatar.mesh);
     const crop = new URLSearchParams(location.search).get('crop');  // crop=off: the whole frame; crop=N: N pixels' margin
     this.cropMargin = crop === 'off' ? -1 : crop !== null && crop !== '' ? Number(crop) : CROP_MARGIN;
@@ -152,7 +155,7 @@ export class Player {
     if (this.meshChoice === 'auto') this.raster.setMesh(this.levelOfDetail(camera));
     this.raster.uploadBones(this.rows);
     if (this.views) {
-      const rgba = this.views.update(frame, camera.R);
+      const rgba = this.views.update(frame, camera.R, this.rows);
       if (rgba) this.raster.setColour(rgba);
     }
     const crop = this.crop(camera);

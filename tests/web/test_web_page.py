@@ -6,6 +6,7 @@ isolation headers it falls back to one thread and says so; a render against a go
 from __future__ import annotations
 
 import base64
+import dataclasses
 import io
 
 import numpy as np
@@ -306,3 +307,71 @@ def _without_views(folder):
     from morf.export.avatar_folder import load_exported_avatar
 
     return dataclasses.replace(load_exported_avatar(folder), view_colours=None)
+
+
+def test_head_colours_are_laid_over_as_the_python_player_lays_them(tiny_avatar, body_model, tmp_path):
+    """An avatar whose view colours carry the head's own colours (five head anchors, each a flat red
+    laid over by the real head share, the neck's partial shares included): the page blends them by
+    the head bone's orientation and lays them over as the Python player does; without them the
+    image differs by far more than the bar."""
+    import json
+    import shutil
+
+    from morf.avatar.head_colour import HeadColourBytes, head_share
+    from morf.avatar.view_colour import ViewColourBytes
+    from morf.export.avatar_folder import MANIFEST, load_exported_avatar, write_manifest, write_view_colours
+    from morf.rotations import rotvec_to_matrix_rodrigues
+    from morf.web.build import build_web_folder
+    from morf.web.check import page_frames, psnr
+    from tests.web.conftest import browser_or_skip
+
+    browser_or_skip()
+    avatar = tmp_path / "avatar"
+    shutil.copytree(tiny_avatar, avatar)
+    loaded = load_exported_avatar(avatar)
+    tex = loaded.texture.data
+    anchors = rotvec_to_matrix_rodrigues(np.array([[0, 0, 0], [0, 0, 0.6], [0, 1.2, 0]], float)).astype(np.float32)
+    body = np.stack([np.dstack([tex[..., 0], np.full(tex.shape[:2], 60 + 50 * k, np.uint8),
+                                np.full(tex.shape[:2], 230 - 50 * k, np.uint8)]) for k in range(3)])
+    share = np.rint(head_share(body_model, tex.shape[0]).reshape(-1) * 255)
+    texels = np.flatnonzero(share >= 1).astype(np.int32)
+    assert 0 < (share[texels] < 255).sum() < len(texels)
+    turns = np.array([[0, 0, 0], [0, 0, 0.6], [0, 1.2, 0], [1.0, 0, 0.4], [0, -1.2, 0]], float)
+    head_anchors = rotvec_to_matrix_rodrigues(turns).astype(np.float32)  # more than the three blended
+    head_rgb = np.stack([np.tile(np.array([[240, 20 + 50 * k, 30]], np.uint8), (len(texels), 1)) for k in range(5)])
+    bone = list(loaded.skeleton.names).index("head")
+    head = HeadColourBytes(head_anchors, bone, texels, share[texels].astype(np.uint8), head_rgb)
+    write_view_colours(avatar, ViewColourBytes(anchors, body, head))
+    fields = {k: v for k, v in json.loads((avatar / MANIFEST).read_text()).items()
+              if k not in ("format", "version", "files")}
+    write_manifest(avatar, fields)
+    assert load_exported_avatar(avatar).view_colours.head.bone == bone
+    folder = build_web_folder(avatar, tmp_path / "web")
+    doc = json.loads((folder.path / "avatar" / "avatar.json").read_text())
+    assert doc["view_colours"]["head"]["count"] == 5 and doc["view_colours"]["head"]["texels"] == len(texels)
+    size = 256
+    frames = _frames(104, size, count=3)
+    for rot, _, _ in frames:
+        rot[bone] = (0.0, 0.9, 0.0)  # the head turned on its own
+    page, info = page_frames(folder.path, frames, query="mesh=full")
+    want, person = _python_frames(avatar, frames, size, folder.precision)
+    without = dataclasses.replace(load_exported_avatar(avatar), view_colours=ViewColourBytes(anchors, body))
+    plain, _ = _python_frames(without, frames, size, folder.precision)
+    heads = _head_pixels(avatar, without, frames, size)
+    assert info["messages"] == []
+    for a, b, c, m, h in zip(page, want, plain, person, heads):
+        assert h.sum() > 100
+        assert psnr(a, b, m) >= MIN_PERSON_PSNR_DB, psnr(a, b, m)
+        assert psnr(a, b, h) >= MIN_PERSON_PSNR_DB, psnr(a, b, h)  # the head itself, where a wrong blend shows
+        assert psnr(c, b, m) < MIN_PERSON_PSNR_DB - 5  # the head's colours change the image
+
+
+def _head_pixels(avatar, without, frames, size):
+    """Per frame, the pixels whose renderer input differs between ``avatar`` and ``without``."""
+    from morf.playback.player import Player
+
+    inputs = []
+    for a in (avatar, without):
+        with Player(a, size=size) as p:
+            inputs.append([p.rasterize(r, t, c).reshape(size, size, 16)[..., :3].copy() for r, t, c in frames])
+    return [np.any(x != y, axis=-1) for x, y in zip(*inputs)]
