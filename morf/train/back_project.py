@@ -97,9 +97,10 @@ def back_project(rgb: np.ndarray, seen: np.ndarray, frames, min_facing: float, h
     return tex.reshape(size, size, 3).astype(np.float32)
 
 
-def drawn_back_ssim(texture: np.ndarray, frames, min_facing: float, how) -> float:
+def drawn_back_ssim(texture: np.ndarray, frames, min_facing: float, how, region: np.ndarray | None = None) -> float:
     """Mean over ``frames`` of the SSIM of ``texture`` (S, S, 3) looked up at each frame's pixels
-    against the frame, over the pixels a projection would take from it (the rest grey in both)."""
+    against the frame, over the pixels a projection would take from it (the rest grey in both);
+    with ``region`` (S, S) bool, only over those whose texel lies in it (a part of the body)."""
     import torch
 
     from morf.avatar.metrics import ssim_map
@@ -110,6 +111,8 @@ def drawn_back_ssim(texture: np.ndarray, frames, min_facing: float, how) -> floa
     out = []
     for i in range(frames.num_frames):
         ok = projecting_pixels(frames, i, min_facing, how.edge_inset)
+        if region is not None:
+            ok = ok & _in_region(frames.uv[i], region)
         if ok.sum() < 64:
             continue
         drawn = np.full(ok.shape + (3,), 0.5)
@@ -122,6 +125,16 @@ def drawn_back_ssim(texture: np.ndarray, frames, min_facing: float, how) -> floa
         if inside.any():
             out.append(float(s[inside].mean()))
     return float(np.mean(out)) if out else float("nan")
+
+
+def _in_region(uv: np.ndarray, region: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the pixels whose UVs ((H, W, 2) uint16 fixed point, v up) fall in a texel of ``region`` (S, S)."""
+    from morf.train.frames import UV_SCALE
+
+    size = region.shape[0]
+    col = np.clip((uv[..., 0].astype(np.float64) / UV_SCALE * size).astype(np.int64), 0, size - 1)
+    row = np.clip(((1 - uv[..., 1].astype(np.float64) / UV_SCALE) * size).astype(np.int64), 0, size - 1)
+    return region[row, col]
 
 
 def choose_back_projections(frames, size: int, min_facing: float, how,

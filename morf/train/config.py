@@ -89,6 +89,9 @@ class TrainConfig:
     # view colours by each texel's head share. Needs ``view_colours``.
     head_view_colours: int = 0
     head_view_colour_frames: int = 4
+    # back-projection passes of the head's colours: -1 chosen on the capture's heads
+    # (morf.train.head_colours.choose_head_passes), 0 none, N that many
+    head_view_colour_passes: int = -1
     batch_size: int = 4  # images per step
     steps: int = 3000  # optimisation steps of the main stage
     texture_channels: int = 16  # C of the neural texture
@@ -272,6 +275,8 @@ class TrainConfig:
             (self.head_view_colours >= 0, f"head_view_colours must be >= 0 (0: none), got {self.head_view_colours}"),
             (self.head_view_colour_frames >= 1,
              f"head_view_colour_frames must be >= 1, got {self.head_view_colour_frames}"),
+            (self.head_view_colour_passes >= -1, f"head_view_colour_passes must be -1 (chosen on the capture), 0 "
+                                                  f"(none) or a number of passes, got {self.head_view_colour_passes}"),
             (not self.head_view_colours or self.view_colours > 0,
              "head_view_colours needs view_colours > 0 (the head's colour is laid over the view colours)"),
             (self.colour_prior_count >= 0, f"colour_prior_count must be >= 0 pixels, got {self.colour_prior_count}"),
@@ -400,11 +405,12 @@ PRESETS: dict[str, TrainConfig] = {
         # the flicker that forgives misregistration +1 to +7 % (docs/avatar.md, "Colour by view").
         view_colours=16, view_colour_frames=12,
         # The head's colour by the head's own orientation: 32 anchors, 4 frames each, laid over the
-        # view colours down to the neck. The tennis clip's player turns his head on his own: head
-        # SSIM+-shift 0.716 -> 0.728, its HF ratio inside 0.521 -> 0.557; People-Snapshot 0.900 ->
-        # 0.907, 0.560 -> 0.612; person PSNR +0.05 dB on both (docs/avatar.md, "The head's colour by
-        # the head's own orientation").
-        head_view_colours=32, head_view_colour_frames=4,
+        # view colours down to the neck, back-projected where the capture's heads support it. The
+        # tennis clip's player turns his head on his own: head SSIM+-shift 0.716 -> 0.727 (seed 1
+        # 0.711 -> 0.722), its HF ratio inside 0.521 -> 0.820 (0.532 -> 0.832); People-Snapshot
+        # 0.900 -> 0.907, 0.560 -> 0.612; outdoor -0.001 and +0.054; person PSNR +0.01 to +0.05 dB
+        # (docs/avatar.md, "The head's colour by the head's own orientation").
+        head_view_colours=32, head_view_colour_frames=4, head_view_colour_passes=-1,
         # A back-projection pass where the capture's own frames support it (chosen on frames held
         # aside): People-Snapshot took it, head SSIM+-shift +0.001-0.002 and its HF ratio inside
         # 0.43 -> 0.51-0.52 on two seeds, hands +0.002-0.004, person PSNR -0.03/+0.04 dB, the flicker

@@ -3,6 +3,8 @@ projected with the view colours when the run's config asks for them (``head_view
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
+
 import numpy as np
 
 from morf.avatar.anchor_blend import angles_between, spread_anchors
@@ -22,6 +24,70 @@ def head_chain(model, shape: np.ndarray) -> HeadChain:
     return HeadChain.along(list(model.bone_parents), reference_rotations(model, shape, rest), rest[:, :3, :3], bone)
 
 
+MAX_HEAD_PASSES = 3  # back-projection passes the head's choice tries
+CHOICE_ANCHORS = 12  # head orientations the choice holds a frame aside at
+MIN_FACING = 0.3  # as the floor's projection
+
+
+@dataclass(frozen=True)
+class HeadPassChoice:
+    """Fields: passes: the number chosen; scores: the held-aside heads' mean SSIM after 0, 1, ...
+    passes; frames: how many frames were held aside and scored."""
+
+    passes: int
+    scores: tuple[float, ...]
+    frames: int
+
+    def describe(self) -> str:
+        got = " / ".join(f"{v:.4f}" for v in self.scores)
+        return (f"{self.passes} back-projection pass(es) for the head's colours, chosen on {self.frames} heads held "
+                f"aside (their SSIM drawn back after 0-{len(self.scores) - 1} passes: {got})")
+
+
+def head_orientations(frames, chain: HeadChain, camera_R: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) each frame's head orientation relative to the camera."""
+    return np.stack([head_orientation(camera_R, chain.rotation(r)) for r in frames.rotvecs])
+
+
+def choose_head_passes(frames, rot: np.ndarray, size: int, per_view: int, how, share: np.ndarray,
+                       most: int = MAX_HEAD_PASSES) -> HeadPassChoice:
+    """How many back-projection passes (:mod:`morf.train.back_project`) the head's colours take.
+    At up to ``CHOICE_ANCHORS`` head orientations spread over the frames' (``rot`` (N, 3, 3)), the
+    frame there is held aside and its head colour projected (``how`` without passes) from the
+    ``per_view`` frames whose head is turned most like it, as a head anchor is; it is drawn back
+    over the held-aside frame after 0, 1, ... ``most`` passes and scored by SSIM over the head's
+    pixels (``share`` (S, S) >= 0.5). The passes up to the first whose mean adds less than
+    :data:`~morf.train.back_project.MIN_GAIN`. Frames that agree at the face (a slow turn, a good
+    fit) take passes; frames a few pixels apart do not."""
+    from morf.train.back_project import MIN_GAIN, back_project, drawn_back_ssim
+    from morf.train.inpaint import project_rgb_texture
+
+    n = frames.num_frames
+    if n <= per_view or most <= 0:
+        return HeadPassChoice(0, (), 0)
+    plain = replace(how, back_projections=0)
+    region = share >= 0.5
+    rows = []
+    for a in spread_anchors(rot, min(CHOICE_ANCHORS, n)):
+        order = np.argsort(angles_between(rot[a:a + 1], rot)[0], kind="stable")
+        held = frames.subset(np.array([a]))
+        source = frames.subset(np.sort(order[order != a][:per_view]))
+        rgb, seen = project_rgb_texture(source, size, MIN_FACING, plain)
+        row = [drawn_back_ssim(rgb, held, MIN_FACING, plain, region)]
+        for _ in range(most):
+            rgb = back_project(rgb, seen, source, MIN_FACING, plain, 1)
+            row.append(drawn_back_ssim(rgb, held, MIN_FACING, plain, region))
+        if np.all(np.isfinite(row)):
+            rows.append(row)
+    if not rows:
+        return HeadPassChoice(0, (), 0)
+    mean = np.mean(rows, axis=0)
+    passes = 0
+    while passes < most and mean[passes + 1] >= mean[passes] + MIN_GAIN:
+        passes += 1
+    return HeadPassChoice(passes, tuple(round(float(v), 5) for v in mean[:passes + 2]), len(rows))
+
+
 def project_head_colours(frames, covered: np.ndarray, base: np.ndarray, count: int, per_view: int, dilate: int,
                          how, chain: HeadChain, camera_R: np.ndarray, share: np.ndarray) -> HeadColours:
     """``count`` head colours from a training FrameSet: anchors spread over the frames' head
@@ -32,7 +98,7 @@ def project_head_colours(frames, covered: np.ndarray, base: np.ndarray, count: i
     byte are kept."""
     from morf.train.floor_texture import floor_texture
 
-    rot = np.stack([head_orientation(camera_R, chain.rotation(r)) for r in frames.rotvecs])
+    rot = head_orientations(frames, chain, camera_R)
     picked = spread_anchors(rot, count)
     near = np.argsort(angles_between(rot[picked], rot), axis=1, kind="stable")[:, :per_view]
     texels = np.flatnonzero(share.reshape(-1) >= MIN_SHARE).astype(np.int32)

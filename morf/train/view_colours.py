@@ -39,20 +39,35 @@ def attach_view_colours(run, frames, covered: np.ndarray, cfg, how, model, shape
                                  how, root_frame, camera_R, cfg.view_colour_margin)
     head = ""
     if cfg.head_view_colours:
-        from morf.avatar.head_colour import head_share
-        from morf.train.head_colours import head_chain, project_head_colours
-
-        views = dataclasses.replace(views, head=project_head_colours(
-            frames, covered, base, cfg.head_view_colours, cfg.head_view_colour_frames, cfg.texture_dilate, how,
-            head_chain(model, shape), camera_R, head_share(model, base.shape[1])))
-        head = (f"; the head's {views.head.count} more by the head's own orientation, each from the "
-                f"{views.head.frames} frames whose head was turned most like it ({len(views.head.texels)} texels)")
+        views, head = _with_head_colours(views, frames, covered, base, cfg, how, model, shape, camera_R, run)
     d["view_colours"] = views.to_dict()
     with atomic_path(path) as tmp:
         torch.save(d, tmp)
     run.log(f"view colours: {views.count} anchor orientations, each projected from the {views.frames} training "
             f"frames nearest it{aligned}{head} ({time.monotonic() - t0:.1f} s)")
     return True
+
+
+def _with_head_colours(views, frames, covered, base, cfg, how, model, shape, camera_R, run):
+    """``views`` with the head's own colours (:mod:`morf.train.head_colours`), their back-projection
+    passes as ``cfg.head_view_colour_passes`` says (-1: chosen on the capture's heads), and the
+    words the log adds."""
+    from morf.avatar.head_colour import head_share
+    from morf.train.head_colours import choose_head_passes, head_chain, head_orientations, project_head_colours
+
+    chain, share = head_chain(model, shape), head_share(model, base.shape[1])
+    passes = cfg.head_view_colour_passes
+    if passes < 0:
+        choice = choose_head_passes(frames, head_orientations(frames, chain, camera_R), base.shape[1],
+                                    cfg.head_view_colour_frames, how, share)
+        run.log(f"head colours: {choice.describe()}")
+        passes = choice.passes
+    head = project_head_colours(frames, covered, base, cfg.head_view_colours, cfg.head_view_colour_frames,
+                                cfg.texture_dilate, dataclasses.replace(how, back_projections=passes), chain,
+                                camera_R, share)
+    words = (f"; the head's {head.count} more by the head's own orientation, each from the {head.frames} frames "
+             f"whose head was turned most like it, {passes} back-projection pass(es) ({len(head.texels)} texels)")
+    return dataclasses.replace(views, head=head), words
 
 
 def view_colours_missing(run) -> bool:
