@@ -3,7 +3,7 @@ projected with the view colours when the run's config asks for them (``head_view
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -29,28 +29,13 @@ CHOICE_ANCHORS = 12  # head orientations the choice holds a frame aside at
 MIN_FACING = 0.3  # as the floor's projection
 
 
-@dataclass(frozen=True)
-class HeadPassChoice:
-    """Fields: passes: the number chosen; scores: the held-aside heads' mean SSIM after 0, 1, ...
-    passes; frames: how many frames were held aside and scored."""
-
-    passes: int
-    scores: tuple[float, ...]
-    frames: int
-
-    def describe(self) -> str:
-        got = " / ".join(f"{v:.4f}" for v in self.scores)
-        return (f"{self.passes} back-projection pass(es) for the head's colours, chosen on {self.frames} heads held "
-                f"aside (their SSIM drawn back after 0-{len(self.scores) - 1} passes: {got})")
-
-
 def head_orientations(frames, chain: HeadChain, camera_R: np.ndarray) -> np.ndarray:
     """(N, 3, 3) each frame's head orientation relative to the camera."""
     return np.stack([head_orientation(camera_R, chain.rotation(r)) for r in frames.rotvecs])
 
 
 def choose_head_passes(frames, rot: np.ndarray, size: int, per_view: int, how, share: np.ndarray,
-                       most: int = MAX_HEAD_PASSES) -> HeadPassChoice:
+                       most: int = MAX_HEAD_PASSES):
     """How many back-projection passes (:mod:`morf.train.back_project`) the head's colours take.
     At up to ``CHOICE_ANCHORS`` head orientations spread over the frames' (``rot`` (N, 3, 3)), the
     frame there is held aside and its head colour projected (``how`` without passes) from the
@@ -58,13 +43,14 @@ def choose_head_passes(frames, rot: np.ndarray, size: int, per_view: int, how, s
     over the held-aside frame after 0, 1, ... ``most`` passes and scored by SSIM over the head's
     pixels (``share`` (S, S) >= 0.5). The passes up to the first whose mean adds less than
     :data:`~morf.train.back_project.MIN_GAIN`. Frames that agree at the face (a slow turn, a good
-    fit) take passes; frames a few pixels apart do not."""
-    from morf.train.back_project import MIN_GAIN, back_project, drawn_back_ssim
+    fit) take passes; frames a few pixels apart do not. Returns a
+    :class:`~morf.train.back_project.BackProjectionChoice` (its frames: the heads held aside)."""
+    from morf.train.back_project import MIN_GAIN, BackProjectionChoice, back_project, drawn_back_ssim
     from morf.train.inpaint import project_rgb_texture
 
     n = frames.num_frames
     if n <= per_view or most <= 0:
-        return HeadPassChoice(0, (), 0)
+        return BackProjectionChoice(0, (), 0)
     plain = replace(how, back_projections=0)
     region = share >= 0.5
     rows = []
@@ -80,12 +66,12 @@ def choose_head_passes(frames, rot: np.ndarray, size: int, per_view: int, how, s
         if np.all(np.isfinite(row)):
             rows.append(row)
     if not rows:
-        return HeadPassChoice(0, (), 0)
+        return BackProjectionChoice(0, (), 0)
     mean = np.mean(rows, axis=0)
     passes = 0
     while passes < most and mean[passes + 1] >= mean[passes] + MIN_GAIN:
         passes += 1
-    return HeadPassChoice(passes, tuple(round(float(v), 5) for v in mean[:passes + 2]), len(rows))
+    return BackProjectionChoice(passes, tuple(round(float(v), 5) for v in mean[:passes + 2]), len(rows))
 
 
 def project_head_colours(frames, covered: np.ndarray, base: np.ndarray, count: int, per_view: int, dilate: int,

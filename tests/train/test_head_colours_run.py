@@ -45,7 +45,7 @@ def test_training_writes_the_heads_colours_and_a_turned_head_changes_only_its_te
     assert head is not None and head.count == 4 and head.frames == 2
     log = (run / "train.log").read_text()
     assert "the head's 4 more by the head's own orientation" in log
-    assert "pass(es) for the head's colours, chosen on" in log  # the default: chosen on the capture
+    assert "head colours: " in log and "back-projection pass(es), chosen on" in log  # the default: chosen
     size = av.texture.shape[1]
     share = head_share(body_model, size).reshape(-1)
     assert set(head.texels.tolist()) == set(np.flatnonzero(share >= 1 / 255).tolist())

@@ -22,7 +22,7 @@ def test_passes_where_the_heads_agree_and_none_where_they_do_not():
     share = np.ones((SIZE, SIZE), np.float32)
     agree = choose_head_passes(_frames(12), _turning(12), SIZE, 4, how, share)
     assert agree.passes >= 1 and agree.frames == 12 and agree.scores[1] > agree.scores[0]
-    assert "pass(es) for the head's colours" in agree.describe()
+    assert "back-projection pass(es)" in agree.describe()
     disagree = choose_head_passes(_frames(12, jitter=4.0), _turning(12), SIZE, 4, how, share)
     assert disagree.passes == 0 and disagree.scores[1] < disagree.scores[0]
     assert choose_head_passes(_frames(12), _turning(12), SIZE, 4, how, share, most=0).passes == 0
