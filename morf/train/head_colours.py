@@ -75,16 +75,18 @@ def choose_head_passes(frames, rot: np.ndarray, size: int, per_view: int, how, s
 
 
 def project_head_colours(frames, covered: np.ndarray, base: np.ndarray, count: int, per_view: int, dilate: int,
-                         how, chain: HeadChain, camera_R: np.ndarray, share: np.ndarray) -> HeadColours:
+                         how, chain: HeadChain, camera_R: np.ndarray, share: np.ndarray,
+                         rot: np.ndarray | None = None) -> HeadColours:
     """``count`` head colours from a training FrameSet: anchors spread over the frames' head
     orientations (:func:`head_orientation` of ``chain``'s rotation through ``camera_R``), each
     projected (:func:`morf.train.floor_texture.floor_texture` with ``how``) from the ``per_view``
     frames whose head is turned most like it; texels they did not see take ``base`` (3, S, S),
     the avatar's one colour texture (0-1). Only texels whose head ``share`` (S, S) rounds to a
-    byte are kept."""
+    byte are kept. ``rot``: the frames' head orientations when the caller has them
+    (:func:`head_orientations`)."""
     from morf.train.floor_texture import floor_texture
 
-    rot = head_orientations(frames, chain, camera_R)
+    rot = head_orientations(frames, chain, camera_R) if rot is None else rot
     picked = spread_anchors(rot, count)
     near = np.argsort(angles_between(rot[picked], rot), axis=1, kind="stable")[:, :per_view]
     texels = np.flatnonzero(share.reshape(-1) >= MIN_SHARE).astype(np.int32)

@@ -56,15 +56,15 @@ def _with_head_colours(views, frames, covered, base, cfg, how, model, shape, cam
     from morf.train.head_colours import choose_head_passes, head_chain, head_orientations, project_head_colours
 
     chain, share = head_chain(model, shape), head_share(model, base.shape[1])
+    rot = head_orientations(frames, chain, camera_R)
     passes = cfg.head_view_colour_passes
     if passes < 0:
-        choice = choose_head_passes(frames, head_orientations(frames, chain, camera_R), base.shape[1],
-                                    cfg.head_view_colour_frames, how, share)
+        choice = choose_head_passes(frames, rot, base.shape[1], cfg.head_view_colour_frames, how, share)
         run.log(f"head colours: {choice.describe()}")
         passes = choice.passes
     head = project_head_colours(frames, covered, base, cfg.head_view_colours, cfg.head_view_colour_frames,
                                 cfg.texture_dilate, dataclasses.replace(how, back_projections=passes), chain,
-                                camera_R, share)
+                                camera_R, share, rot)
     words = (f"; the head's {head.count} more by the head's own orientation, each from the {head.frames} frames "
              f"whose head was turned most like it, {passes} back-projection pass(es) ({len(head.texels)} texels)")
     return dataclasses.replace(views, head=head), words
