@@ -188,8 +188,8 @@ class HeadColourBytes:
 
 def quantize_head_colours(head: HeadColours, scales: np.ndarray, zero_point: int) -> HeadColourBytes:
     """``head`` in texture bytes of channel ``scales`` (3,) (as :func:`morf.avatar.view_colour.quantize_view_colours`)."""
-    c = head.colours.astype(np.float32) / 255.0  # (K, n, 3)
-    q = np.rint(c / np.asarray(scales, np.float32)[None, None, :]) + zero_point
-    q = np.clip(q, zero_point - 127, zero_point + 127).astype(np.uint8)
-    return HeadColourBytes(np.asarray(head.anchors, np.float32), int(head.chain.bones[-1]), np.asarray(head.texels, np.int32),
-                           np.asarray(head.share, np.uint8), np.ascontiguousarray(q))
+    from morf.raster.texture_quant import texture_bytes
+
+    q = texture_bytes(head.colours.astype(np.float32) / 255.0, scales, zero_point)  # (K, n, 3)
+    return HeadColourBytes(np.asarray(head.anchors, np.float32), int(head.chain.bones[-1]),
+                           np.asarray(head.texels, np.int32), np.asarray(head.share, np.uint8), q)

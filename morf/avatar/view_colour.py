@@ -29,6 +29,7 @@ from morf.rotations import rotvec_to_matrix_rodrigues
 if TYPE_CHECKING:
     from morf.avatar.head_colour import HeadColourBytes, HeadColours
 
+
 def view_orientation(camera_R: np.ndarray, root_frame: np.ndarray, root_rotvec: np.ndarray) -> np.ndarray:
     """(3, 3) the body's orientation relative to a camera: the root bone's world rotation
     ``root_frame^T R(rotvec) root_frame`` (:meth:`morf.export.skeleton.SkinningSkeleton.bone_transforms`:
@@ -152,12 +153,12 @@ class ViewColourBytes:
 
 def quantize_view_colours(views: ViewColours, scales: np.ndarray, zero_point: int) -> ViewColourBytes:
     """``views`` in texture bytes of channel ``scales`` (3,) (:func:`morf.raster.texture_quant.quantize_texture`)."""
-    c = views.colours.astype(np.float32) / 255.0  # (K, 3, S, S)
-    q = np.rint(c / np.asarray(scales, np.float32)[None, :, None, None]) + zero_point
-    q = np.clip(q, zero_point - 127, zero_point + 127).astype(np.uint8)
+    from morf.raster.texture_quant import texture_bytes
+
+    q = texture_bytes(views.colours.transpose(0, 2, 3, 1).astype(np.float32) / 255.0, scales, zero_point)
     head = None
     if views.head is not None:
         from morf.avatar.head_colour import quantize_head_colours
 
         head = quantize_head_colours(views.head, scales, zero_point)
-    return ViewColourBytes(np.asarray(views.anchors, np.float32), np.ascontiguousarray(q.transpose(0, 2, 3, 1)), head)
+    return ViewColourBytes(np.asarray(views.anchors, np.float32), q, head)

@@ -54,9 +54,15 @@ def quantize_texture(texture: np.ndarray, min_peak: np.ndarray | None = None) ->
         peak = np.maximum(peak, np.asarray(min_peak, np.float32))
     # An all-zero channel still needs a positive scale; any value works, 1/127 keeps it tidy.
     scales = np.where(peak > 0, peak, 1.0).astype(np.float32) / 127.0
-    q = np.rint(tex / scales[:, None, None]) + ZERO_POINT
-    q = np.clip(q, ZERO_POINT - 127, ZERO_POINT + 127).astype(np.uint8)
-    return QuantizedTexture(data=np.ascontiguousarray(q.transpose(1, 2, 0)), scales=scales.astype(np.float32))
+    return QuantizedTexture(data=texture_bytes(tex.transpose(1, 2, 0), scales), scales=scales.astype(np.float32))
+
+
+def texture_bytes(values: np.ndarray, scales: np.ndarray, zero_point: int = ZERO_POINT) -> np.ndarray:
+    """(..., C) float values, channels last, in a texture's bytes: rounded to ``scales`` (C,) steps
+    about ``zero_point`` and clipped to its +-127 (the texture's own, and the colours by view laid
+    into it)."""
+    q = np.rint(np.asarray(values, np.float32) / np.asarray(scales, np.float32)) + zero_point
+    return np.ascontiguousarray(np.clip(q, zero_point - 127, zero_point + 127).astype(np.uint8))
 
 
 def dequantize_texture(data: np.ndarray, scales: np.ndarray) -> np.ndarray:
