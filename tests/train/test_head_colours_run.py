@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from morf.cli.main import main
+from tests.train.colour_runs import eval_person_psnr, export_run
 
 pytestmark = [pytest.mark.slow, pytest.mark.gl]
 
@@ -68,9 +69,7 @@ def test_training_writes_the_heads_colours_and_a_turned_head_changes_only_its_te
 
 
 def test_eval_scores_with_them(headed, tmp_path):
-    assert main(["eval", str(headed.root), "--run", "h", "--no-floor", "--no-detail", "--out", str(tmp_path)]) == 0
-    ev = json.loads((tmp_path / "eval.json").read_text())
-    assert np.isfinite(ev["runs"]["h"]["targets"]["holdout-k3"]["psnr_person"])
+    assert np.isfinite(eval_person_psnr(headed, "h", tmp_path))
 
 
 def test_export_writes_them_and_the_player_lays_them_over(headed, tmp_path):
@@ -82,8 +81,7 @@ def test_export_writes_them_and_the_player_lays_them_over(headed, tmp_path):
     from morf.train.trained_avatar import load_trained_avatar
 
     out = tmp_path / "avatar"
-    assert main(["export", str(headed.root), "--run", "h", "--out", str(out), "--calibration-views", "2"]) == 0
-    manifest = json.loads((out / "manifest.json").read_text())
+    manifest = export_run(headed, "h", out)
     assert manifest["view_colours"]["head"]["count"] == 4
     av = load_exported_avatar(out)
     trained = load_trained_avatar(headed.runs_dir / "h")

@@ -2,12 +2,12 @@
 into avatar.pt, ``morf eval`` scores with them, ``morf export`` writes them and the player draws them."""
 
 import dataclasses
-import json
 
 import numpy as np
 import pytest
 
 from morf.cli.main import main
+from tests.train.colour_runs import eval_person_psnr, export_run
 
 pytestmark = [pytest.mark.slow, pytest.mark.gl]
 
@@ -49,9 +49,7 @@ def test_training_writes_view_colours_once(viewed):
 
 
 def test_eval_scores_the_view_colours(viewed, tmp_path):
-    assert main(["eval", str(viewed.root), "--run", "v", "--no-floor", "--no-detail", "--out", str(tmp_path)]) == 0
-    ev = json.loads((tmp_path / "eval.json").read_text())
-    assert np.isfinite(ev["runs"]["v"]["targets"]["holdout-k3"]["psnr_person"])
+    assert np.isfinite(eval_person_psnr(viewed, "v", tmp_path))
 
 
 def test_export_writes_them_and_the_player_draws_them(viewed, tmp_path):
@@ -63,8 +61,7 @@ def test_export_writes_them_and_the_player_draws_them(viewed, tmp_path):
     from morf.train.trained_avatar import load_trained_avatar
 
     out = tmp_path / "avatar"
-    assert main(["export", str(viewed.root), "--run", "v", "--out", str(out), "--calibration-views", "2"]) == 0
-    manifest = json.loads((out / "manifest.json").read_text())
+    manifest = export_run(viewed, "v", out)
     assert VIEW_COLOURS_FILE in manifest["files"] and manifest["view_colours"]["count"] == 3
     av = load_exported_avatar(out)
     assert av.view_colours.data.shape == (3, *av.texture.data.shape[:2], 3)
