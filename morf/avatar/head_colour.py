@@ -78,7 +78,10 @@ class HeadColours:
         share: (n,) uint8 each texel's head share, 0-255 for 0-1;
         colours: (K, n, 3) uint8 their colours (0-255 for 0-1) per anchor;
         frames: how many training frames nearest each anchor were projected into it;
-        chain: the pose-to-head rotations; camera_R: (3, 3) the capture camera's rotation.
+        chain: the pose-to-head rotations.
+
+    The camera the anchors are relative to is the view colours' own (:class:`~morf.avatar.view_colour.ViewColours`
+    holds these and passes its ``camera_R``).
     """
 
     anchors: np.ndarray
@@ -87,19 +90,20 @@ class HeadColours:
     colours: np.ndarray
     frames: int
     chain: HeadChain
-    camera_R: np.ndarray
 
     @property
     def count(self) -> int:
         return int(self.anchors.shape[0])
 
-    def weights(self, rotvecs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(indices, weights) of the anchors blended for a pose (J, 3)."""
-        return anchor_weights(self.anchors, head_orientation(self.camera_R, self.chain.rotation(rotvecs)))
+    def weights(self, rotvecs: np.ndarray, camera_R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(indices, weights) of the anchors blended for a pose (J, 3) seen through the capture
+        camera's rotation ``camera_R``."""
+        return anchor_weights(self.anchors, head_orientation(camera_R, self.chain.rotation(rotvecs)))
 
-    def apply(self, rgb: np.ndarray, rotvecs: np.ndarray) -> np.ndarray:
-        """(3, S, S) float colour channels (0-1) with the head's texels laid over for a pose (J, 3)."""
-        idx, w = self.weights(rotvecs)
+    def apply(self, rgb: np.ndarray, rotvecs: np.ndarray, camera_R: np.ndarray) -> np.ndarray:
+        """(3, S, S) float colour channels (0-1) with the head's texels laid over for a pose (J, 3)
+        seen through ``camera_R``."""
+        idx, w = self.weights(rotvecs, camera_R)
         head = np.tensordot(np.asarray(w, np.float32) / np.float32(255.0), self.colours[idx].astype(np.float32), axes=1)
         out = np.array(rgb, np.float32, copy=True)
         flat = out.reshape(3, -1)
@@ -115,11 +119,12 @@ class HeadColours:
         return {"anchors": t(self.anchors, np.float32), "texels": t(self.texels, np.int32),
                 "share": t(self.share, np.uint8), "colours": t(self.colours, np.uint8), "frames": int(self.frames),
                 "chain_bones": t(self.chain.bones, np.int32), "chain_reference": t(self.chain.reference, np.float64),
-                "chain_rest_end": t(self.chain.rest_end, np.float64), "camera_R": t(self.camera_R, np.float64)}
+                "chain_rest_end": t(self.chain.rest_end, np.float64)}
 
     @staticmethod
     def from_dict(d: dict, texel_count: int) -> "HeadColours":
-        """Read :meth:`to_dict`'s tensors, checked against a texture of ``texel_count`` texels."""
+        """Read :meth:`to_dict`'s tensors, checked against a texture of ``texel_count`` texels (a
+        ``camera_R`` that earlier files also hold is the view colours' own and is not read)."""
         anchors = np.asarray(d["anchors"], np.float32)
         texels, share = np.asarray(d["texels"], np.int64), np.asarray(d["share"], np.uint8)
         colours = np.asarray(d["colours"], np.uint8)
@@ -134,8 +139,7 @@ class HeadColours:
         if texels.size and (texels.min() < 0 or texels.max() >= texel_count):
             raise ValueError(f"head colours name texels outside the texture's {texel_count}")
         chain = HeadChain(bones, reference, np.asarray(d["chain_rest_end"], np.float64).reshape(3, 3))
-        return HeadColours(anchors, texels.astype(np.int32), share, colours, int(d.get("frames", 0)), chain,
-                           np.asarray(d["camera_R"], np.float64).reshape(3, 3))
+        return HeadColours(anchors, texels.astype(np.int32), share, colours, int(d.get("frames", 0)), chain)
 
 
 def head_share(model, size: int) -> np.ndarray:

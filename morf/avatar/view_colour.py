@@ -80,7 +80,7 @@ class ViewColours:
         for i, wi in zip(idx, w):
             out += np.float32(wi / 255.0) * self.colours[i].astype(np.float32)
         if self.head is not None and pose.ndim == 2:
-            out = self.head.apply(out, pose)
+            out = self.head.apply(out, pose, self.camera_R)
         return out
 
     def texture_for(self, texture, pose: np.ndarray):

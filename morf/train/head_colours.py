@@ -99,4 +99,4 @@ def project_head_colours(frames, covered: np.ndarray, base: np.ndarray, count: i
         colours.append(np.clip(np.rint(rgb.T * 255.0), 0, 255).astype(np.uint8))
     return HeadColours(rot[picked].astype(np.float32), texels,
                        np.clip(np.rint(share.reshape(-1)[texels] * 255.0), 0, 255).astype(np.uint8),
-                       np.stack(colours), per_view, chain, np.asarray(camera_R, np.float64))
+                       np.stack(colours), per_view, chain)

@@ -39,7 +39,7 @@ def _head(rng, share, k=3, size=4) -> HeadColours:
     texels = np.array([0, 5, 6, 15], np.int32)
     anchors = rotvec_to_matrix_rodrigues(np.array([[0, 0, 0], [0, 1.5, 0], [0, -1.5, 0]], float)[:k])
     colours = np.stack([np.full((len(texels), 3), 40 + 80 * i, np.uint8) for i in range(k)])
-    return HeadColours(anchors.astype(np.float32), texels, np.asarray(share, np.uint8), colours, 2, chain, np.eye(3))
+    return HeadColours(anchors.astype(np.float32), texels, np.asarray(share, np.uint8), colours, 2, chain)
 
 
 def test_the_head_is_laid_over_by_its_share_in_floats_and_bytes():
@@ -47,9 +47,9 @@ def test_the_head_is_laid_over_by_its_share_in_floats_and_bytes():
     head = _head(rng, [255, 0, 128, 255])
     rgb = np.full((3, 4, 4), 200 / 255, np.float32)
     pose = np.zeros((6, 3))
-    idx, w = head.weights(pose)
+    idx, w = head.weights(pose, np.eye(3))
     blend = float(np.dot(w, [40 + 80 * i for i in idx])) / 255
-    out = head.apply(rgb, pose)
+    out = head.apply(rgb, pose, np.eye(3))
     flat = out.reshape(3, -1)
     np.testing.assert_allclose(flat[:, 0], blend, atol=1e-6)  # share 1: the head's colour
     np.testing.assert_allclose(flat[:, 5], 200 / 255, atol=1e-6)  # share 0: the body's
@@ -70,7 +70,7 @@ def test_the_blend_follows_the_heads_orientation_not_the_roots():
     pose = np.zeros((6, 3))
     turned = pose.copy()
     turned[5] = (0, 1.5, 0)  # the head bone alone turned
-    a, b = head.weights(pose), head.weights(turned)
+    a, b = head.weights(pose, np.eye(3)), head.weights(turned, np.eye(3))
     assert a[0][0] != b[0][0]
 
 
